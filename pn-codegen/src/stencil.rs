@@ -1,0 +1,171 @@
+//! The stencil IR: the canonical discretized form of a PDE system on staggered grids,
+//! and the [`StencilKernel`] trait through which the runtime evaluates it.
+//!
+//! ## Coordinates
+//! All offsets are in **half cells**. A moment's `shift[d] == 1` means it is shifted half
+//! a cell along axis `d`: it lives on the cell faces `a + s·h` (s = 0..=n, both domain faces
+//! included), while `shift[d] == 0` means cell centres `a + (i+½)h` (i = 0..n-1). In absolute
+//! half-cell coordinates measured from the domain minimum `a`, a centred position of index
+//! `i` is `2i+1` and a face position of index `s` is `2s`.
+//!
+//! Row `r` of a stencil is the equation located at the position of moment `r` (the system is
+//! square: one equation per moment). A term's `offset` and a field's `offset` are relative
+//! to the row's own position, so a term of moment `q` at `offset` references the unknown of
+//! moment `q` at absolute half-coordinate `row_pos + offset`; with a consistent placement
+//! that coordinate has the parity of moment `q`'s shift on every axis.
+//!
+//! The sparsity pattern is the same for every row location; only the weights vary.
+
+use serde::{Deserialize, Serialize};
+
+/// An offset or position in half cells, per axis (x, y, z). Unused axes are 0.
+pub type HalfOffset = [i32; 3];
+
+/// Spatial dimension of a stencil.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum Dim {
+    /// z-independent problems: only moments with l+m even, no ∂z terms.
+    Two,
+    /// Full 3D.
+    Three,
+}
+
+impl Dim {
+    /// Number of spatial axes (2 or 3).
+    pub fn axes(self) -> usize {
+        match self {
+            Dim::Two => 2,
+            Dim::Three => 3,
+        }
+    }
+}
+
+/// One unknown per cell: a moment and its staggered placement.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct MomentPlacement {
+    /// Band l.
+    pub l: i32,
+    /// Order m (−l ≤ m ≤ l). For scalar PDEs such as CDA, (0, 0).
+    pub m: i32,
+    /// Half-cell shift per axis: 0 = cell centre, 1 = cell faces.
+    pub shift: [u8; 3],
+}
+
+/// A scalar field the weights depend on, evaluated at a position.
+#[derive(Clone, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum FieldRef {
+    /// σ_t.
+    SigmaT,
+    /// σ_s.
+    SigmaS,
+    /// σ_a = σ_t − σ_s.
+    SigmaA,
+    /// λ_l p_l, the Funk–Hecke factor of the phase function for band l.
+    PhaseMoment(u32),
+    /// The real-basis source coefficient Q_l^m.
+    Source { l: u32, m: i32 },
+    /// A diffusion coefficient field D (CDA/FLD Picard steps).
+    Diffusion,
+}
+
+/// A weight: a small expression in fields, 1/h and constants.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub enum Weight {
+    /// A constant.
+    Const(f64),
+    /// 1 / h_axis (axis index 0, 1, 2).
+    InvH(usize),
+    /// A field evaluated at `offset` (half cells) from the row position.
+    Field { field: FieldRef, offset: HalfOffset },
+    /// Sum.
+    Add(Vec<Weight>),
+    /// Product.
+    Mul(Vec<Weight>),
+    /// 1 / x.
+    Recip(Box<Weight>),
+}
+
+impl Weight {
+    /// Evaluate with the given field context.
+    pub fn eval(&self, ctx: &dyn FieldContext) -> f64 {
+        match self {
+            Weight::Const(c) => *c,
+            Weight::InvH(axis) => ctx.inv_h(*axis),
+            Weight::Field { field, offset } => ctx.field(field, *offset),
+            Weight::Add(ws) => ws.iter().map(|w| w.eval(ctx)).sum(),
+            Weight::Mul(ws) => ws.iter().map(|w| w.eval(ctx)).product(),
+            Weight::Recip(w) => 1.0 / w.eval(ctx),
+        }
+    }
+}
+
+/// One term of a row: `weight × unknown(moment, row position + offset)`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct StencilTerm {
+    /// Index into [`StencilIr::moments`].
+    pub moment: usize,
+    /// Offset in half cells from the row position.
+    pub offset: HalfOffset,
+    /// The weight expression.
+    pub weight: Weight,
+}
+
+/// One equation: `Σ terms = rhs`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct StencilRow {
+    /// The moment whose position this equation is located at.
+    pub moment: usize,
+    /// Left-hand-side terms.
+    pub terms: Vec<StencilTerm>,
+    /// Right-hand side (sum of weights; usually `Field(Source)` at offset 0).
+    pub rhs: Vec<Weight>,
+}
+
+/// A complete discretized system: placement of every unknown and one row per unknown.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct StencilIr {
+    /// A short identifier, e.g. `p3_3d_staggered` or `cda_3d`.
+    pub name: String,
+    /// Dimension.
+    pub dim: Dim,
+    /// Unknowns per cell in storage order.
+    pub moments: Vec<MomentPlacement>,
+    /// `rows[r].moment == r`.
+    pub rows: Vec<StencilRow>,
+}
+
+/// Field values and grid spacing for the row being evaluated.
+///
+/// The runtime implements this for one row location at a time; `offset` is relative to
+/// that row position, in half cells.
+pub trait FieldContext {
+    /// Value of `field` at `offset` half cells from the row position.
+    fn field(&self, field: &FieldRef, offset: HalfOffset) -> f64;
+    /// 1 / h along `axis`.
+    fn inv_h(&self, axis: usize) -> f64;
+}
+
+/// The structural part of one term, shared by all row locations.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct TermPattern {
+    /// Index of the referenced moment.
+    pub moment: usize,
+    /// Offset in half cells from the row position.
+    pub offset: HalfOffset,
+}
+
+/// What the runtime needs from a stencil, whether interpreted from a [`StencilIr`] or
+/// generated as Rust code at build time.
+pub trait StencilKernel: Send + Sync {
+    /// Short identifier (same as the IR's `name`).
+    fn name(&self) -> &str;
+    /// Dimension.
+    fn dim(&self) -> Dim;
+    /// Unknowns per cell in storage order; one row per moment.
+    fn moments(&self) -> &[MomentPlacement];
+    /// The sparsity pattern of row `row`.
+    fn pattern(&self, row: usize) -> &[TermPattern];
+    /// Evaluates the weights of row `row` (in the order of [`StencilKernel::pattern`])
+    /// into `weights` and returns the right-hand side.
+    fn eval_row(&self, row: usize, ctx: &dyn FieldContext, weights: &mut [f64]) -> f64;
+}

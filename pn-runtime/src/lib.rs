@@ -1,0 +1,1 @@
+//! `pn-runtime` — from a scene to a solved system.
