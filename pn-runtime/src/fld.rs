@@ -1,0 +1,1 @@
+//! Flux-limited diffusion (Koerner et al. 2014).

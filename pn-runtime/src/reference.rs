@@ -1,0 +1,1 @@
+//! Reference solutions: point source in an infinite medium (P_N, CDA, Grosjean).
