@@ -1,8 +1,12 @@
-//! Generates the compiled stencils into `OUT_DIR` (see `pn_codegen`).
+//! Generates the compiled stencils into `OUT_DIR/stencils.rs` with
+//! [`pn_codegen::codegen::Builder`] for the P_N orders in `PN_ORDERS` (default `1,2,3,4,5`).
 fn main() {
     println!("cargo:rerun-if-changed=build.rs");
-    println!("cargo:rerun-if-env-changed=PN_ORDERS");
-    let out = std::path::PathBuf::from(std::env::var("OUT_DIR").expect("OUT_DIR is set by cargo"));
-    std::fs::write(out.join("stencils.rs"), "// generated stencils\n")
-        .expect("write OUT_DIR/stencils.rs");
+    let root = std::path::PathBuf::from(
+        std::env::var_os("CARGO_MANIFEST_DIR").expect("CARGO_MANIFEST_DIR is set by cargo"),
+    );
+    if let Err(err) = pn_codegen::codegen::Builder::compile_for_build_script(&root) {
+        eprintln!("error: generating stencils: {err}");
+        std::process::exit(1);
+    }
 }

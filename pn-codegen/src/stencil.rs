@@ -169,3 +169,135 @@ pub trait StencilKernel: Send + Sync {
     /// into `weights` and returns the right-hand side.
     fn eval_row(&self, row: usize, ctx: &dyn FieldContext, weights: &mut [f64]) -> f64;
 }
+
+/// Errors of placement, discretization and code generation.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum StencilError {
+    /// The coupling structure admits no staggered placement (DESIGN.md §3).
+    InconsistentPlacement(String),
+    /// The expression tree contains something the discretizer cannot handle.
+    Unsupported(String),
+    /// The system is malformed (missing or duplicate equations, unknown moments).
+    Malformed(String),
+    /// Deriving the P_N system failed.
+    Derive(String),
+    /// Invalid configuration (e.g. a bad `PN_ORDERS` value).
+    Config(String),
+    /// Generated code failed to parse or could not be written.
+    Codegen(String),
+}
+
+impl std::fmt::Display for StencilError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            StencilError::InconsistentPlacement(s) => write!(f, "inconsistent placement: {s}"),
+            StencilError::Unsupported(s) => write!(f, "cannot discretize: {s}"),
+            StencilError::Malformed(s) => write!(f, "malformed system: {s}"),
+            StencilError::Derive(s) => write!(f, "derivation failed: {s}"),
+            StencilError::Config(s) => write!(f, "{s}"),
+            StencilError::Codegen(s) => write!(f, "code generation failed: {s}"),
+        }
+    }
+}
+
+impl std::error::Error for StencilError {}
+
+impl std::fmt::Display for FieldRef {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            FieldRef::SigmaT => write!(f, "sigma_t"),
+            FieldRef::SigmaS => write!(f, "sigma_s"),
+            FieldRef::SigmaA => write!(f, "sigma_a"),
+            FieldRef::PhaseMoment(l) => write!(f, "phase_{l}"),
+            FieldRef::Source { l, m } => write!(f, "Q_{l}^{m}"),
+            FieldRef::Diffusion => write!(f, "D"),
+        }
+    }
+}
+
+/// Readable form: fields as `name[ox,oy,oz]` (offset in half cells), `1/h_x` etc.; a
+/// leading constant −1 is written as a minus sign.
+impl std::fmt::Display for Weight {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        /// `(negative, |w|)` with a leading negative constant pulled out.
+        fn signed(w: &Weight) -> (bool, Weight) {
+            match w {
+                Weight::Const(c) if *c < 0.0 => (true, Weight::Const(-c)),
+                Weight::Mul(fs) => match fs.first() {
+                    Some(Weight::Const(c)) if *c < 0.0 => {
+                        let mut rest = fs[1..].to_vec();
+                        if *c != -1.0 || rest.is_empty() {
+                            rest.insert(0, Weight::Const(-c));
+                        }
+                        let w = if rest.len() == 1 {
+                            rest.pop().expect("one factor")
+                        } else {
+                            Weight::Mul(rest)
+                        };
+                        (true, w)
+                    }
+                    _ => (false, w.clone()),
+                },
+                _ => (false, w.clone()),
+            }
+        }
+        /// Writes `w`, parenthesised if it is a sum.
+        fn factor(f: &mut std::fmt::Formatter<'_>, w: &Weight) -> std::fmt::Result {
+            match w {
+                Weight::Add(_) => write!(f, "({w})"),
+                _ => write!(f, "{w}"),
+            }
+        }
+        const AXES: [&str; 3] = ["x", "y", "z"];
+        match self {
+            Weight::Const(c) => write!(f, "{c}"),
+            Weight::InvH(a) => write!(f, "1/h_{}", AXES.get(*a).copied().unwrap_or("?")),
+            Weight::Field { field, offset } => {
+                write!(f, "{field}[{},{},{}]", offset[0], offset[1], offset[2])
+            }
+            Weight::Add(ws) => {
+                for (i, w) in ws.iter().enumerate() {
+                    let (neg, w) = signed(w);
+                    match (i, neg) {
+                        (0, false) => {}
+                        (0, true) => write!(f, "-")?,
+                        (_, false) => write!(f, " + ")?,
+                        (_, true) => write!(f, " - ")?,
+                    }
+                    factor(f, &w)?;
+                }
+                Ok(())
+            }
+            Weight::Mul(ws) => {
+                let (neg, w) = signed(self);
+                if neg {
+                    write!(f, "-")?;
+                    return factor(f, &w);
+                }
+                for (i, w) in ws.iter().enumerate() {
+                    if i > 0 {
+                        write!(f, "*")?;
+                    }
+                    factor(f, w)?;
+                }
+                Ok(())
+            }
+            Weight::Recip(w) => match w.as_ref() {
+                Weight::Add(_) | Weight::Mul(_) => write!(f, "1/({w})"),
+                _ => write!(f, "1/{w}"),
+            },
+        }
+    }
+}
+
+impl Weight {
+    /// Every field reference (with its offset) that the weight reads.
+    pub fn fields(&self, out: &mut Vec<(FieldRef, HalfOffset)>) {
+        match self {
+            Weight::Const(_) | Weight::InvH(_) => {}
+            Weight::Field { field, offset } => out.push((field.clone(), *offset)),
+            Weight::Add(ws) | Weight::Mul(ws) => ws.iter().for_each(|w| w.fields(out)),
+            Weight::Recip(w) => w.fields(out),
+        }
+    }
+}

@@ -1,0 +1,102 @@
+//! Choosing a stencil at run time: the compiled one if `build.rs` generated it (orders in
+//! `PN_ORDERS`), otherwise the same IR derived and interpreted on the spot.
+
+use std::sync::Arc;
+
+use anyhow::Context;
+use pn_codegen::discretize;
+use pn_codegen::interpret::InterpretedKernel;
+pub use pn_codegen::placement::Layout;
+pub use pn_codegen::stencil::Dim;
+use pn_codegen::stencil::{FieldContext, MomentPlacement, StencilIr, StencilKernel, TermPattern};
+
+/// Highest P_N order accepted at run time (that of the derivation).
+pub const MAX_ORDER: usize = pn_codegen::derive::MAX_ORDER;
+
+/// A stencil ready for assembly.
+#[derive(Clone)]
+pub struct KernelChoice {
+    /// The stencil.
+    pub kernel: Arc<dyn StencilKernel>,
+    /// Whether it is generated code (`false`: interpreted IR).
+    pub compiled: bool,
+}
+
+impl std::fmt::Debug for KernelChoice {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("KernelChoice")
+            .field("kernel", &self.kernel.name())
+            .field("compiled", &self.compiled)
+            .finish()
+    }
+}
+
+/// A compiled stencil behind an `Arc`.
+struct Compiled(&'static dyn StencilKernel);
+
+impl StencilKernel for Compiled {
+    fn name(&self) -> &str {
+        self.0.name()
+    }
+    fn dim(&self) -> Dim {
+        self.0.dim()
+    }
+    fn moments(&self) -> &[MomentPlacement] {
+        self.0.moments()
+    }
+    fn pattern(&self, row: usize) -> &[TermPattern] {
+        self.0.pattern(row)
+    }
+    fn eval_row(&self, row: usize, ctx: &dyn FieldContext, weights: &mut [f64]) -> f64 {
+        self.0.eval_row(row, ctx, weights)
+    }
+}
+
+/// The compiled stencil `name`, else `build()` interpreted with a one-line notice.
+fn choose(
+    name: &str,
+    build: impl FnOnce() -> anyhow::Result<StencilIr>,
+) -> anyhow::Result<KernelChoice> {
+    if let Some(k) = crate::compiled::find(name) {
+        return Ok(KernelChoice {
+            kernel: Arc::new(Compiled(k)),
+            compiled: true,
+        });
+    }
+    let ir = build()?;
+    eprintln!(
+        "note: stencil {name} was not compiled in (see PN_ORDERS); interpreting it at run time"
+    );
+    Ok(KernelChoice {
+        kernel: Arc::new(InterpretedKernel::new(ir)),
+        compiled: false,
+    })
+}
+
+/// The P_N stencil of `order` in `dim` with `layout`.
+pub fn pn_kernel(order: usize, dim: Dim, layout: Layout) -> anyhow::Result<KernelChoice> {
+    anyhow::ensure!(
+        (1..=MAX_ORDER).contains(&order),
+        "P_N order {order} is outside 1..={MAX_ORDER}"
+    );
+    choose(&discretize::pn_name(order, dim, layout), || {
+        discretize::pn_ir_for_order(order, dim, layout)
+            .with_context(|| format!("building the P_{order} stencil"))
+    })
+}
+
+/// Classical diffusion `−∇·(1/(3σ_tr) ∇L_0^0) + σ_a L_0^0 = Q_0^0` with
+/// `σ_tr = σ_t − σ_s λ_1p_1` evaluated at the half positions.
+pub fn cda_kernel(dim: Dim) -> anyhow::Result<KernelChoice> {
+    choose(&format!("cda_{}d", dim.axes()), || {
+        discretize::cda_ir(dim).context("building the CDA stencil")
+    })
+}
+
+/// `−∇·(D ∇L_0^0) + σ_a L_0^0 = Q_0^0` with D the field `FieldRef::Diffusion` (for
+/// Picard steps of flux-limited diffusion).
+pub fn diffusion_kernel(dim: Dim) -> anyhow::Result<KernelChoice> {
+    choose(&format!("diffusion_{}d", dim.axes()), || {
+        discretize::diffusion_ir(dim).context("building the diffusion stencil")
+    })
+}
