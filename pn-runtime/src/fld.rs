@@ -1,1 +1,0 @@
-//! Flux-limited diffusion (Koerner et al. 2014).

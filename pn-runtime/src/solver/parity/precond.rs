@@ -1,0 +1,417 @@
+//! Preconditioners for the reduced operator `S = D_e − B D_o⁻¹ C`.
+//!
+//! Entries of `S` are computed exactly from the blocks without forming `S`:
+//! `S_ij = D_e,ii δ_ij − Σ_k B_ik C̃_kj` with `C̃ = D_o⁻¹ C` (DESIGN.md §5).
+//! * Jacobi: `diag(S)⁻¹`.
+//! * Block-Jacobi: the dense blocks of `S` over groups of even unknowns (by default the even
+//!   moments belonging to one grid cell), each inverted once.
+
+use super::split::{ParityError, Split};
+use rayon::prelude::*;
+use sprs::CsMat;
+
+/// Which preconditioner the reduced Krylov method uses.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Precond {
+    /// No preconditioning.
+    None,
+    /// Jacobi: the exact diagonal of `S`.
+    Jacobi,
+    /// Block-Jacobi: `block_of[g]` is the block id of global unknown `g` (odd unknowns are
+    /// ignored). Build it per cell with [`super::cell_blocks`].
+    BlockJacobi {
+        /// Block id of every global unknown.
+        block_of: Vec<usize>,
+    },
+    /// Incomplete LU factorisation with the sparsity of `S` (ILU(0)), from `S` formed once.
+    /// For a symmetric `S` the factors satisfy `U = D Lᵀ`, so `M = LU` is symmetric and
+    /// usable with CG. The triangular solves are sequential.
+    Ilu0,
+    /// ILU(0) with the even unknowns renumbered cell by cell (`block_of` as for
+    /// block-Jacobi), so that the factorisation sees the couplings within a cell first.
+    Ilu0Cells {
+        /// Block (cell) id of every global unknown.
+        block_of: Vec<usize>,
+    },
+    /// ILU(0) when `A` has at most `super::ILU_MAX_NONZEROS` stored entries, else Jacobi
+    /// (resolved per solve).
+    Auto,
+}
+
+impl Precond {
+    /// Whether building it forms `S` (so the operator may as well use the formed `S`).
+    pub fn forms_s(&self, nnz_a: usize) -> bool {
+        matches!(
+            self.resolve(nnz_a),
+            Precond::Ilu0 | Precond::Ilu0Cells { .. }
+        )
+    }
+
+    /// `Auto` resolved for a matrix `A` with `nnz_a` stored entries; other kinds unchanged.
+    pub fn resolve(&self, nnz_a: usize) -> Precond {
+        match self {
+            Precond::Auto if nnz_a <= super::ILU_MAX_NONZEROS => Precond::Ilu0,
+            Precond::Auto => Precond::Jacobi,
+            other => other.clone(),
+        }
+    }
+
+    /// Short name for reports.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Precond::None => "none",
+            Precond::Jacobi => "jacobi",
+            Precond::BlockJacobi { .. } => "block-jacobi",
+            Precond::Ilu0 => "ilu0",
+            Precond::Ilu0Cells { .. } => "ilu0-cells",
+            Precond::Auto => "auto",
+        }
+    }
+}
+
+/// A preconditioner ready to apply: `z = M⁻¹ r`.
+pub enum Built {
+    /// `z = r`.
+    Identity,
+    /// `z = r / diag(S)`.
+    Diagonal(Vec<f64>),
+    /// Dense inverse blocks.
+    Blocks {
+        /// Even-local indices of each block.
+        members: Vec<Vec<usize>>,
+        /// Row-major inverse of each block.
+        inverses: Vec<Vec<f64>>,
+    },
+    /// ILU(0) factors of `S`.
+    Ilu(Ilu0),
+    /// ILU(0) factors of `P S Pᵀ`; `perm[new] = old`.
+    PermutedIlu {
+        /// Factors.
+        ilu: Ilu0,
+        /// Old (even-local) index of each new index.
+        perm: Vec<usize>,
+    },
+}
+
+impl Built {
+    /// Builds the preconditioner `kind` for the reduced operator of `split`; `formed` is
+    /// `S` when the caller has already formed it (ILU reuses it instead of forming again).
+    pub fn new(
+        kind: &Precond,
+        split: &Split,
+        formed: Option<&CsMat<f64>>,
+    ) -> Result<Self, ParityError> {
+        let form = || match formed {
+            Some(s) => std::borrow::Cow::Borrowed(s),
+            None => std::borrow::Cow::Owned(super::reduced::form(split)),
+        };
+        match kind {
+            Precond::None => Ok(Built::Identity),
+            Precond::Jacobi => {
+                let d = diagonal(split);
+                if let Some(i) = d.iter().position(|v| *v == 0.0 || !v.is_finite()) {
+                    return Err(ParityError::SingularBlock { block: i });
+                }
+                Ok(Built::Diagonal(d.into_iter().map(|v| 1.0 / v).collect()))
+            }
+            Precond::BlockJacobi { block_of } => {
+                let n = split.even.len() + split.odd.len();
+                if block_of.len() != n {
+                    return Err(ParityError::BlockMapLength {
+                        len: block_of.len(),
+                        rows: n,
+                    });
+                }
+                block_inverses(split, block_of)
+            }
+            Precond::Ilu0 => Ok(Built::Ilu(Ilu0::new(&form())?)),
+            Precond::Ilu0Cells { block_of } => {
+                let n = split.even.len() + split.odd.len();
+                if block_of.len() != n {
+                    return Err(ParityError::BlockMapLength {
+                        len: block_of.len(),
+                        rows: n,
+                    });
+                }
+                let mut perm: Vec<usize> = (0..split.even.len()).collect();
+                perm.sort_by_key(|&i| (block_of[split.even[i]], i));
+                let mut inv = vec![0usize; perm.len()];
+                for (new, &old) in perm.iter().enumerate() {
+                    inv[old] = new;
+                }
+                let s = form();
+                let mut tri = sprs::TriMat::with_capacity(s.shape(), s.nnz());
+                for (i, row) in s.outer_iterator().enumerate() {
+                    for (j, &v) in row.iter() {
+                        tri.add_triplet(inv[i], inv[j], v);
+                    }
+                }
+                Ok(Built::PermutedIlu {
+                    ilu: Ilu0::new(&tri.to_csr())?,
+                    perm,
+                })
+            }
+            Precond::Auto => Built::new(&kind.resolve(split.nnz_a), split, formed),
+        }
+    }
+
+    /// `z = M⁻¹ r`.
+    pub fn apply(&self, r: &[f64], z: &mut [f64]) {
+        match self {
+            Built::Identity => z.copy_from_slice(r),
+            Built::Diagonal(inv) => z
+                .par_iter_mut()
+                .zip(r.par_iter().zip(inv.par_iter()))
+                .for_each(|(zi, (ri, di))| *zi = ri * di),
+            Built::Blocks { members, inverses } => {
+                for (m, inv) in members.iter().zip(inverses) {
+                    let k = m.len();
+                    for (a, &ia) in m.iter().enumerate() {
+                        let mut s = 0.0;
+                        for (b, &ib) in m.iter().enumerate() {
+                            s += inv[a * k + b] * r[ib];
+                        }
+                        z[ia] = s;
+                    }
+                }
+            }
+            Built::Ilu(f) => f.solve(r, z),
+            Built::PermutedIlu { ilu, perm } => {
+                let rp: Vec<f64> = perm.iter().map(|&o| r[o]).collect();
+                let mut zp = vec![0.0; rp.len()];
+                ilu.solve(&rp, &mut zp);
+                for (&o, v) in perm.iter().zip(zp) {
+                    z[o] = v;
+                }
+            }
+        }
+    }
+}
+
+/// Exact `diag(S)`.
+pub fn diagonal(split: &Split) -> Vec<f64> {
+    let bp = split.b.indptr();
+    let bp = bp.raw_storage();
+    let (bi, bv) = (split.b.indices(), split.b.data());
+    let cp = split.c_scaled.indptr();
+    let cp = cp.raw_storage();
+    let (ci, cv) = (split.c_scaled.indices(), split.c_scaled.data());
+    (0..split.even.len())
+        .into_par_iter()
+        .map(|i| {
+            let mut s = split.d_e[i];
+            for j in bp[i]..bp[i + 1] {
+                let k = bi[j];
+                for l in cp[k]..cp[k + 1] {
+                    if ci[l] == i {
+                        s -= bv[j] * cv[l];
+                    }
+                }
+            }
+            s
+        })
+        .collect()
+}
+
+/// Inverse dense blocks of `S` over the groups of `block_of`.
+fn block_inverses(split: &Split, block_of: &[usize]) -> Result<Built, ParityError> {
+    // Group even-local indices by block id (ids are arbitrary; renumber densely).
+    let mut id_map = std::collections::HashMap::new();
+    let mut members: Vec<Vec<usize>> = Vec::new();
+    for (i, &g) in split.even.iter().enumerate() {
+        let id = *id_map.entry(block_of[g]).or_insert_with(|| {
+            members.push(Vec::new());
+            members.len() - 1
+        });
+        members[id].push(i);
+    }
+    let mut pos_in_block = vec![(0usize, 0usize); split.even.len()];
+    for (bid, m) in members.iter().enumerate() {
+        for (p, &i) in m.iter().enumerate() {
+            pos_in_block[i] = (bid, p);
+        }
+    }
+    let bp = split.b.indptr();
+    let bp = bp.raw_storage();
+    let (bi, bv) = (split.b.indices(), split.b.data());
+    let cp = split.c_scaled.indptr();
+    let cp = cp.raw_storage();
+    let (ci, cv) = (split.c_scaled.indices(), split.c_scaled.data());
+    let inverses: Result<Vec<Vec<f64>>, ParityError> = members
+        .par_iter()
+        .enumerate()
+        .map(|(bid, m)| {
+            let k = m.len();
+            let mut blk = vec![0.0; k * k];
+            for (a, &i) in m.iter().enumerate() {
+                blk[a * k + a] += split.d_e[i];
+                for j in bp[i]..bp[i + 1] {
+                    let o = bi[j];
+                    for l in cp[o]..cp[o + 1] {
+                        let (cb, p) = pos_in_block[ci[l]];
+                        if cb == bid {
+                            blk[a * k + p] -= bv[j] * cv[l];
+                        }
+                    }
+                }
+            }
+            let mat = nalgebra::DMatrix::from_row_slice(k, k, &blk);
+            let inv = mat
+                .try_inverse()
+                .ok_or(ParityError::SingularBlock { block: bid })?;
+            if inv.iter().any(|v| !v.is_finite()) {
+                return Err(ParityError::SingularBlock { block: bid });
+            }
+            Ok(inv.transpose().as_slice().to_vec()) // column-major transpose = row-major
+        })
+        .collect();
+    Ok(Built::Blocks {
+        members,
+        inverses: inverses?,
+    })
+}
+
+/// ILU(0): `L` (unit lower) and `U` stored in one CSR pattern equal to that of `S`.
+pub struct Ilu0 {
+    indptr: Vec<usize>,
+    indices: Vec<usize>,
+    values: Vec<f64>,
+    /// Position of the diagonal entry in each row.
+    diag: Vec<usize>,
+}
+
+impl Ilu0 {
+    /// Factorises the square CSR matrix `s` (sorted column indices) in place of a copy.
+    pub fn new(s: &sprs::CsMat<f64>) -> Result<Self, ParityError> {
+        let n = s.rows();
+        let indptr = s.indptr().raw_storage().to_vec();
+        let indices = s.indices().to_vec();
+        let mut values = s.data().to_vec();
+        let mut diag = vec![usize::MAX; n];
+        for i in 0..n {
+            match indices[indptr[i]..indptr[i + 1]]
+                .iter()
+                .position(|&c| c == i)
+            {
+                Some(p) => diag[i] = indptr[i] + p,
+                None => return Err(ParityError::SingularBlock { block: i }),
+            }
+        }
+        // IKJ variant: row i is reduced by the already factorised rows k < i, keeping only
+        // entries inside the pattern (`pos` maps a column to its slot in row i).
+        let mut pos = vec![usize::MAX; n];
+        for i in 0..n {
+            let (start, end) = (indptr[i], indptr[i + 1]);
+            for p in start..end {
+                pos[indices[p]] = p;
+            }
+            for p in start..diag[i] {
+                let k = indices[p];
+                let l = values[p] / values[diag[k]];
+                values[p] = l;
+                for q in diag[k] + 1..indptr[k + 1] {
+                    let slot = pos[indices[q]];
+                    if slot != usize::MAX {
+                        values[slot] -= l * values[q];
+                    }
+                }
+            }
+            for p in start..end {
+                pos[indices[p]] = usize::MAX;
+            }
+            let d = values[diag[i]];
+            if d == 0.0 || !d.is_finite() {
+                return Err(ParityError::SingularBlock { block: i });
+            }
+        }
+        Ok(Self {
+            indptr,
+            indices,
+            values,
+            diag,
+        })
+    }
+
+    /// `z = (LU)⁻¹ r`.
+    pub fn solve(&self, r: &[f64], z: &mut [f64]) {
+        let n = r.len();
+        for i in 0..n {
+            let mut s = r[i];
+            for p in self.indptr[i]..self.diag[i] {
+                s -= self.values[p] * z[self.indices[p]];
+            }
+            z[i] = s;
+        }
+        for i in (0..n).rev() {
+            let mut s = z[i];
+            for p in self.diag[i] + 1..self.indptr[i + 1] {
+                s -= self.values[p] * z[self.indices[p]];
+            }
+            z[i] = s / self.values[self.diag[i]];
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::split::split;
+    use super::*;
+
+    #[test]
+    fn diagonal_and_blocks_match_dense_s() {
+        // e0 o0 e1 o1 e2 as in `reduced`: S = [[1.5, −.5, 0], [−.5, 1.5, −.5], [0, −.5, 2]].
+        let mut tri = sprs::TriMat::new((5, 5));
+        for (i, d) in [1.0, 2.0, 0.5, 2.0, 1.5].into_iter().enumerate() {
+            tri.add_triplet(i, i, d);
+        }
+        for k in [1, 3] {
+            tri.add_triplet(k - 1, k, 1.0);
+            tri.add_triplet(k + 1, k, -1.0);
+            tri.add_triplet(k, k - 1, -1.0);
+            tri.add_triplet(k, k + 1, 1.0);
+        }
+        let a: sprs::CsMat<f64> = tri.to_csr();
+        let s = split(&a, &[true, false, true, false, true]).unwrap();
+        assert_eq!(diagonal(&s), vec![1.5, 1.5, 2.0]);
+        // Block {e0, e1} and block {e2}: inverse of [[1.5, −.5], [−.5, 1.5]] is [[.75, .25], [.25, .75]].
+        let b = Built::new(
+            &Precond::BlockJacobi {
+                block_of: vec![7, 0, 7, 0, 3],
+            },
+            &s,
+            None,
+        )
+        .unwrap();
+        let mut z = vec![0.0; 3];
+        b.apply(&[1.0, 0.0, 4.0], &mut z);
+        let want = [0.75, 0.25, 2.0];
+        for i in 0..3 {
+            assert!((z[i] - want[i]).abs() < 1e-14, "{z:?}");
+        }
+    }
+
+    #[test]
+    fn ilu0_is_exact_for_tridiagonal() {
+        // ILU(0) of a tridiagonal matrix has no fill to drop: it is the exact LU.
+        let mut tri = sprs::TriMat::new((4, 4));
+        for i in 0..4 {
+            tri.add_triplet(i, i, 3.0);
+            if i > 0 {
+                tri.add_triplet(i, i - 1, -1.0);
+            }
+            if i < 3 {
+                tri.add_triplet(i, i + 1, -0.5);
+            }
+        }
+        let s: sprs::CsMat<f64> = tri.to_csr();
+        let f = Ilu0::new(&s).unwrap();
+        let x = [1.0, -2.0, 0.5, 4.0];
+        let mut r = vec![0.0; 4];
+        crate::linalg::spmv(&s, &x, &mut r);
+        let mut z = vec![0.0; 4];
+        f.solve(&r, &mut z);
+        for i in 0..4 {
+            assert!((z[i] - x[i]).abs() < 1e-14, "{z:?}");
+        }
+    }
+}

@@ -1,0 +1,116 @@
+//! Mitsuba `.vol` grids (DESIGN.md §6): `VOL`, u8 version 3, i32 encoding 1 (float32),
+//! i32 xres yres zres, i32 channels, 6×f32 bounding box, then f32 data with x fastest.
+
+use crate::field::VoxelGrid;
+use anyhow::{bail, ensure, Context};
+use std::path::Path;
+
+const HEADER: usize = 3 + 1 + 4 + 12 + 4 + 24;
+
+/// Reads a single-channel `.vol` file into a [`VoxelGrid`] (reordered to x slowest).
+pub fn read_vol(path: &Path) -> anyhow::Result<VoxelGrid> {
+    let bytes = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
+    decode_vol(&bytes).with_context(|| format!("invalid .vol file {}", path.display()))
+}
+
+/// Decodes a `.vol` file held in memory.
+pub fn decode_vol(bytes: &[u8]) -> anyhow::Result<VoxelGrid> {
+    ensure!(
+        bytes.len() >= HEADER,
+        "file is {} bytes, shorter than the 48-byte header",
+        bytes.len()
+    );
+    ensure!(&bytes[..3] == b"VOL", "missing the 'VOL' magic");
+    ensure!(
+        bytes[3] == 3,
+        "unsupported version {} (expected 3)",
+        bytes[3]
+    );
+    let i32_at = |o: usize| i32::from_le_bytes(bytes[o..o + 4].try_into().unwrap());
+    let f32_at = |o: usize| f32::from_le_bytes(bytes[o..o + 4].try_into().unwrap()) as f64;
+    let encoding = i32_at(4);
+    if encoding != 1 {
+        bail!("unsupported encoding {encoding} (only 1 = float32 is supported)");
+    }
+    let (nx, ny, nz, ch) = (i32_at(8), i32_at(12), i32_at(16), i32_at(20));
+    ensure!(
+        nx > 0 && ny > 0 && nz > 0,
+        "resolution {nx}×{ny}×{nz} must be positive"
+    );
+    ensure!(
+        ch == 1,
+        "{ch} channels; only single-channel grids are supported"
+    );
+    let (nx, ny, nz) = (nx as usize, ny as usize, nz as usize);
+    let min = [f32_at(24), f32_at(28), f32_at(32)];
+    let max = [f32_at(36), f32_at(40), f32_at(44)];
+    let n = nx * ny * nz;
+    ensure!(
+        bytes.len() == HEADER + 4 * n,
+        "header says {nx}×{ny}×{nz} float32 values ({} bytes of data) but the file has {} bytes of data",
+        4 * n,
+        bytes.len() - HEADER
+    );
+    let mut data = vec![0.0; n];
+    for z in 0..nz {
+        for y in 0..ny {
+            for x in 0..nx {
+                let o = HEADER + 4 * ((z * ny + y) * nx + x);
+                data[(x * ny + y) * nz + z] = f32_at(o);
+            }
+        }
+    }
+    VoxelGrid::new([nx, ny, nz], min, max, data)
+}
+
+/// Encodes a [`VoxelGrid`] as a single-channel `.vol` file.
+pub fn encode_vol(grid: &VoxelGrid) -> Vec<u8> {
+    let [nx, ny, nz] = grid.dims;
+    let mut out = Vec::with_capacity(HEADER + 4 * nx * ny * nz);
+    out.extend_from_slice(b"VOL\x03");
+    for v in [1i32, nx as i32, ny as i32, nz as i32, 1] {
+        out.extend_from_slice(&v.to_le_bytes());
+    }
+    for v in grid.min.iter().chain(&grid.max) {
+        out.extend_from_slice(&(*v as f32).to_le_bytes());
+    }
+    for z in 0..nz {
+        for y in 0..ny {
+            for x in 0..nx {
+                out.extend_from_slice(&(grid.at(x, y, z) as f32).to_le_bytes());
+            }
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn round_trip_keeps_orientation() {
+        let data: Vec<f64> = (0..24).map(|v| v as f64).collect();
+        let g = VoxelGrid::new([2, 3, 4], [0.0; 3], [1.0, 2.0, 3.0], data).unwrap();
+        let back = decode_vol(&encode_vol(&g)).unwrap();
+        assert_eq!(back, g);
+        // x fastest in the file: the second value is cell (1, 0, 0).
+        let bytes = encode_vol(&g);
+        let second = f32::from_le_bytes(bytes[HEADER + 4..HEADER + 8].try_into().unwrap());
+        assert_eq!(second as f64, g.at(1, 0, 0));
+    }
+
+    #[test]
+    fn wrong_size_or_encoding_is_rejected() {
+        let g = VoxelGrid::new([1, 1, 2], [0.0; 3], [1.0; 3], vec![1.0, 2.0]).unwrap();
+        let mut b = encode_vol(&g);
+        b.pop();
+        assert!(decode_vol(&b)
+            .unwrap_err()
+            .to_string()
+            .contains("bytes of data"));
+        let mut b = encode_vol(&g);
+        b[4] = 2;
+        assert!(decode_vol(&b).unwrap_err().to_string().contains("encoding"));
+    }
+}

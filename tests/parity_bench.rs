@@ -1,0 +1,231 @@
+//! `parity-cg` against CGNR on the checkerboard with the real (generated) stencils.
+//!
+//! The fast test checks the same answer and the work ratio on a small grid; the ignored
+//! one prints the issue-8 table for 71² P_1/P_3/P_5 at residual 1e-10:
+//! `cargo test --release --test parity_bench -- --ignored --nocapture`.
+
+use pn_runtime::assemble::{assemble, System};
+use pn_runtime::layout::Layout;
+use pn_runtime::problem::Problem;
+use pn_runtime::scenes::{builtin, BuiltinOptions};
+use pn_runtime::solver::cgnr::Cgnr;
+use pn_runtime::solver::parity::{
+    cell_blocks, even_mask, KrylovMethod, ParityCg, ParityReport, Precond, ReducedMode,
+};
+use pn_runtime::solver::{LinearSolver, SolveStats, SolverOptions};
+use pn_runtime::unstagger::unstagger;
+use pnsolver::stencils::{pn_kernel, Dim, Layout as StencilLayout};
+use std::time::Instant;
+
+fn checkerboard(res: usize) -> Problem {
+    let o = BuiltinOptions {
+        dim: Some(Dim::Two),
+        res: Some(vec![res]),
+        ..Default::default()
+    };
+    builtin("checkerboard", &o).unwrap().problem
+}
+
+fn system(problem: &Problem, order: usize) -> (Layout, System) {
+    let k = pn_kernel(order, Dim::Two, StencilLayout::Staggered).unwrap();
+    let layout = Layout::new(&problem.grid, k.kernel.moments()).unwrap();
+    let sys = assemble(problem, k.kernel.as_ref(), &layout).unwrap();
+    (layout, sys)
+}
+
+fn opts(tol: f64) -> SolverOptions {
+    SolverOptions {
+        tol,
+        progress: false,
+        ..Default::default()
+    }
+}
+
+/// Fluence (√(4π) L_0^0) at cell centres.
+fn fluence(problem: &Problem, layout: &Layout, u: &[f64]) -> Vec<f64> {
+    let s = (4.0 * std::f64::consts::PI).sqrt();
+    unstagger(&problem.grid, layout, u)
+        .component(0)
+        .into_iter()
+        .map(|v| v * s)
+        .collect()
+}
+
+/// max|a − b| / max|b|.
+fn rel_diff(a: &[f64], b: &[f64]) -> f64 {
+    let m = b.iter().fold(0.0f64, |x, y| x.max(y.abs()));
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f64::max)
+        / m
+}
+
+/// CGNR's solution, statistics and seconds.
+fn cgnr(sys: &System, tol: f64) -> (Vec<f64>, SolveStats, f64) {
+    let t = Instant::now();
+    let (u, st) = Cgnr.solve(&sys.matrix, &sys.rhs, &opts(tol));
+    let secs = t.elapsed().as_secs_f64();
+    assert!(st.converged(), "{st:?}");
+    (u, st, secs)
+}
+
+/// The parity solver's solution, report and seconds (split + setup + iterations).
+fn parity(sys: &System, solver: &ParityCg, tol: f64) -> (Vec<f64>, ParityReport, f64) {
+    let t = Instant::now();
+    let (u, rep) = solver
+        .solve_detailed(&sys.matrix, &sys.rhs, &opts(tol))
+        .unwrap();
+    let secs = t.elapsed().as_secs_f64();
+    assert!(rep.stats.converged(), "{:?}", rep.stats);
+    (u, rep, secs)
+}
+
+/// CGNR work: one A and one Aᵀ per iteration, plus Aᵀb and the final residual.
+fn cgnr_applications(s: &SolveStats) -> usize {
+    2 * s.iterations + 2
+}
+
+/// Same answer (both at relative residual 1e-11; 1e-6 of the maximum fluence allows
+/// cond(A) up to ~1e4, see pn-runtime/tests/parity.rs) and at least 5× less work with the
+/// cheap block-Jacobi preconditioner (10× with the default ILU(0)).
+#[test]
+fn generated_stencils_same_answer_less_work() {
+    let p = checkerboard(31);
+    for order in [1, 3] {
+        let (layout, sys) = system(&p, order);
+        let (uc, sc, _) = cgnr(&sys, 1e-11);
+        let fc = fluence(&p, &layout, &uc);
+        let blocks = Precond::BlockJacobi {
+            block_of: cell_blocks(&layout),
+        };
+        for (solver, min_ratio) in [
+            (ParityCg::new(even_mask(&layout), blocks), 5.0),
+            (ParityCg::for_layout(&layout), 10.0),
+        ] {
+            let (up, rep, _) = parity(&sys, &solver, 1e-11);
+            let diff = rel_diff(&fluence(&p, &layout, &up), &fc);
+            let ratio = cgnr_applications(&sc) as f64 / rep.a_equivalent_applications() as f64;
+            eprintln!(
+                "P{order} 31² {}: diff {diff:.2e}, work ratio {ratio:.1}",
+                rep.precond
+            );
+            assert!(diff < 1e-6, "P{order}: fluence differs by {diff:.3e}");
+            assert!(
+                ratio >= min_ratio,
+                "P{order} {}: only {ratio:.1}× fewer applications",
+                rep.precond
+            );
+        }
+    }
+}
+
+/// The issue-8 table: checkerboard 71², P_1/P_3/P_5, residual 1e-10.
+#[test]
+#[ignore]
+fn checkerboard_71_table() {
+    let p = checkerboard(71);
+    let tol = 1e-10;
+    println!(
+        "| N | unknowns | solver | precond | method | iterations | A-applications | seconds (setup) | work ratio | time ratio | max fluence diff |"
+    );
+    println!("|---|---|---|---|---|---|---|---|---|---|---|");
+    for order in [1usize, 3, 5] {
+        let (layout, sys) = system(&p, order);
+        let (uc, sc, c_secs) = cgnr(&sys, tol);
+        let fc = fluence(&p, &layout, &uc);
+        let ca = cgnr_applications(&sc);
+        println!(
+            "| {order} | {} | cgnr | – | cgnr | {} | {ca} | {c_secs:.3} | 1 | 1 | 0 |",
+            layout.len(),
+            sc.iterations
+        );
+        let blocks = || Precond::BlockJacobi {
+            block_of: cell_blocks(&layout),
+        };
+        let even = || even_mask(&layout);
+        let solvers = [
+            ParityCg::new(even(), Precond::Jacobi),
+            ParityCg::new(even(), blocks()),
+            ParityCg::new(even(), blocks()).with_mode(ReducedMode::Formed),
+            ParityCg::for_layout(&layout),
+            ParityCg::for_layout(&layout).with_mode(ReducedMode::MatrixFree),
+            ParityCg::new(
+                even(),
+                Precond::Ilu0Cells {
+                    block_of: cell_blocks(&layout),
+                },
+            ),
+            ParityCg::for_layout(&layout).with_method(Some(KrylovMethod::Gmres)),
+            ParityCg::for_layout(&layout).with_method(Some(KrylovMethod::Cg)),
+        ];
+        for solver in solvers {
+            let (up, rep, secs) = parity(&sys, &solver, tol);
+            let diff = rel_diff(&fluence(&p, &layout, &up), &fc);
+            let pa = rep.a_equivalent_applications();
+            println!(
+                "| {order} | {} | parity-cg{} | {} | {} | {} | {pa} | {secs:.3} ({:.3}) | {:.1} | {:.1} | {diff:.1e} |",
+                layout.len(),
+                if rep.formed { " (S formed)" } else { "" },
+                rep.precond,
+                rep.method.name(),
+                rep.stats.iterations,
+                rep.seconds_setup,
+                ca as f64 / pa as f64,
+                c_secs / secs,
+            );
+        }
+        println!(
+            "asymmetry of S for P{order}: {:.1e}",
+            ParityCg::for_layout(&layout)
+                .solve_detailed(&sys.matrix, &sys.rhs, &opts(tol))
+                .unwrap()
+                .1
+                .asymmetry
+        );
+    }
+}
+
+/// Point source (σ_t = 8, albedo 0.9, 3D) to relative residual 1e-6: CGNR vs parity-cg
+/// (default preconditioner). `PARITY_PS_RES` (default 40) sets the resolution.
+#[test]
+#[ignore]
+fn pointsource_table() {
+    let res: usize = std::env::var("PARITY_PS_RES")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(40);
+    let orders: Vec<usize> = std::env::var("PARITY_PS_ORDERS")
+        .ok()
+        .map(|v| v.split(',').filter_map(|o| o.parse().ok()).collect())
+        .unwrap_or(vec![1, 3]);
+    let o = BuiltinOptions {
+        dim: Some(Dim::Three),
+        res: Some(vec![res]),
+        ..Default::default()
+    };
+    let p = builtin("pointsource", &o).unwrap().problem;
+    let tol = 1e-6;
+    println!("| N | res | unknowns | cgnr it | cgnr s | parity precond | method | parity it | work ratio | parity s (setup) | time ratio | max fluence diff |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
+    for order in orders {
+        let k = pn_kernel(order, Dim::Three, StencilLayout::Staggered).unwrap();
+        let layout = Layout::new(&p.grid, k.kernel.moments()).unwrap();
+        let sys = assemble(&p, k.kernel.as_ref(), &layout).unwrap();
+        let (uc, sc, c_secs) = cgnr(&sys, tol);
+        let (up, rep, secs) = parity(&sys, &ParityCg::for_layout(&layout), tol);
+        // Both stop at 1e-6; the fluences agree to the solver tolerance times cond, not 1e-10.
+        let diff = rel_diff(&fluence(&p, &layout, &up), &fluence(&p, &layout, &uc));
+        println!(
+            "| {order} | {res} | {} | {} | {c_secs:.2} | {} | {} | {} | {:.1} | {secs:.2} ({:.2}) | {:.1} | {diff:.1e} |",
+            layout.len(),
+            sc.iterations,
+            rep.precond,
+            rep.method.name(),
+            rep.stats.iterations,
+            cgnr_applications(&sc) as f64 / rep.a_equivalent_applications() as f64,
+            rep.seconds_setup,
+            c_secs / secs,
+        );
+    }
+}
