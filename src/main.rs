@@ -22,6 +22,10 @@ enum Command {
     Stencil(cli::stencil::StencilArgs),
     /// Solve a scene and write fluence, moments, images and a report.
     Solve(cli::solve::SolveArgs),
+    /// Self-convergence study: solve at several nested resolutions, tabulate and plot.
+    Converge(cli::converge::ConvergeArgs),
+    /// Run the fixed benchmark suite (cgnr vs parity-cg side by side); writes bench.csv/md.
+    Bench(cli::bench::BenchArgs),
 }
 
 fn main() {
@@ -32,6 +36,8 @@ fn main() {
         Command::Supplemental(a) => cli::derive_cmds::supplemental(a),
         Command::Stencil(a) => cli::stencil::run(a),
         Command::Solve(a) => cli::solve::run(a),
+        Command::Converge(a) => cli::converge::run(a),
+        Command::Bench(a) => cli::bench::run(a),
     };
     if let Err(err) = result {
         eprintln!("error: {err:#}");

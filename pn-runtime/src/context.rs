@@ -5,8 +5,8 @@
 //! (exact for analytic fields, averaged between cell centres for voxel data, see
 //! [`crate::field`]). Invalid coefficients are recorded and reported after the row.
 
-use crate::field::Point;
-use crate::problem::{CoefficientError, Problem};
+use crate::field::{Point, Sampling};
+use crate::problem::{CoefficientError, Problem, Scattering};
 use pn_codegen::stencil::{FieldContext, FieldRef, HalfOffset};
 use std::cell::RefCell;
 
@@ -82,4 +82,33 @@ impl FieldContext for RowContext<'_> {
     fn inv_h(&self, axis: usize) -> f64 {
         self.inv_h[axis]
     }
+}
+
+/// `problem` with its analytic fields sampled by `sampling` (see [`Sampling`]): with
+/// `Average(n)` every analytic σ_t, σ_s/albedo and source field is replaced by its mean over
+/// the control volume of one cell (`h` per active axis) around the evaluation point. Call it
+/// after the resolution is final (the control volume follows the grid). `Exact` returns an
+/// unchanged clone, so the default path is bit-identical to not calling it.
+///
+/// Derived coefficients are formed from the averaged fields: σ_a = ⟨σ_t⟩ − ⟨σ_s⟩, and the
+/// diffusion coefficient 1/(3σ_tr) of the averaged σ_t and σ_s (an arithmetic, not a
+/// harmonic, mean of σ_tr across an interface). With an albedo field σ_s = ⟨α⟩⟨σ_t⟩.
+pub fn apply_sampling(problem: &Problem, sampling: Sampling) -> Problem {
+    let mut out = problem.clone();
+    if sampling == Sampling::Exact {
+        return out;
+    }
+    let g = &problem.grid;
+    let axes = g.dim.axes();
+    let sampling = sampling.resolved(axes);
+    let size: Point = [0, 1, 2].map(|d| if d < axes { g.h(d) } else { 0.0 });
+    out.sigma_t = problem.sigma_t.with_sampling(sampling, size);
+    out.scattering = match &problem.scattering {
+        Scattering::SigmaS(f) => Scattering::SigmaS(f.with_sampling(sampling, size)),
+        Scattering::Albedo(f) => Scattering::Albedo(f.with_sampling(sampling, size)),
+    };
+    for s in &mut out.sources {
+        s.field = s.field.with_sampling(sampling, size);
+    }
+    out
 }

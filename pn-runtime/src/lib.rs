@@ -14,11 +14,13 @@ pub mod reference;
 
 pub mod assemble;
 pub mod context;
+pub mod convergence;
 pub mod energy;
 pub mod field;
 pub mod layout;
 pub mod linalg;
 pub mod memory;
+pub mod memory_estimate;
 pub mod npy;
 pub mod output;
 pub mod pipeline;

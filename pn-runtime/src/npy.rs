@@ -106,7 +106,12 @@ pub fn decode_npy(bytes: &[u8]) -> anyhow::Result<NpyArray> {
                 .with_context(|| format!("bad shape entry {s:?}"))
         })
         .collect::<anyhow::Result<_>>()?;
-    let n: usize = shape.iter().product();
+    // Checked: the header's shape is untrusted.
+    let n = shape
+        .iter()
+        .try_fold(1usize, |acc, &d| acc.checked_mul(d))
+        .filter(|n| n.checked_mul(width).is_some())
+        .with_context(|| format!("shape {shape:?} is too large"))?;
     let payload = &bytes[start + hlen..];
     ensure!(
         payload.len() == n * width,
@@ -117,12 +122,12 @@ pub fn decode_npy(bytes: &[u8]) -> anyhow::Result<NpyArray> {
     let data = if width == 8 {
         payload
             .chunks_exact(8)
-            .map(|c| f64::from_le_bytes(c.try_into().unwrap()))
+            .map(|c| f64::from_le_bytes([c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7]]))
             .collect()
     } else {
         payload
             .chunks_exact(4)
-            .map(|c| f32::from_le_bytes(c.try_into().unwrap()) as f64)
+            .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]) as f64)
             .collect()
     };
     Ok(NpyArray { shape, data })

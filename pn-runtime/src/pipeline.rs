@@ -51,12 +51,14 @@ pub fn solve_problem(
     opts: &SolverOptions,
 ) -> anyhow::Result<Solution> {
     problem.validate()?;
+    problem.check_not_singular()?;
     let layout = Layout::new(&problem.grid, kernel.moments())?;
     let t0 = Instant::now();
     let system = assemble(problem, kernel, &layout)?;
     let seconds_assembly = t0.elapsed().as_secs_f64();
+    check_magnitudes(&system.matrix, &system.rhs)?;
     let t1 = Instant::now();
-    let (u, stats) = solver.solver().solve(&system.matrix, &system.rhs, opts);
+    let (u, stats) = solve_scaled(solver, &system.matrix, &system.rhs, opts);
     let seconds_solve = t1.elapsed().as_secs_f64();
     if stats.status == crate::solver::SolveStatus::Diverged {
         anyhow::bail!(
@@ -79,4 +81,49 @@ pub fn solve_problem(
         seconds_assembly,
         seconds_solve,
     })
+}
+
+/// Largest matrix or right-hand-side magnitude the solvers accept: CGNR works with squared
+/// norms (‖A p‖², AᵀA's condition number), which overflow f64 (≈ 1.8e308) for entries near
+/// 1e154 already; 1e150 leaves room for sums over the rows.
+pub const MAX_ENTRY_MAGNITUDE: f64 = 1e150;
+
+/// Refuses a system with non-finite entries or entries too large for the solvers, naming
+/// the value (e.g. σ_t = 1e300, or a source of 1e200), instead of a NaN residual later.
+fn check_magnitudes(a: &sprs::CsMat<f64>, b: &[f64]) -> anyhow::Result<()> {
+    let max_a = a.data().iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let max_b = b.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let finite = a.data().iter().chain(b).all(|v| v.is_finite());
+    anyhow::ensure!(
+        finite && max_a <= MAX_ENTRY_MAGNITUDE && max_b <= MAX_ENTRY_MAGNITUDE,
+        "the assembled system has entries up to {max_a:.3e} (matrix) and {max_b:.3e} \
+         (right-hand side){}; the solvers need magnitudes below {MAX_ENTRY_MAGNITUDE:.0e} \
+         (their squares must fit in f64): rescale σ_t, the sources or the domain",
+        if finite { "" } else { ", some not finite" }
+    );
+    Ok(())
+}
+
+/// Solves `a u = b`, first scaling `b` by a power of two when its largest entry is outside
+/// [1e-100, 1e100]: the solvers work with ‖b‖², which underflows to 0 for a source of
+/// 1e-300 (the solver would then return u = 0 as "converged") or overflows for 1e200.
+/// Power-of-two scaling is exact, the relative residual is unchanged, and the absolute
+/// residual and ‖b‖ are scaled back.
+fn solve_scaled(
+    solver: SolverKind,
+    a: &sprs::CsMat<f64>,
+    b: &[f64],
+    opts: &SolverOptions,
+) -> (Vec<f64>, SolveStats) {
+    let max_b = b.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    if max_b == 0.0 || (1e-100..=1e100).contains(&max_b) {
+        return solver.solver().solve(a, b, opts);
+    }
+    let scale = 2f64.powi(max_b.log2().round() as i32);
+    let scaled: Vec<f64> = b.iter().map(|v| v / scale).collect();
+    let (mut u, mut stats) = solver.solver().solve(a, &scaled, opts);
+    u.iter_mut().for_each(|v| *v *= scale);
+    stats.absolute_residual *= scale;
+    stats.rhs_norm *= scale;
+    (u, stats)
 }

@@ -166,6 +166,10 @@ pub struct Problem {
     pub sigma_t_min: Option<f64>,
 }
 
+/// The automatic σ_t threshold is this fraction of the largest σ_t
+/// (see [`Problem::auto_sigma_t_min`]).
+pub const AUTO_SIGMA_T_MIN_FRACTION: f64 = 1e-3;
+
 /// Coefficients at one point after the σ_t threshold.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Coefficients {
@@ -293,6 +297,74 @@ impl Problem {
             Scattering::SigmaS(f) | Scattering::Albedo(f) => f.is_voxel(),
         };
         self.sigma_t.is_voxel() || scat || self.sources.iter().any(|s| s.field.is_voxel())
+    }
+
+    /// The automatic σ_t threshold `--sigma-t-min` gets when vacuum is detected
+    /// (DESIGN.md §5: in vacuum A is singular, a threshold is needed and must be reported).
+    ///
+    /// Rule: when no threshold is set and σ_t = 0 at some staggered position (cell centres,
+    /// faces, edges and corners, i.e. every half-cell coordinate) while it is positive
+    /// elsewhere, the threshold is [`AUTO_SIGMA_T_MIN_FRACTION`] × max σ_t. It is `None`
+    /// when a threshold is already set, when there is no vacuum, when σ_t is 0 everywhere
+    /// (no scale to take a fraction of: the user must choose), or when a coefficient is
+    /// invalid (the solve reports that error with its position).
+    ///
+    /// Evaluates σ_t at (2n_x+1)(2n_y+1)(2n_z+1) points: call it after the memory check.
+    pub fn auto_sigma_t_min(&self) -> Option<f64> {
+        if self.sigma_t_min.is_some() {
+            return None;
+        }
+        let g = &self.grid;
+        let axes = g.dim.axes();
+        let count = |d: usize| if d < axes { 2 * g.res[d] as i64 + 1 } else { 1 };
+        let mut max = 0.0f64;
+        let mut vacuum = false;
+        for i in 0..count(0) {
+            for j in 0..count(1) {
+                for k in 0..count(2) {
+                    let half = [i, j, if axes == 3 { k } else { 1 }];
+                    let p = [0, 1, 2].map(|d| g.coord(d, half[d]));
+                    let v = self.sigma_t.eval(p);
+                    if !v.is_finite() || v < 0.0 {
+                        return None;
+                    }
+                    vacuum |= v == 0.0;
+                    max = max.max(v);
+                }
+            }
+        }
+        (vacuum && max > 0.0).then_some(AUTO_SIGMA_T_MIN_FRACTION * max)
+    }
+
+    /// Refuses a closed box without absorption: with the reflecting (Neumann) closure and
+    /// σ_a = σ_t − σ_s = 0 at every cell centre (albedo exactly 1 everywhere) nothing leaves
+    /// the system, so a source has no steady state and A is singular (a constant L_0^0 with
+    /// all other moments 0 is in its null space; the energy balance P_Q = P_A + P_B of
+    /// [`crate::energy`] cannot hold with P_A = P_B = 0). σ_a counts as zero when it is below 1e-12 σ_t (the rounding
+    /// [`Problem::coefficients`] tolerates in σ_s ≤ σ_t). Stops at the first absorbing
+    /// cell; coefficient errors are returned as they are.
+    pub fn check_not_singular(&self) -> anyhow::Result<()> {
+        if self.boundary != Boundary::Neumann {
+            return Ok(());
+        }
+        let g = &self.grid;
+        for i in 0..g.res[0] {
+            for j in 0..g.res[1] {
+                for k in 0..g.res[2] {
+                    let half = [2 * i as i64 + 1, 2 * j as i64 + 1, 2 * k as i64 + 1];
+                    let p = [0, 1, 2].map(|d| g.coord(d, half[d]));
+                    let c = self.coefficients(p)?;
+                    if c.sigma_t - c.sigma_s > 1e-12 * c.sigma_t {
+                        return Ok(());
+                    }
+                }
+            }
+        }
+        anyhow::bail!(
+            "the system is singular: nothing is absorbed (albedo 1, σ_a = 0 everywhere) and the \
+             neumann boundary reflects everything, so no steady state exists; \
+             use --bc dirichlet (light leaves the domain) or an albedo below 1"
+        )
     }
 
     /// Checks the parts that do not need field evaluation.

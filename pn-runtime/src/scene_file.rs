@@ -309,6 +309,13 @@ fn build(spec: SceneSpec, base: &Path, path: &Path) -> anyhow::Result<Scene> {
             }
             (None, Some(l)) => {
                 ensure!(
+                    s.scale.is_finite(),
+                    "source Q_{}^{}: scale must be finite, got {}",
+                    s.l,
+                    s.m,
+                    s.scale
+                );
+                ensure!(
                     s.box_min.is_none() && s.box_max.is_none(),
                     "source Q_{}^{}: box_min/box_max only apply to value",
                     s.l,

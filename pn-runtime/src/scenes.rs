@@ -60,7 +60,10 @@ pub struct PointSourceParams {
     pub albedo: f64,
     /// Henyey–Greenstein g (0 = isotropic).
     pub g: f64,
-    /// The domain is `[0, 2w]` per axis.
+    /// The domain is `[0, 2w]` per axis, centred on the source for odd resolutions n. For
+    /// even n the source cell n/2 (the paper's cell (40,40,40) of 80³ on [0,2]³) has its
+    /// centre h/2 past the domain centre on each axis, so the boundary is h/2 nearer on the
+    /// − side; profiles and reference solutions are taken from the source cell centre.
     pub half_width: f64,
     /// Source shape.
     pub source: PointSourceShape,

@@ -26,8 +26,9 @@ pub fn decode_vol(bytes: &[u8]) -> anyhow::Result<VoxelGrid> {
         "unsupported version {} (expected 3)",
         bytes[3]
     );
-    let i32_at = |o: usize| i32::from_le_bytes(bytes[o..o + 4].try_into().unwrap());
-    let f32_at = |o: usize| f32::from_le_bytes(bytes[o..o + 4].try_into().unwrap()) as f64;
+    let word = |o: usize| [bytes[o], bytes[o + 1], bytes[o + 2], bytes[o + 3]];
+    let i32_at = |o: usize| i32::from_le_bytes(word(o));
+    let f32_at = |o: usize| f32::from_le_bytes(word(o)) as f64;
     let encoding = i32_at(4);
     if encoding != 1 {
         bail!("unsupported encoding {encoding} (only 1 = float32 is supported)");
@@ -44,7 +45,12 @@ pub fn decode_vol(bytes: &[u8]) -> anyhow::Result<VoxelGrid> {
     let (nx, ny, nz) = (nx as usize, ny as usize, nz as usize);
     let min = [f32_at(24), f32_at(28), f32_at(32)];
     let max = [f32_at(36), f32_at(40), f32_at(44)];
-    let n = nx * ny * nz;
+    // Checked: the header's dimensions are untrusted (up to 2³¹ each).
+    let n = nx
+        .checked_mul(ny)
+        .and_then(|v| v.checked_mul(nz))
+        .filter(|n| n.checked_mul(4).is_some())
+        .with_context(|| format!("resolution {nx}×{ny}×{nz} is too large"))?;
     ensure!(
         bytes.len() == HEADER + 4 * n,
         "header says {nx}×{ny}×{nz} float32 values ({} bytes of data) but the file has {} bytes of data",

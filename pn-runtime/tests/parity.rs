@@ -420,3 +420,33 @@ fn detected_mask_and_solver_kind() {
         assert!(rel_diff(&u, &uc) < SAME_ANSWER);
     }
 }
+
+/// An unreachable tolerance ends (stagnation or restarts exhausted) with the recomputed
+/// residual reported, and a reachable tight one converges through the restart path.
+#[test]
+fn tight_tolerances_terminate() {
+    let p = checkerboard(11);
+    let (layout, sys) = system(&p, 3);
+    let solver = ParityCg::for_layout(&layout);
+    let o = SolverOptions {
+        tol: 1e-18,
+        progress: false,
+        stagnation_window: 50,
+        ..Default::default()
+    };
+    let (_, rep) = solver.solve_detailed(&sys.matrix, &sys.rhs, &o).unwrap();
+    eprintln!(
+        "tol 1e-18: {:?} after {} it, rel {:.2e}",
+        rep.stats.status, rep.stats.iterations, rep.stats.relative_residual
+    );
+    assert!(!rep.stats.converged());
+    assert!(rep.stats.relative_residual < 1e-12, "{:?}", rep.stats);
+    let (_, rep) = solver
+        .solve_detailed(&sys.matrix, &sys.rhs, &opts(1e-14))
+        .unwrap();
+    eprintln!(
+        "tol 1e-14: {:?} after {} it, rel {:.2e}",
+        rep.stats.status, rep.stats.iterations, rep.stats.relative_residual
+    );
+    assert!(rep.stats.converged() && rep.stats.relative_residual <= 1e-14);
+}

@@ -18,7 +18,7 @@ use pn_runtime::solver::{SolverKind, SolverOptions};
 use std::path::{Path, PathBuf};
 
 /// Arguments of `pn solve`.
-#[derive(Args, Debug)]
+#[derive(Args, Debug, Clone)]
 pub struct SolveArgs {
     /// A built-in scene (checkerboard, checkerboard3d, pointsource) or a .toml scene file.
     pub scene: String,
@@ -28,7 +28,7 @@ pub struct SolveArgs {
 }
 
 /// The options of `pn solve`.
-#[derive(Args, Debug)]
+#[derive(Args, Debug, Clone)]
 pub struct SolveFlags {
     /// P_N order (default: the scene's, 5 for checkerboard).
     #[arg(long)]
@@ -57,15 +57,42 @@ pub struct SolveFlags {
     /// Use the collocated stencil (all moments at cell centres; oscillates).
     #[arg(long)]
     pub collocated: bool,
-    /// pn (the P_N equations) or cda (classical diffusion).
-    #[arg(long, default_value = "pn", value_parser = ["pn", "cda"])]
+    /// pn (the P_N equations), cda (classical diffusion) or fld (flux-limited diffusion).
+    #[arg(long, default_value = "pn", value_parser = ["pn", "cda", "fld"])]
     pub method: String,
+    /// --method fld: flux limiter (lp, sum, max, kershaw, larsen2 or larsen<n>, cda;
+    /// default lp).
+    #[arg(long)]
+    pub limiter: Option<String>,
+    /// --method fld --fld-solver gs: SOR factor ω in (0, 2) (default 1.5).
+    #[arg(long)]
+    pub omega: Option<f64>,
+    /// --method fld: gs (red–black Gauss–Seidel/SOR, default) or picard (linear solves
+    /// through the diffusion stencil with --solver).
+    #[arg(long, value_parser = ["gs", "picard"])]
+    pub fld_solver: Option<String>,
+    /// --method fld: extinction threshold σ_ε (1/length; default 1e-3 / longest domain edge).
+    #[arg(long)]
+    pub sigma_eps: Option<f64>,
     /// Linear solver.
     #[arg(long, default_value = "cgnr")]
     pub solver: SolverKind,
     /// Raise σ_t to at least this value (required where σ_t reaches 0).
     #[arg(long)]
     pub sigma_t_min: Option<f64>,
+    /// Refuse problems whose estimated memory exceeds this (bytes, or with K/M/G/T;
+    /// default: 80% of the physical memory).
+    #[arg(long, value_parser = pn_runtime::memory_estimate::parse_size)]
+    pub max_memory: Option<u64>,
+    /// Analytic fields: exact (value at the staggered point, as StaRMAP) or average[:N]
+    /// (mean over the cell-sized control volume, N midpoints per axis; default 8 in 2D,
+    /// 4 in 3D).
+    #[arg(long, default_value = "exact")]
+    pub sampling: pn_runtime::field::Sampling,
+    /// Also solve at half the resolution and report a Richardson estimate of the
+    /// discretization error (error.npy, error.png, report.json); needs even resolutions.
+    #[arg(long)]
+    pub error_estimate: bool,
     /// pointsource: extinction σ_t (default 8).
     #[arg(long)]
     pub sigma_t: Option<f64>,
@@ -136,13 +163,24 @@ pub fn scene_from_args(args: &SolveArgs) -> anyhow::Result<Scene> {
 /// Runs `pn solve`.
 pub fn run(args: &SolveArgs) -> anyhow::Result<()> {
     let a = &*args.flags;
+    if a.method == "fld" {
+        // Issue 9: the memory check before FLD allocates its per-cell arrays.
+        let grid = scene_from_args(args)?.problem.grid;
+        pn_runtime::memory_estimate::check_limit(
+            &pn_runtime::memory_estimate::estimate_fld(&grid),
+            a.max_memory
+                .unwrap_or_else(pn_runtime::memory_estimate::default_limit_bytes),
+        )?;
+        return super::fld_method::run(args);
+    }
+    super::fld_method::reject_fld_flags(a)?;
     anyhow::ensure!(
         a.tol.is_finite() && a.tol > 0.0,
         "--tol must be positive, got {}",
         a.tol
     );
     anyhow::ensure!(a.max_iter > 0, "--max-iter must be at least 1");
-    let scene = scene_from_args(args)?;
+    let mut scene = scene_from_args(args)?;
     for n in &scene.notes {
         eprintln!("note: {n}");
     }
@@ -168,7 +206,21 @@ pub fn run(args: &SolveArgs) -> anyhow::Result<()> {
         max_iter: a.max_iter,
         ..Default::default()
     };
-    let problem = &scene.problem;
+    // Issue 9: refuse oversized problems before allocating, then the automatic σ_t threshold.
+    let estimate =
+        pn_runtime::memory_estimate::estimate(&scene.problem.grid, choice.kernel.as_ref());
+    pn_runtime::memory_estimate::check_limit(
+        &estimate,
+        a.max_memory
+            .unwrap_or_else(pn_runtime::memory_estimate::default_limit_bytes),
+    )?;
+    if let Some(t) = scene.problem.auto_sigma_t_min() {
+        scene.problem.sigma_t_min = Some(t);
+        eprintln!("note: σ_t = 0 in part of the domain (vacuum): using --sigma-t-min {t:.3e} (1e-3 × max σ_t); set --sigma-t-min to override");
+    }
+    super::error_estimate::check_args(args, &scene.problem.grid)?;
+    let sampled = super::error_estimate::sampled_problem(&scene.problem, a.sampling);
+    let problem = &sampled;
     let kernel = choice.kernel.as_ref();
     let sol = pn_runtime::threads::with_threads(a.threads, || {
         solve_problem(problem, kernel, a.solver, &opts)
@@ -194,6 +246,10 @@ pub fn run(args: &SolveArgs) -> anyhow::Result<()> {
         .unwrap_or_else(|| PathBuf::from("out").join(&scene.name));
     write_outputs(&out, &problem.grid, &sol, &report)
         .with_context(|| format!("writing results to {}", out.display()))?;
+    super::error_estimate::after_solve(args, problem, &sol, &out)?;
+    if scene.name == "pointsource" {
+        super::pointsource_extras::write_extras(&out, a, &problem.grid, &sol, order)?;
+    }
 
     let g = &problem.grid;
     let res = g.res[..g.dim.axes()]

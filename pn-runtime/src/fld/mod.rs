@@ -12,17 +12,21 @@
 //! * [`grid`]: the grid and the problem (fields, validation, index order);
 //! * [`params`]: solver parameters and their validation;
 //! * `operator`: the discretisation (coefficients, residual, sweeps, discrete flux);
-//! * [`solver`]: the iteration and the public entry points.
+//! * [`solver`]: the iteration and the public entry points;
+//! * [`picard`]: the same FLD solved by Picard iteration through a generated diffusion
+//!   stencil and the project's linear solvers.
 
 pub mod grid;
 pub mod limiter;
 mod operator;
 pub mod params;
+pub mod picard;
 pub mod solver;
 
 pub use grid::{FldGrid, FldProblem};
 pub use limiter::Limiter;
 pub use params::FldParams;
+pub use picard::{solve_fld_picard, PicardOptions, PicardSolution};
 pub use solver::{
     cell_diffusion_coefficients, flux_magnitude_ratio, relative_residual, solve_fld,
     solve_fld_from, FldSolution,

@@ -179,7 +179,16 @@ impl ParityCg {
             m => m,
         };
         let op = reduced::ReducedOperator::new(&sp, mode);
-        let pre = precond::Built::new(&self.precond, &sp, op.formed())?;
+        let mut precond_used = self.precond.resolve(a.nnz());
+        let pre = match precond::Built::new(&precond_used, &sp, op.formed()) {
+            Ok(p) => p,
+            // `Auto` falls back to Jacobi when ILU(0) meets a zero pivot.
+            Err(_) if self.precond == Precond::Auto => {
+                precond_used = Precond::Jacobi;
+                precond::Built::new(&precond_used, &sp, None)?
+            }
+            Err(e) => return Err(e),
+        };
         let probes = if op.is_empty() { 0 } else { PROBE_PAIRS };
         let asymmetry = op.asymmetry(probes);
         let method = self.method.unwrap_or(if asymmetry <= SYMMETRY_TOL {
@@ -265,7 +274,7 @@ impl ParityCg {
         let report = ParityReport {
             stats,
             method,
-            precond: self.precond.resolve(a.nnz()).name(),
+            precond: precond_used.name(),
             asymmetry,
             formed: op.is_formed(),
             even_unknowns: sp.even.len(),

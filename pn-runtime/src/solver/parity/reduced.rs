@@ -127,31 +127,60 @@ impl<'a> ReducedOperator<'a> {
     }
 }
 
-/// `S = D_e − B C̃` as CSR (sorted indices).
+/// Rows of `S` per parallel task in [`form`].
+const FORM_CHUNK: usize = 1024;
+
+/// `S = D_e − B C̃` as CSR with sorted column indices (the diagonal always stored), formed
+/// row by row in parallel: row i is `D_e,ii e_i − Σ_k B_ik C̃_k,:`.
 pub fn form(split: &Split) -> CsMat<f64> {
-    let bc: CsMat<f64> = &split.b * &split.c_scaled;
     let n = split.even.len();
-    let diag = CsMat::new(
-        (n, n),
-        (0..=n).collect(),
-        (0..n).collect(),
-        split.d_e.clone(),
-    );
-    let s: CsMat<f64> = &diag - &bc;
-    let s = if s.is_csr() { s } else { s.to_csr() };
-    let ptr = s.indptr();
-    let ptr = ptr.raw_storage();
-    let sorted = (0..s.rows()).all(|i| {
-        s.indices()[ptr[i]..ptr[i + 1]]
-            .windows(2)
-            .all(|w| w[0] < w[1])
-    });
-    if sorted {
-        s
-    } else {
-        // Transposing twice sorts the column indices of every row.
-        s.transpose_view().to_csr().transpose_view().to_csr()
+    let bp = split.b.indptr();
+    let bp = bp.raw_storage();
+    let (bi, bv) = (split.b.indices(), split.b.data());
+    let cp = split.c_scaled.indptr();
+    let cp = cp.raw_storage();
+    let (ci, cv) = (split.c_scaled.indices(), split.c_scaled.data());
+    let chunks: Vec<(Vec<usize>, Vec<usize>, Vec<f64>)> = (0..n.div_ceil(FORM_CHUNK))
+        .into_par_iter()
+        .map(|c| {
+            let (mut nnz, mut cols, mut vals) = (Vec::new(), Vec::new(), Vec::new());
+            let mut row: Vec<(usize, f64)> = Vec::new();
+            for i in c * FORM_CHUNK..((c + 1) * FORM_CHUNK).min(n) {
+                row.clear();
+                row.push((i, split.d_e[i]));
+                for p in bp[i]..bp[i + 1] {
+                    let k = bi[p];
+                    for q in cp[k]..cp[k + 1] {
+                        row.push((ci[q], -bv[p] * cv[q]));
+                    }
+                }
+                row.sort_unstable_by_key(|e| e.0);
+                let start = cols.len();
+                for &(j, v) in &row {
+                    if cols.len() > start && *cols.last().unwrap() == j {
+                        *vals.last_mut().unwrap() += v;
+                    } else {
+                        cols.push(j);
+                        vals.push(v);
+                    }
+                }
+                nnz.push(cols.len() - start);
+            }
+            (nnz, cols, vals)
+        })
+        .collect();
+    let total: usize = chunks.iter().map(|c| c.1.len()).sum();
+    let mut indptr = Vec::with_capacity(n + 1);
+    let (mut indices, mut data) = (Vec::with_capacity(total), Vec::with_capacity(total));
+    indptr.push(0);
+    for (nnz, cols, vals) in chunks {
+        for k in nnz {
+            indptr.push(indptr.last().unwrap() + k);
+        }
+        indices.extend(cols);
+        data.extend(vals);
     }
+    CsMat::new((n, n), indptr, indices, data)
 }
 
 /// SplitMix64: a tiny deterministic generator for the symmetry probe.

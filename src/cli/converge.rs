@@ -1,0 +1,131 @@
+//! `pn converge <scene> --order N --res R1,R2,R3,...`: a self-convergence study (issue 10).
+//!
+//! Solves the scene at every resolution (all other flags as in `pn solve`: method, order,
+//! sampling, boundary, solver, tolerance, point-source parameters), compares every level
+//! with the finest on the coarsest grid (fluence restricted by cell averaging) and, for the
+//! checkerboard scenes, by the averages over the 1×1(×1) blocks, and writes
+//! `convergence.csv`, `convergence.json` and `convergence.png` (see
+//! `pn_runtime::convergence`).
+
+use super::error_estimate::solve_at;
+use super::solve::{SolveArgs, SolveFlags};
+use anyhow::{ensure, Context, Result};
+use clap::Args;
+use pn_runtime::convergence::{analyse, check_nesting, write_convergence_png, Level};
+use std::path::PathBuf;
+
+/// Arguments of `pn converge` (`--res` takes the list of resolutions, each one value for
+/// all axes; everything else as in `pn solve`).
+#[derive(Args, Debug)]
+pub struct ConvergeArgs {
+    /// A built-in scene (checkerboard, checkerboard3d, pointsource) or a .toml scene file.
+    pub scene: String,
+    /// The options of `pn solve`; here `--res R1,R2,...` lists the resolutions (coarsest
+    /// first, each an integer multiple of the first) and `--out` is the study's directory.
+    #[command(flatten)]
+    pub flags: Box<SolveFlags>,
+}
+
+/// Blocks per axis of the scenes that define blocks.
+fn scene_blocks(scene: &str, axes: usize) -> Option<[usize; 3]> {
+    match scene {
+        "checkerboard" | "checkerboard3d" => Some(if axes == 3 { [7, 7, 7] } else { [7, 7, 1] }),
+        _ => None,
+    }
+}
+
+/// Runs `pn converge`.
+pub fn run(args: &ConvergeArgs) -> Result<()> {
+    let a = &*args.flags;
+    ensure!(
+        !a.error_estimate,
+        "--error-estimate applies to pn solve; pn converge reports Richardson estimates per level"
+    );
+    ensure!(
+        a.tol.is_finite() && a.tol > 0.0,
+        "--tol must be positive, got {}",
+        a.tol
+    );
+    let res = a.res.clone().unwrap_or_default();
+    ensure!(
+        res.len() >= 2,
+        "pn converge needs at least two resolutions, e.g. --res 71,142,284"
+    );
+    ensure!(
+        res.iter().all(|&r| r > 0),
+        "resolutions must be positive, got {res:?}"
+    );
+    let as3 = |r: usize| [r, r, r];
+    check_nesting(&res.iter().map(|&r| as3(r)).collect::<Vec<_>>())
+        .context("pn converge needs nested resolutions (e.g. 71,142,284)")?;
+    let solve_args = SolveArgs {
+        scene: args.scene.clone(),
+        flags: args.flags.clone(),
+    };
+    let mut levels = Vec::new();
+    let mut domain = None;
+    let mut name = args.scene.clone();
+    let mut notes = Vec::new();
+    let mut boundary = String::new();
+    for &r in &res {
+        let lv = solve_at(&solve_args, vec![r])?;
+        eprintln!(
+            "solved {r}: {} unknowns, {} iterations, {:.2} s",
+            lv.sol.unknowns, lv.sol.stats.iterations, lv.seconds
+        );
+        for n in &lv.scene.notes {
+            if !notes.contains(n) {
+                eprintln!("note: {n}");
+                notes.push(n.clone());
+            }
+        }
+        name = lv.scene.name.clone();
+        boundary = lv.problem.boundary.name().to_string();
+        domain = Some(lv.problem.grid.clone());
+        levels.push(Level {
+            res: lv.problem.grid.res,
+            unknowns: lv.sol.unknowns,
+            seconds: lv.seconds,
+            fluence: lv.sol.l00(),
+        });
+    }
+    let domain = domain.expect("at least two levels were solved");
+    let axes = domain.dim.axes();
+    let table = analyse(&levels, &domain, scene_blocks(&name, axes))?;
+    print!("{}", table.to_text());
+    let out = a
+        .out
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("out").join(format!("converge-{name}")));
+    std::fs::create_dir_all(&out)
+        .with_context(|| format!("cannot create output directory {}", out.display()))?;
+    std::fs::write(out.join("convergence.csv"), table.to_csv())
+        .with_context(|| format!("writing {}", out.join("convergence.csv").display()))?;
+    let what = if a.method == "cda" {
+        "CDA".to_string()
+    } else {
+        format!("P_{}", a.order.map_or("default".into(), |o| o.to_string()))
+    };
+    let sampling = a.sampling.resolved(axes).name();
+    let json = serde_json::json!({
+        "scene": name,
+        "method": a.method,
+        "order": a.order,
+        "sampling": sampling,
+        "boundary": boundary,
+        "table": table,
+    });
+    std::fs::write(
+        out.join("convergence.json"),
+        serde_json::to_string_pretty(&json)? + "\n",
+    )?;
+    let title = format!("{name} {what}, sampling {sampling}: self-convergence");
+    write_convergence_png(
+        &out.join("convergence.png"),
+        &table,
+        domain.max[0] - domain.min[0],
+        &title,
+    )?;
+    println!("-> {}", out.display());
+    Ok(())
+}
