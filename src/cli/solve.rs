@@ -74,8 +74,9 @@ pub struct SolveFlags {
     /// --method fld: extinction threshold σ_ε (1/length; default 1e-3 / longest domain edge).
     #[arg(long)]
     pub sigma_eps: Option<f64>,
-    /// Linear solver.
-    #[arg(long, default_value = "cgnr")]
+    /// Linear solver: parity-cg (eliminates the odd moments; ILU(0)-preconditioned CG or
+    /// BiCGSTAB on the even system) or cgnr (the paper's baseline, CG on AᵀA u = Aᵀb).
+    #[arg(long, default_value = "parity-cg")]
     pub solver: SolverKind,
     /// Raise σ_t to at least this value (required where σ_t reaches 0).
     #[arg(long)]
