@@ -24,6 +24,7 @@ pub mod memory_estimate;
 pub mod npy;
 pub mod output;
 pub mod pipeline;
+pub mod plot;
 pub mod problem;
 pub mod scene_file;
 pub mod scenes;

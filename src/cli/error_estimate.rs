@@ -52,6 +52,28 @@ pub fn kernel_for(a: &SolveFlags, scene: &Scene) -> Result<(KernelChoice, usize)
     }
 }
 
+/// Refuses a problem whose estimated memory for `choice` exceeds `--max-memory` (issue 9),
+/// then sets the automatic σ_t threshold where part of the domain is vacuum. Returns that
+/// threshold, if one was set.
+pub fn check_memory_and_set_sigma_t_min(
+    a: &SolveFlags,
+    scene: &mut Scene,
+    choice: &KernelChoice,
+) -> Result<Option<f64>> {
+    let estimate =
+        pn_runtime::memory_estimate::estimate(&scene.problem.grid, choice.kernel.as_ref());
+    pn_runtime::memory_estimate::check_limit(
+        &estimate,
+        a.max_memory
+            .unwrap_or_else(pn_runtime::memory_estimate::default_limit_bytes),
+    )?;
+    let auto = scene.problem.auto_sigma_t_min();
+    if let Some(t) = auto {
+        scene.problem.sigma_t_min = Some(t);
+    }
+    Ok(auto)
+}
+
 /// One solved resolution.
 pub struct LevelSolve {
     /// The scene at this resolution.
@@ -79,16 +101,7 @@ pub fn solve_at(args: &SolveArgs, res: Vec<usize>) -> Result<LevelSolve> {
     };
     let mut scene = scene_from_args(&level_args)?;
     let (choice, _) = kernel_for(a, &scene)?;
-    let estimate =
-        pn_runtime::memory_estimate::estimate(&scene.problem.grid, choice.kernel.as_ref());
-    pn_runtime::memory_estimate::check_limit(
-        &estimate,
-        a.max_memory
-            .unwrap_or_else(pn_runtime::memory_estimate::default_limit_bytes),
-    )?;
-    if let Some(t) = scene.problem.auto_sigma_t_min() {
-        scene.problem.sigma_t_min = Some(t);
-    }
+    check_memory_and_set_sigma_t_min(a, &mut scene, &choice)?;
     let problem = sampled_problem(&scene.problem, a.sampling);
     let opts = SolverOptions {
         tol: a.tol,

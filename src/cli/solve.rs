@@ -3,7 +3,7 @@
 //! `pn solve checkerboard` with no further flags is the main job: P_5, 71×71, Neumann
 //! (extrapolation) boundary, relative residual 1e-10.
 
-use crate::stencils::{cda_kernel, pn_kernel, Dim, Layout};
+use crate::stencils::Dim;
 use anyhow::{bail, Context};
 use clap::Args;
 use pn_runtime::output::report::{Report, RunInfo};
@@ -185,38 +185,17 @@ pub fn run(args: &SolveArgs) -> anyhow::Result<()> {
     for n in &scene.notes {
         eprintln!("note: {n}");
     }
-    let dim = scene.problem.grid.dim;
-    let layout = if a.collocated {
-        Layout::Collocated
-    } else {
-        Layout::Staggered
-    };
-    let (choice, order) = match a.method.as_str() {
-        "cda" => {
-            anyhow::ensure!(!a.collocated, "--collocated applies to --method pn only");
-            anyhow::ensure!(a.order.is_none(), "--order applies to --method pn only");
-            (cda_kernel(dim)?, 0)
-        }
-        _ => {
-            let order = a.order.unwrap_or(scene.default_order);
-            (pn_kernel(order, dim, layout)?, order)
-        }
-    };
+    // `--method` is pn or cda here (clap allows pn, cda and fld; fld returned above).
+    let (choice, order) = super::error_estimate::kernel_for(a, &scene)?;
     let opts = SolverOptions {
         tol: a.tol,
         max_iter: a.max_iter,
         ..Default::default()
     };
     // Issue 9: refuse oversized problems before allocating, then the automatic σ_t threshold.
-    let estimate =
-        pn_runtime::memory_estimate::estimate(&scene.problem.grid, choice.kernel.as_ref());
-    pn_runtime::memory_estimate::check_limit(
-        &estimate,
-        a.max_memory
-            .unwrap_or_else(pn_runtime::memory_estimate::default_limit_bytes),
-    )?;
-    if let Some(t) = scene.problem.auto_sigma_t_min() {
-        scene.problem.sigma_t_min = Some(t);
+    if let Some(t) =
+        super::error_estimate::check_memory_and_set_sigma_t_min(a, &mut scene, &choice)?
+    {
         eprintln!("note: σ_t = 0 in part of the domain (vacuum): using --sigma-t-min {t:.3e} (1e-3 × max σ_t); set --sigma-t-min to override");
     }
     super::error_estimate::check_args(args, &scene.problem.grid)?;

@@ -1,7 +1,8 @@
 //! `convergence.png`: a log–log plot of a study's differences against the cell size.
 
 use super::study::StudyTable;
-use anyhow::{anyhow, bail, Result};
+use crate::plot::{draw_error, finish_chart, framed_chart, white_canvas};
+use anyhow::{bail, Result};
 use plotters::prelude::*;
 use std::path::Path;
 
@@ -64,14 +65,9 @@ pub fn write_convergence_png(
     );
     let (x0, x1) = (x0 / 1.5, x1 * 1.5);
     let (y0, y1) = (y0 / 3.0, y1 * 3.0);
-    let err = |e: &dyn std::fmt::Display| anyhow!("drawing {}: {e}", path.display());
-    let root = BitMapBackend::new(path, (1000, 700)).into_drawing_area();
-    root.fill(&WHITE).map_err(|e| err(&e))?;
-    let mut chart = ChartBuilder::on(&root)
-        .caption(title, ("sans-serif", 26))
-        .margin(20)
-        .x_label_area_size(60)
-        .y_label_area_size(90)
+    let err = |e: &dyn std::fmt::Display| draw_error(path, e);
+    let root = white_canvas(path, (1000, 700))?;
+    let mut chart = framed_chart(&root, title, 26)
         .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())
         .map_err(|e| err(&e))?;
     chart
@@ -111,14 +107,5 @@ pub fn write_convergence_png(
             .label("slope 2 (h²)")
             .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 24, y)], BLACK));
     }
-    chart
-        .configure_series_labels()
-        .label_font(("sans-serif", 18))
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .position(SeriesLabelPosition::LowerRight)
-        .draw()
-        .map_err(|e| err(&e))?;
-    root.present().map_err(|e| err(&e))?;
-    Ok(())
+    finish_chart(&mut chart, &root, path, 18, SeriesLabelPosition::LowerRight)
 }

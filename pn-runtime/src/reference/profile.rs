@@ -12,6 +12,7 @@ use plotters::prelude::*;
 
 use super::closed_forms::{cda_point_source, grosjean};
 use super::pointsource::PointSourceModes;
+use crate::plot::{draw_error, finish_chart, framed_chart, white_canvas};
 
 /// One sample of the profile: normalised fluences `4πφ/σ_t²` at optical distance `tau`.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -136,14 +137,9 @@ pub fn write_profile_png_titled(
     // Pad the log axis by a quarter decade each side.
     let (y0, y1) = (v0 / 10f64.powf(0.25), v1 * 10f64.powf(0.25));
 
-    let draw_err = |e: &dyn std::fmt::Display| anyhow!("drawing {}: {e}", path.display());
-    let root = BitMapBackend::new(path, (1000, 700)).into_drawing_area();
-    root.fill(&WHITE).map_err(|e| draw_err(&e))?;
-    let mut chart = ChartBuilder::on(&root)
-        .caption(title, ("sans-serif", 28))
-        .margin(20)
-        .x_label_area_size(60)
-        .y_label_area_size(90)
+    let draw_err = |e: &dyn std::fmt::Display| draw_error(path, e);
+    let root = white_canvas(path, (1000, 700))?;
+    let mut chart = framed_chart(&root, title, 28)
         .build_cartesian_2d(t0..t1, (y0..y1).log_scale())
         .map_err(|e| draw_err(&e))?;
     chart
@@ -189,16 +185,7 @@ pub fn write_profile_png_titled(
             .label("solved (discrete)")
             .legend(move |(x, y)| Circle::new((x + 12, y), 4, marker));
     }
-    chart
-        .configure_series_labels()
-        .label_font(("sans-serif", 20))
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .position(SeriesLabelPosition::UpperRight)
-        .draw()
-        .map_err(|e| draw_err(&e))?;
-    root.present().map_err(|e| draw_err(&e))?;
-    Ok(())
+    finish_chart(&mut chart, &root, path, 20, SeriesLabelPosition::UpperRight)
 }
 
 /// Picks one column of a [`ProfileRow`].

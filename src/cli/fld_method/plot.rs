@@ -7,9 +7,10 @@
 //! The limiters other than the run's own are solved by the same route and settings, each
 //! starting from the run's solution (the same answer, fewer iterations).
 
-use anyhow::{anyhow, Result};
+use anyhow::Result;
 use plotters::prelude::*;
 use pn_runtime::fld::{FldProblem, Limiter};
+use pn_runtime::plot::{draw_error, finish_chart, framed_chart, white_canvas};
 use pn_runtime::reference::{cda_point_source, grosjean, pn_point_source, register_plot_fonts};
 use pn_runtime::scenes::{PointSourceParams, PointSourceShape};
 use std::f64::consts::PI;
@@ -206,14 +207,9 @@ fn draw(
     if t1 <= t0 {
         t1 = t0 + 1.0;
     }
-    let err = |e: &dyn std::fmt::Display| anyhow!("drawing {}: {e}", path.display());
-    let root = BitMapBackend::new(path, (1100, 750)).into_drawing_area();
-    root.fill(&WHITE).map_err(|e| err(&e))?;
-    let mut chart = ChartBuilder::on(&root)
-        .caption(title, ("sans-serif", 26))
-        .margin(20)
-        .x_label_area_size(60)
-        .y_label_area_size(90)
+    let err = |e: &dyn std::fmt::Display| draw_error(path, e);
+    let root = white_canvas(path, (1100, 750))?;
+    let mut chart = framed_chart(&root, title, 26)
         .build_cartesian_2d(
             0.0..t1 * 1.02,
             (v0 / 10f64.powf(0.25)..v1 * 10f64.powf(0.25)).log_scale(),
@@ -275,14 +271,5 @@ fn draw(
             .label(curve.name.as_str())
             .legend(move |(x, y)| Circle::new((x + 12, y), 4, marker));
     }
-    chart
-        .configure_series_labels()
-        .label_font(("sans-serif", 18))
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .position(SeriesLabelPosition::UpperRight)
-        .draw()
-        .map_err(|e| err(&e))?;
-    root.present().map_err(|e| err(&e))?;
-    Ok(())
+    finish_chart(&mut chart, &root, path, 18, SeriesLabelPosition::UpperRight)
 }

@@ -101,6 +101,18 @@ impl<'a> Control<'a> {
         }
     }
 
+    /// `Some` when a run (or restart) whose starting residual has norm `rnorm` must not
+    /// iterate: the residual already meets the target, or the iteration budget is spent.
+    fn before_start(&self, rnorm: f64) -> Option<Outcome> {
+        if rnorm <= self.target {
+            return Some(Outcome::Reached);
+        }
+        if self.iterations >= self.max_iter {
+            return Some(Outcome::MaxIterations);
+        }
+        None
+    }
+
     /// Records one iteration's residual norm; `Some` when the run must stop.
     fn record(&mut self, rnorm: f64) -> Option<Outcome> {
         self.iterations += 1;
@@ -126,6 +138,19 @@ impl<'a> Control<'a> {
     }
 }
 
+/// The true residual `r = f − S x` (one application of `S`, counted in `ctl`).
+fn true_residual(
+    apply: &dyn Fn(&[f64], &mut [f64]),
+    f: &[f64],
+    x: &[f64],
+    r: &mut [f64],
+    ctl: &mut Control,
+) {
+    apply(x, r);
+    ctl.applications += 1;
+    r.iter_mut().zip(f).for_each(|(ri, fi)| *ri = fi - *ri);
+}
+
 /// `y = x − alpha v` into `out`.
 fn sub_scaled(x: &[f64], alpha: f64, v: &[f64], out: &mut [f64]) {
     out.par_iter_mut()
@@ -143,14 +168,9 @@ pub fn pcg(
 ) -> Outcome {
     let n = f.len();
     let mut r = vec![0.0; n];
-    apply(x, &mut r);
-    ctl.applications += 1;
-    r.iter_mut().zip(f).for_each(|(ri, fi)| *ri = fi - *ri);
-    if norm(&r) <= ctl.target {
-        return Outcome::Reached;
-    }
-    if ctl.iterations >= ctl.max_iter {
-        return Outcome::MaxIterations;
+    true_residual(apply, f, x, &mut r, ctl);
+    if let Some(o) = ctl.before_start(norm(&r)) {
+        return o;
     }
     let mut z = vec![0.0; n];
     precond(&r, &mut z);
@@ -193,14 +213,9 @@ pub fn bicgstab(
 ) -> Outcome {
     let n = f.len();
     let mut r = vec![0.0; n];
-    apply(x, &mut r);
-    ctl.applications += 1;
-    r.iter_mut().zip(f).for_each(|(ri, fi)| *ri = fi - *ri);
-    if norm(&r) <= ctl.target {
-        return Outcome::Reached;
-    }
-    if ctl.iterations >= ctl.max_iter {
-        return Outcome::MaxIterations;
+    true_residual(apply, f, x, &mut r, ctl);
+    if let Some(o) = ctl.before_start(norm(&r)) {
+        return o;
     }
     let r_hat = r.clone();
     let (mut rho, mut alpha, mut omega) = (1.0f64, 1.0f64, 1.0f64);
@@ -286,15 +301,10 @@ pub fn gmres(
     let mut h: Vec<Vec<f64>> = Vec::with_capacity(m);
     let (mut cs, mut sn, mut g) = (vec![0.0; m], vec![0.0; m], vec![0.0; m + 1]);
     loop {
-        apply(x, &mut r);
-        ctl.applications += 1;
-        r.iter_mut().zip(f).for_each(|(ri, fi)| *ri = fi - *ri);
+        true_residual(apply, f, x, &mut r, ctl);
         let beta = norm(&r);
-        if beta <= ctl.target {
-            return Outcome::Reached;
-        }
-        if ctl.iterations >= ctl.max_iter {
-            return Outcome::MaxIterations;
+        if let Some(o) = ctl.before_start(beta) {
+            return o;
         }
         basis.clear();
         h.clear();
@@ -361,9 +371,7 @@ pub fn gmres(
         match outcome {
             // The rotated residual estimate drifts from the true one: a restart recomputes it.
             Some(Outcome::Reached) => {
-                apply(x, &mut r);
-                ctl.applications += 1;
-                r.iter_mut().zip(f).for_each(|(ri, fi)| *ri = fi - *ri);
+                true_residual(apply, f, x, &mut r, ctl);
                 if norm(&r) <= ctl.target {
                     return Outcome::Reached;
                 }

@@ -1,0 +1,60 @@
+//! Plotters scaffolding shared by the PNG plots (the convergence study, the point-source
+//! profiles): the white canvas, the chart frame, the legend box and the error text.
+
+use std::path::Path;
+
+use anyhow::{anyhow, Result};
+use plotters::coord::Shift;
+use plotters::prelude::*;
+
+/// The error a plot reports when plotters fails: `drawing <path>: <error>`.
+pub fn draw_error(path: &Path, e: &dyn std::fmt::Display) -> anyhow::Error {
+    anyhow!("drawing {}: {e}", path.display())
+}
+
+/// A bitmap canvas of `size` pixels, filled white, to be written to `path`.
+pub fn white_canvas(
+    path: &Path,
+    size: (u32, u32),
+) -> Result<DrawingArea<BitMapBackend<'_>, Shift>> {
+    let root = BitMapBackend::new(path, size).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| draw_error(path, &e))?;
+    Ok(root)
+}
+
+/// A chart builder on `root` with the plots' frame: `title` in sans-serif at `caption_size`,
+/// a 20 px margin and label areas of 60 px (x axis) and 90 px (y axis).
+pub fn framed_chart<'a, 'b>(
+    root: &'a DrawingArea<BitMapBackend<'b>, Shift>,
+    title: &str,
+    caption_size: u32,
+) -> ChartBuilder<'a, 'b, BitMapBackend<'b>> {
+    let mut builder = ChartBuilder::on(root);
+    builder
+        .caption(title, ("sans-serif", caption_size))
+        .margin(20)
+        .x_label_area_size(60)
+        .y_label_area_size(90);
+    builder
+}
+
+/// Draws the legend (sans-serif at `font_size`, on translucent white with a black border) at
+/// `position`, then writes the canvas to its file.
+pub fn finish_chart<'a, 'b: 'a, CT: CoordTranslate>(
+    chart: &mut ChartContext<'a, BitMapBackend<'b>, CT>,
+    root: &DrawingArea<BitMapBackend<'b>, Shift>,
+    path: &Path,
+    font_size: u32,
+    position: SeriesLabelPosition,
+) -> Result<()> {
+    chart
+        .configure_series_labels()
+        .label_font(("sans-serif", font_size))
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .position(position)
+        .draw()
+        .map_err(|e| draw_error(path, &e))?;
+    root.present().map_err(|e| draw_error(path, &e))?;
+    Ok(())
+}
