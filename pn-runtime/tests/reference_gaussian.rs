@@ -6,29 +6,10 @@ use pn_runtime::reference::{
 };
 use std::f64::consts::PI;
 
-/// Gauss–Legendre nodes and weights on [−1, 1] (Newton on P_n; accurate to ~1e-15).
+/// Gauss–Legendre nodes and weights on [−1, 1], as (node, weight) pairs.
 fn gauss_legendre(n: usize) -> Vec<(f64, f64)> {
-    (0..n)
-        .map(|i| {
-            let mut x = (PI * (i as f64 + 0.75) / (n as f64 + 0.5)).cos();
-            let mut dp = 0.0;
-            for _ in 0..100 {
-                let (mut p0, mut p1) = (1.0, x);
-                for k in 2..=n {
-                    let p2 = ((2 * k - 1) as f64 * x * p1 - (k - 1) as f64 * p0) / k as f64;
-                    p0 = p1;
-                    p1 = p2;
-                }
-                dp = n as f64 * (x * p1 - p0) / (x * x - 1.0);
-                let dx = p1 / dp;
-                x -= dx;
-                if dx.abs() < 1e-16 {
-                    break;
-                }
-            }
-            (x, 2.0 / ((1.0 - x * x) * dp * dp))
-        })
-        .collect()
+    let (x, w) = pn_codegen::quadrature::gauss_legendre(n);
+    x.into_iter().zip(w).collect()
 }
 
 /// Composite Gauss–Legendre over [a, b] split at `breaks` into panels of width ≤ `h`.

@@ -6,95 +6,6 @@ use cas::{Axis, Expr, FieldName};
 use pn_codegen::derive::{PnEquation, PnSystem};
 use pn_codegen::stencil::{FieldContext, FieldRef, HalfOffset};
 
-/// Gauss–Legendre nodes and weights on [-1, 1] (Newton on the Legendre recurrence).
-pub fn gauss_legendre(n: usize) -> Vec<(f64, f64)> {
-    (0..n)
-        .map(|i| {
-            let mut x = (std::f64::consts::PI * (i as f64 + 0.75) / (n as f64 + 0.5)).cos();
-            let mut dp = 0.0;
-            for _ in 0..100 {
-                let (mut p0, mut p1) = (1.0, x);
-                for k in 2..=n {
-                    let p2 = ((2 * k - 1) as f64 * x * p1 - (k - 1) as f64 * p0) / k as f64;
-                    p0 = p1;
-                    p1 = p2;
-                }
-                let p = if n == 0 { 1.0 } else { p1 };
-                dp = n as f64 * (x * p - p0) / (x * x - 1.0);
-                let dx = p / dp;
-                x -= dx;
-                if dx.abs() < 1e-16 {
-                    break;
-                }
-            }
-            (x, 2.0 / ((1.0 - x * x) * dp * dp))
-        })
-        .collect()
-}
-
-/// Real spherical harmonic of DESIGN.md §2 (no Condon–Shortley phase) at (μ = cosθ, φ).
-pub fn real_sh(l: i64, m: i64, mu: f64, phi: f64) -> f64 {
-    let am = m.unsigned_abs() as i64;
-    // Associated Legendre P_l^{|m|}(μ) without the Condon–Shortley phase.
-    let s = (1.0 - mu * mu).max(0.0).sqrt();
-    let mut pmm = 1.0;
-    for k in 1..=am {
-        pmm *= (2 * k - 1) as f64 * s;
-    }
-    let p = if l == am {
-        pmm
-    } else {
-        let mut p0 = pmm;
-        let mut p1 = mu * (2 * am + 1) as f64 * pmm;
-        for ll in (am + 2)..=l {
-            let p2 = ((2 * ll - 1) as f64 * mu * p1 - (ll + am - 1) as f64 * p0) / (ll - am) as f64;
-            p0 = p1;
-            p1 = p2;
-        }
-        p1
-    };
-    let mut fact = 1.0; // (l-|m|)!/(l+|m|)!
-    for k in (l - am + 1)..=(l + am) {
-        fact /= k as f64;
-    }
-    let k = ((2 * l + 1) as f64 / (4.0 * std::f64::consts::PI) * fact).sqrt();
-    match m.cmp(&0) {
-        std::cmp::Ordering::Greater => std::f64::consts::SQRT_2 * k * p * (m as f64 * phi).cos(),
-        std::cmp::Ordering::Less => std::f64::consts::SQRT_2 * k * p * (am as f64 * phi).sin(),
-        std::cmp::Ordering::Equal => k * p,
-    }
-}
-
-/// `M^d_{(l,m),(l',m')} = ∫ ω_d Y_l^m Y_{l'}^{m'} dω` by Gauss–Legendre × uniform φ
-/// quadrature (exact for these degrees, DESIGN.md §2.3). Indexed `[d][i][j]` with
-/// i = l(l+1)+m.
-pub fn transport_matrices(order: usize) -> Vec<Vec<Vec<f64>>> {
-    let n = (order + 1) * (order + 1);
-    let lm: Vec<(i64, i64)> = (0..=order as i64)
-        .flat_map(|l| (-l..=l).map(move |m| (l, m)))
-        .collect();
-    let gl = gauss_legendre(order + 3);
-    let nphi = 2 * order + 6;
-    let mut mats = vec![vec![vec![0.0; n]; n]; 3];
-    for &(mu, wmu) in &gl {
-        for k in 0..nphi {
-            let phi = 2.0 * std::f64::consts::PI * k as f64 / nphi as f64;
-            let w = wmu * 2.0 * std::f64::consts::PI / nphi as f64;
-            let s = (1.0 - mu * mu).sqrt();
-            let omega = [s * phi.cos(), s * phi.sin(), mu];
-            let y: Vec<f64> = lm.iter().map(|&(l, m)| real_sh(l, m, mu, phi)).collect();
-            for d in 0..3 {
-                for i in 0..n {
-                    for j in 0..n {
-                        mats[d][i][j] += w * omega[d] * y[i] * y[j];
-                    }
-                }
-            }
-        }
-    }
-    mats
-}
-
 /// `±√(p/q)` as an exact expression, recovering the rational `v²` (denominators of these
 /// coefficients are small).
 fn surd_expr(v: f64) -> Expr {
@@ -115,7 +26,8 @@ fn surd_expr(v: f64) -> Expr {
 /// The P_N system in the canonical shape of `pn_codegen::derive`, with the transport
 /// coefficients from quadrature (a test fixture independent of the CAS derivation).
 pub fn quadrature_pn_system(order: usize) -> PnSystem {
-    let mats = transport_matrices(order);
+    // The quadrature check of DESIGN.md §2.3, independent of the CAS derivation.
+    let mats = pn_codegen::quadrature::transport_matrices(order);
     let lm: Vec<(i64, i64)> = (0..=order as i64)
         .flat_map(|l| (-l..=l).map(move |m| (l, m)))
         .collect();
