@@ -273,3 +273,106 @@ fn checkerboard_p1_study_71_to_284() {
     }
     assert!(d71[1] < 0.25 * d71[0], "average sampling: {d71:?}");
 }
+
+/// Issue 10: "the estimate at 71² brackets the difference to the finest grid", P_1
+/// checkerboard 71/142/284 with parity-cg, for both samplings. The estimate of level 71 is
+/// built from 71 and 142 only (`estimate_next`, with the order of 71/142/284); it brackets
+/// when `diff_finest ≤ estimate ≤ 2·diff_finest` (the estimate is not optimistic, and at most
+/// 2× pessimistic). Measured (this test's run, finest 284): exact 0.920 vs 1.066 (p = 3.79),
+/// average 0.0281 vs 0.0520 (p = 1.39). With 568 as the finest level (the ignored
+/// `checkerboard_p1_bracketing_to_568`) the 71² estimates bracket as well (exact 0.634 vs
+/// 0.911, average 0.0280 vs 0.0515), but the exact-sampling estimate at 142² does not
+/// (0.082 against a difference of 0.213): that sequence is not monotone (the block geometry
+/// the grid sees changes with n mod 7, README "How accurate is my answer?"), so its 142/284
+/// pair says nothing about 568. About 7 s in release.
+#[test]
+fn checkerboard_p1_estimate_brackets_at_71() {
+    for sampling in ["exact", "average"] {
+        let d = dir(&format!("bracket-{sampling}"));
+        let o = pn(&[
+            "converge",
+            "checkerboard",
+            "--order",
+            "1",
+            "--res",
+            "71,142,284",
+            "--solver",
+            "parity-cg",
+            "--sampling",
+            sampling,
+            "--out",
+            d.to_str().unwrap(),
+        ]);
+        ok(&o);
+        println!("{sampling}:\n{}", String::from_utf8_lossy(&o.stdout));
+        let json: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(d.join("convergence.json")).unwrap())
+                .unwrap();
+        let rows = json["table"]["rows"].as_array().unwrap();
+        let est = rows[0]["estimate_next"].as_f64().unwrap();
+        let diff = rows[0]["diff_finest"].as_f64().unwrap();
+        assert!(
+            diff <= est && est <= 2.0 * diff,
+            "{sampling}: estimate {est} does not bracket the difference {diff} to 284²"
+        );
+        assert_eq!(rows[0]["bracketed"], serde_json::json!(true), "{sampling}");
+        // Undefined next to the finest level and for the finest level itself.
+        assert!(rows[1]["bracketed"].is_null() && rows[2]["estimate_next"].is_null());
+        let csv = std::fs::read_to_string(d.join("convergence.csv")).unwrap();
+        assert!(csv
+            .lines()
+            .next()
+            .unwrap()
+            .ends_with("estimate_next,estimate_next_order,bracketed"));
+        let _ = std::fs::remove_dir_all(&d);
+    }
+}
+
+/// The same to 568² (slow: ~30 s and ~45 s wall on a loaded 2-core machine). What holds:
+/// both samplings bracket at 71²; at 142² the average-sampling estimate is conservative
+/// (≥ the difference to 568², measured 0.0162 vs 0.0073, 2.2×: just outside the factor 2)
+/// while the exact-sampling one is optimistic (0.082 vs 0.213) because that sequence is not
+/// monotone.
+#[test]
+#[ignore]
+fn checkerboard_p1_bracketing_to_568() {
+    for sampling in ["exact", "average"] {
+        let d = dir(&format!("bracket568-{sampling}"));
+        let o = pn(&[
+            "converge",
+            "checkerboard",
+            "--order",
+            "1",
+            "--res",
+            "71,142,284,568",
+            "--solver",
+            "parity-cg",
+            "--sampling",
+            sampling,
+            "--out",
+            d.to_str().unwrap(),
+        ]);
+        ok(&o);
+        println!("{sampling}:\n{}", String::from_utf8_lossy(&o.stdout));
+        let json: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(d.join("convergence.json")).unwrap())
+                .unwrap();
+        let rows = json["table"]["rows"].as_array().unwrap();
+        assert_eq!(
+            rows[0]["bracketed"],
+            serde_json::json!(true),
+            "{sampling} at 71"
+        );
+        let est = rows[1]["estimate_next"].as_f64().unwrap();
+        let diff = rows[1]["diff_finest"].as_f64().unwrap();
+        if sampling == "average" {
+            assert!(est >= diff, "average at 142: {est} vs {diff}");
+        } else {
+            assert!(
+                est < diff,
+                "exact at 142 was measured optimistic: {est} vs {diff}"
+            );
+        }
+        let _ = std::fs::remove_dir_all(&d);
+    }
+}

@@ -21,4 +21,4 @@ pub use order::{
 };
 pub use plot::write_convergence_png;
 pub use restrict::{block_averages, restrict, restriction_ratio};
-pub use study::{analyse, check_nesting, Level, StudyRow, StudyTable};
+pub use study::{analyse, check_nesting, coarse_error_factor, Level, StudyRow, StudyTable};

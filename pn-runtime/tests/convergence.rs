@@ -196,3 +196,70 @@ fn richardson_is_exact_for_the_model() {
     assert!(max_diff(&est.per_cell, &truth) < 1e-13);
     assert!((est.max_abs - truth.iter().fold(0.0f64, |m, v| m.max(v.abs()))).abs() < 1e-13);
 }
+
+/// The per-level estimate (`estimate_next`: the error of level i from levels i and i+1) is
+/// exact for the model `u_h = ū + h^p e` (ū exact cell averages, e linear, so restriction
+/// commutes with both), uses the order of levels i, i+1, i+2, and brackets the difference to
+/// the finest level: `D = (1 − (h_f/h_i)^p)·E`, inside `[E/2, E]` for every p ≥ 1 when the
+/// finest level is two or more halvings finer. The estimate equals the true error to 1e-9
+/// relative (rounding of differences of values ~10 that are ~1e-2 apart, plus the bisection
+/// tolerance of the observed order).
+#[test]
+fn per_level_estimate_is_exact_for_the_model() {
+    let e = |p: [f64; 3]| 0.1 + 0.05 * p[0] - 0.02 * p[1];
+    let domain = Grid {
+        dim: Dim::Two,
+        min: [0.0; 3],
+        max: [7.0; 3],
+        res: [10, 10, 1],
+    };
+    for order in [1.0f64, 1.5, 2.0] {
+        let ns = [10usize, 20, 40, 80];
+        let levels: Vec<Level> = ns
+            .iter()
+            .map(|&n| {
+                let h = 7.0 / n as f64;
+                let fluence = cell_avg_u([n, n, 1])
+                    .iter()
+                    .zip(sample([n, n, 1], e))
+                    .map(|(a, b)| a + h.powf(order) * b)
+                    .collect();
+                Level {
+                    res: [n, n, 1],
+                    unknowns: n * n,
+                    seconds: 0.0,
+                    fluence,
+                }
+            })
+            .collect();
+        let t = analyse(&levels, &domain, None).unwrap();
+        let finest = restrict(&levels[3].fluence, [80, 80, 1], [10, 10, 1]).unwrap();
+        let norm_f = finest.iter().map(|v| v * v).sum::<f64>().sqrt();
+        let exact = cell_avg_u([10, 10, 1]);
+        for (i, &n) in ns.iter().enumerate().take(3) {
+            let row = &t.rows[i];
+            let coarse = restrict(&levels[i].fluence, [n, n, 1], [10, 10, 1]).unwrap();
+            let truth = rel_l2_diff(&coarse, &exact)
+                * exact.iter().map(|v| v * v).sum::<f64>().sqrt()
+                / norm_f;
+            let est = row.estimate_next.unwrap();
+            // The order comes from levels i, i+1, i+2 where they exist, else 2.
+            let p_used = row.estimate_next_order.unwrap();
+            let want_p = if i + 2 < ns.len() { order } else { 2.0 };
+            assert!(
+                (p_used - want_p).abs() < 1e-6,
+                "order {order} level {n}: p {p_used}"
+            );
+            if i + 2 < ns.len() {
+                assert!(
+                    (est / truth - 1.0).abs() < 1e-9,
+                    "order {order} level {n}: estimate {est} vs true {truth}"
+                );
+                assert_eq!(row.bracketed, Some(true), "order {order} level {n}");
+            } else {
+                assert_eq!(row.bracketed, None);
+            }
+        }
+        assert!(t.rows[3].estimate_next.is_none() && t.rows[3].bracketed.is_none());
+    }
+}

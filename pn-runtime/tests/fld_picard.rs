@@ -8,7 +8,7 @@ use pn_codegen::placement::Layout;
 use pn_codegen::stencil::Dim;
 use pn_runtime::fld::picard::assemble_picard_system;
 use pn_runtime::fld::{
-    cell_diffusion_coefficients, relative_residual, solve_fld, solve_fld_picard, FldGrid,
+    face_diffusion_coefficients, relative_residual, solve_fld, solve_fld_picard, FldGrid,
     FldParams, FldProblem, Limiter, PicardOptions,
 };
 use pn_runtime::linalg::residual;
@@ -87,7 +87,7 @@ fn stencil_system_is_the_gauss_seidel_operator() {
         Limiter::Larsen(2.0),
     ] {
         let params = FldParams::for_grid(limiter, &p.grid);
-        let d = cell_diffusion_coefficients(&p, &params, &phi).unwrap();
+        let d = face_diffusion_coefficients(&p, &params, &phi).unwrap();
         let rms_source = p.rms_source();
         let sys = assemble_picard_system(&p, &kernel, &d, phi_b).unwrap();
         let [nx, ny, nz] = p.grid.n;
@@ -102,8 +102,8 @@ fn stencil_system_is_the_gauss_seidel_operator() {
         residual(&sys.matrix, &x, &sys.rhs, &mut r);
         let rms = (r.iter().map(|v| v * v).sum::<f64>() / x.len() as f64).sqrt() / rms_source;
         let want = relative_residual(&p, &params, &phi).unwrap();
-        // Same sums in a different order and D_f from trilinear sampling (t = ½ up to
-        // rounding): agreement to a few ulps of the O(1) terms, 1e-12 relative is generous.
+        // Same face coefficients, sums in a different order: agreement to a few ulps of the
+        // O(1) terms, 1e-12 relative is generous.
         assert!(
             (rms - want).abs() <= 1e-12 * want,
             "{limiter}: stencil residual {rms} vs Gauss–Seidel residual {want}"

@@ -2,7 +2,8 @@
 //! (ignored) convergence measurements.
 
 use pn_runtime::fld::{
-    flux_magnitude_ratio, solve_fld, FldGrid, FldParams, FldProblem, FldSolution, Limiter,
+    face_flux_ratio, flux_magnitude_ratio, solve_fld, FaceFluence, FldGrid, FldParams, FldProblem,
+    FldSolution, Limiter,
 };
 
 /// CDA Green's function of the infinite medium, normalised: `4πφ/σ_t² = 3 e^{−√(3(1−α))τ}/τ`
@@ -186,6 +187,13 @@ fn fld_point_source_between_cda_and_transport() {
             })
             .count() as f64
             / samples.len() as f64;
+        let over_grosjean: Vec<f64> = samples
+            .iter()
+            .map(|&(tau, idx, _)| NORM * fld.phi[idx] / grosjean(tau, albedo))
+            .collect();
+        let lo = over_grosjean.iter().copied().fold(f64::INFINITY, f64::min);
+        let hi = over_grosjean.iter().copied().fold(0.0, f64::max);
+        println!("albedo {albedo}: FLD/Grosjean in [{lo:.3}, {hi:.3}] over the same samples");
         println!(
             "albedo {albedo}: at τ={t2:.2} |ln(X/Grosjean)| FLD {err_fld:.3} CDA {err_cda:.3}; \
              slope τ∈[{t2:.2},{t4:.2}] FLD {s_fld:.2} CDA {s_cda:.2} Grosjean {s_g:.2}; \
@@ -216,17 +224,65 @@ fn fld_point_source_between_cda_and_transport() {
                 between > 0.95,
                 "albedo {albedo}: FLD between CDA and Grosjean only at {between}"
             );
+        } else {
+            // Below albedo 0.9 FLD lies *above* Grosjean (and mostly above CDA) beyond the first
+            // cells — measured FLD/Grosjean 1.0–1.33 at albedo 0.1 and 1.12–1.23 at 0.5, between
+            // CDA and Grosjean at only 56% and 6% of the samples. This is FLD, not the solver:
+            // at low albedo the transport solution stays nearly free-streaming (uncollided light,
+            // |E|/φ → 1) while its Knudsen number R = |∇φ|/(σ_t φ) ≈ 1 + 2/τ is moderate, and
+            // every limiter has R·F(R) < 1 at finite R (LP: 0.67 at R = 3), so FLD must hold
+            // a higher φ to carry the source's power outwards. At high albedo the scattered,
+            // diffusive part dominates away from the source and FLD tends to CDA there, hence
+            // "between". What holds at every albedo, and is asserted: FLD does not undershoot
+            // transport (≥ 0.95 Grosjean; Grosjean itself is an approximation at the few-%
+            // level) and overshoots it by less than 40%.
+            assert!(
+                lo > 0.95 && hi < 1.4,
+                "albedo {albedo}: FLD/Grosjean in [{lo}, {hi}]"
+            );
         }
     }
 }
 
-/// `|E| ≤ φ` for the discrete flux of the FLD solution, while CDA violates it near the source.
+/// Largest value of `ratio` within 2 cells of the source (`near`, d² ≤ 4), beyond (`far`),
+/// and between the face neighbours and 4 cells (`shell`, 1 < d² ≤ 16).
+fn near_far_shell(p: &FldProblem, ratio: &[f64]) -> (f64, f64, f64) {
+    let c = (p.grid.n[0] - 1) / 2;
+    let (mut near, mut far, mut shell): (f64, f64, f64) = (0.0, 0.0, 0.0);
+    for (idx, &r) in ratio.iter().enumerate() {
+        let d2 = p
+            .grid
+            .cell(idx)
+            .iter()
+            .map(|&m| (m as f64 - c as f64).powi(2))
+            .sum::<f64>();
+        if d2 > 4.0 {
+            far = far.max(r);
+        } else {
+            near = near.max(r);
+        }
+        if d2 > 1.0 && d2 <= 16.0 {
+            shell = shell.max(r);
+        }
+    }
+    (near, far, shell)
+}
+
+/// `|E| ≤ φ` for the discrete flux of the FLD solution, everywhere including the source cell,
+/// while CDA violates it near the source.
+///
+/// The asserted quantity is the flux through each face against the fluence of the cell it
+/// leaves (`FaceFluence::Upwind`): the scheme evaluates the Knudsen number on the face with
+/// that φ, so `R·F(R) ≤ 1` bounds it by 1 for every limiter — a wrong face gradient, a
+/// Knudsen number from another φ, or D from cells (our first version, 1.2–1.6 at the source)
+/// breaks it. The face-mean and cell-centred ratios are printed for the record; they are not
+/// bounded by construction (near the source φ drops 3× per cell, so the mean is well below
+/// the upwind value).
 #[test]
 fn flux_bounded_by_fluence() {
     const N_FLUX: usize = 31;
     for albedo in [0.1, 0.9] {
         let p = point_source(N_FLUX, albedo);
-        let c = (N_FLUX - 1) / 2;
         for (limiter, bounded) in [
             (Limiter::LevermorePomraning, true),
             (Limiter::Sum, true),
@@ -237,41 +293,30 @@ fn flux_bounded_by_fluence() {
         ] {
             let params = FldParams::for_grid(limiter, &p.grid);
             let sol = solve_fld(&p, &params).unwrap().into_converged().unwrap();
-            let ratio = flux_magnitude_ratio(&p, &params, &sol.phi).unwrap();
-            // Largest |E|/φ beyond 2 cells from the source (`far`), within 2 cells (`near`),
-            // and between the face neighbours and 4 cells (`shell`, 1 < d² ≤ 16).
-            let mut far: f64 = 0.0;
-            let mut near: f64 = 0.0;
-            let mut shell: f64 = 0.0;
-            for (idx, &r) in ratio.iter().enumerate() {
-                let [i, j, k] = p.grid.cell(idx);
-                let d2 = [i, j, k]
-                    .iter()
-                    .map(|&m| (m as f64 - c as f64).powi(2))
-                    .sum::<f64>();
-                if d2 > 4.0 {
-                    far = far.max(r);
-                } else {
-                    near = near.max(r);
-                }
-                if d2 > 1.0 && d2 <= 16.0 {
-                    shell = shell.max(r);
-                }
-            }
+            let up = face_flux_ratio(&p, &params, &sol.phi, FaceFluence::Upwind).unwrap();
+            let mean = face_flux_ratio(&p, &params, &sol.phi, FaceFluence::Mean).unwrap();
+            let cell = flux_magnitude_ratio(&p, &params, &sol.phi).unwrap();
+            let (up_near, up_far, up_shell) = near_far_shell(&p, &up);
+            println!("albedo {albedo} {limiter}: |E_f|/φ_up at 1-4 cells {up_shell:.3}");
+            let (mean_near, mean_far, _) = near_far_shell(&p, &mean);
+            let (cell_near, cell_far, _) = near_far_shell(&p, &cell);
             println!(
-                "albedo {albedo} {limiter}: max |E|/φ beyond 2 cells {far:.3}, 1-4 cells {shell:.3}, within 2 cells {near:.3}"
+                "albedo {albedo} {limiter}: max |E_f|/φ_up within 2 cells {up_near:.3}, beyond \
+                 {up_far:.3}; |E_f|/φ_mean {mean_near:.3} / {mean_far:.3}; cell |E|/φ \
+                 {cell_near:.3} / {cell_far:.3}"
             );
-            // The limiter bounds |E| built from the cell gradient and cell D exactly (R·F ≤ 1);
-            // the discrete face flux uses face-averaged D and one-sided differences, which
-            // differ from it by O(h·∇ln φ). Measured ≤ 0.96 for the smooth limiters and 1.03
-            // for max (whose R·F is exactly 1 for R ≥ 3, so any such difference shows): allow 5%.
             if bounded {
-                assert!(far <= 1.05, "{limiter}: |E|/φ = {far}");
+                // Bounded by construction up to rounding (φ is far above the floor ε j̄ h here).
+                // (max: R·F(R) = 1 exactly for R ≥ 3, so the ratio reaches 1 to rounding.)
+                let worst = up_near.max(up_far);
+                assert!(worst <= 1.0 + 1e-10, "{limiter}: |E_f|/φ_up = {worst}");
             } else {
-                // CDA: continuum |E|/φ = (1/τ + √(3(1−α)))/3 > 1 for τ ≲ 0.4; measured ≥ 2.
+                // CDA: continuum |E|/φ = (1/τ + √(3(1−α)))/3 > 1 for τ ≲ 0.4. On the faces
+                // of the source cell (h = 0.13) D·Δφ/(h φ_up) ≈ (1 − φ_nb/φ_up)/(3σh): measured
+                // 1.75–1.81 within 2 cells and 1.40 at 1–4 cells.
                 assert!(
-                    shell > 1.5,
-                    "CDA should violate |E| ≤ φ near the source, max {shell}"
+                    up_near > 1.5 && up_shell > 1.2,
+                    "CDA should violate |E| ≤ φ near the source, max {up_near} / {up_shell}"
                 );
             }
         }
@@ -319,7 +364,7 @@ fn sphere_in_vacuum_converges() {
             sol.phi.iter().all(|&v| v > 0.0 && v.is_finite()),
             "{limiter}: φ not positive"
         );
-        let ratio = flux_magnitude_ratio(&p, &params, &sol.phi).unwrap();
+        let ratio = face_flux_ratio(&p, &params, &sol.phi, FaceFluence::Upwind).unwrap();
         let max_vacuum = (0..p.grid.len())
             .filter(|&i| p.sigma_t[i] == 0.0)
             .map(|i| ratio[i])
@@ -334,7 +379,11 @@ fn sphere_in_vacuum_converges() {
                 "CDA should stream faster than light in vacuum: {max_vacuum}"
             );
         } else {
-            assert!(max_vacuum <= 1.05, "FLD |E|/φ = {max_vacuum} in vacuum");
+            // Bounded by construction (see `flux_bounded_by_fluence`).
+            assert!(
+                max_vacuum <= 1.0 + 1e-10,
+                "FLD |E|/φ = {max_vacuum} in vacuum"
+            );
         }
     }
 }

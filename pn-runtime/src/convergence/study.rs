@@ -6,6 +6,18 @@
 //! differences of levels i−1 and i to the finest level (biased low when the finest level is
 //! not much finer). The Richardson estimate of level i uses levels i−1 and i with the
 //! successive order where it is measurable and in (0.5, 4), else p = 2.
+//!
+//! The per-level estimate (`estimate_next`) is the other reading of the same two levels: the
+//! error of level i (every level but the finest) from it and the next finer level i+1,
+//! `‖u_i − u‖ ≈ ‖u_i − u_{i+1}‖ · r^p/(r^p − 1)` (from `u_h = u + C h^p`), with the order of
+//! levels i, i+1, i+2 where that is measurable and in (0.5, 4), else p = 2. It is what a user
+//! who solved only levels i and i+1 can say about level i. The study checks it against the
+//! difference to the finest level, the best measured proxy of that error: `bracketed` says
+//! whether `diff_finest ≤ estimate_next ≤ 2·diff_finest` — the estimate is not optimistic
+//! (when refinement converges monotonically the true error is at least the difference to the
+//! finest level) and over-estimates by at most a factor 2. It is undefined for the level next
+//! to the finest, whose difference to the finest is the very difference the estimate is built
+//! from.
 
 use super::order::{l2_diff, rel_l2_diff, richardson, solve_order};
 use super::restrict::{block_averages, restrict, restriction_ratio};
@@ -53,6 +65,21 @@ pub struct StudyRow {
     pub order_successive_blocks: Option<f64>,
     /// Observed order of the block averages against the finest level.
     pub order_vs_finest_blocks: Option<f64>,
+    /// Richardson estimate of this level's own error from it and the next finer level,
+    /// relative L2 (normalised by the finest level, like `diff_finest`); None for the finest.
+    pub estimate_next: Option<f64>,
+    /// The order `estimate_next` used.
+    pub estimate_next_order: Option<f64>,
+    /// Whether `diff_finest ≤ estimate_next ≤ 2·diff_finest` (None for the finest two
+    /// levels).
+    pub bracketed: Option<bool>,
+}
+
+/// `r^p/(r^p − 1)`: the factor from the difference of two levels (ratio r) to the coarser
+/// level's error under `u_h = u + C h^p`.
+pub fn coarse_error_factor(r: f64, p: f64) -> f64 {
+    let rp = r.powf(p);
+    rp / (rp - 1.0)
 }
 
 /// A whole study.
@@ -153,8 +180,21 @@ pub fn analyse(levels: &[Level], domain: &Grid, blocks: Option<[usize; 3]>) -> R
         }
         None => None,
     };
+    let n = levels.len();
+    let norm_finest = restricted[n - 1].iter().map(|v| v * v).sum::<f64>().sqrt();
     let mut rows = Vec::new();
     for (i, l) in levels.iter().enumerate() {
+        let next = (i + 1 < n).then(|| {
+            let r = levels[i + 1].res[0] as f64 / l.res[0] as f64;
+            let d =
+                l2_diff(&restricted[i], &restricted[i + 1]) / norm_finest.max(f64::MIN_POSITIVE);
+            let p = (i + 2 < n)
+                .then(|| fl.order_successive[i + 2])
+                .flatten()
+                .filter(|p| *p > 0.5 && *p < 4.0)
+                .unwrap_or(2.0);
+            (d * coarse_error_factor(r, p), p)
+        });
         let (richardson_est, richardson_order) = if i > 0 {
             let p = fl.order_successive[i]
                 .filter(|p| *p > 0.5 && *p < 4.0)
@@ -178,6 +218,12 @@ pub fn analyse(levels: &[Level], domain: &Grid, blocks: Option<[usize; 3]>) -> R
             diff_finest_blocks: bl.as_ref().and_then(|b| b.diff_finest[i]),
             order_successive_blocks: bl.as_ref().and_then(|b| b.order_successive[i]),
             order_vs_finest_blocks: bl.as_ref().and_then(|b| b.order_vs_finest[i]),
+            estimate_next: next.map(|e| e.0),
+            estimate_next_order: next.map(|e| e.1),
+            bracketed: next
+                .zip(fl.diff_finest[i])
+                .filter(|_| i + 2 < n)
+                .map(|(e, d)| d <= e.0 && e.0 <= 2.0 * d),
         });
     }
     Ok(StudyTable {
@@ -213,11 +259,11 @@ impl StudyTable {
         let mut s = String::from(
             "resolution,unknowns,seconds,diff_prev,diff_finest,order_successive,order_vs_finest,\
              richardson_estimate,richardson_order,diff_finest_blocks,order_successive_blocks,\
-             order_vs_finest_blocks\n",
+             order_vs_finest_blocks,estimate_next,estimate_next_order,bracketed\n",
         );
         for r in &self.rows {
             s += &format!(
-                "{},{},{:.3},{},{},{},{},{},{},{},{},{}\n",
+                "{},{},{:.3},{},{},{},{},{},{},{},{},{},{},{},{}\n",
                 r.res[0],
                 r.unknowns,
                 r.seconds,
@@ -230,12 +276,16 @@ impl StudyTable {
                 f(r.diff_finest_blocks),
                 o(r.order_successive_blocks),
                 o(r.order_vs_finest_blocks),
+                f(r.estimate_next),
+                o(r.estimate_next_order),
+                r.bracketed.map(|b| b.to_string()).unwrap_or_default(),
             );
         }
         s
     }
 
-    /// A fixed-width table for the terminal.
+    /// A fixed-width table for the terminal. `est_own` is `estimate_next` (the level's own
+    /// error from it and the next finer level), `bracket` whether it brackets `d_finest`.
     pub fn to_text(&self) -> String {
         let f = |v: Option<f64>| v.map(|x| format!("{x:.3e}")).unwrap_or_else(|| "-".into());
         let o = |v: Option<f64>| v.map(|x| format!("{x:.2}")).unwrap_or_else(|| "-".into());
@@ -243,6 +293,7 @@ impl StudyTable {
             "{:>6} {:>10} {:>9} {:>10} {:>10} {:>6} {:>6} {:>10}",
             "res", "unknowns", "seconds", "d_prev", "d_finest", "p_3lv", "p_fin", "richardson"
         );
+        s += &format!(" {:>10} {:>5} {:>7}", "est_own", "p_est", "bracket");
         if self.blocks.is_some() {
             s += &format!(" {:>10} {:>6} {:>6}", "blk_d_fin", "p_3lv", "p_fin");
         }
@@ -258,6 +309,17 @@ impl StudyTable {
                 o(r.order_successive),
                 o(r.order_vs_finest),
                 f(r.richardson)
+            );
+            let bracket = match r.bracketed {
+                Some(true) => "yes",
+                Some(false) => "no",
+                None => "-",
+            };
+            s += &format!(
+                " {:>10} {:>5} {:>7}",
+                f(r.estimate_next),
+                o(r.estimate_next_order),
+                bracket
             );
             if self.blocks.is_some() {
                 s += &format!(

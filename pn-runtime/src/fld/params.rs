@@ -28,9 +28,11 @@ pub struct FldParams {
 impl Default for FldParams {
     /// Levermore–Pomraning, ω = 1.5, tol = 1e-6, 20 000 iterations, σ_ε = 1e-3 (i.e.
     /// 1e-3 per unit domain length; use [`FldParams::for_grid`] to scale it to the domain),
-    /// ε = 1e-6. ω and ε are our choices (ω = 1.5 needed the fewest iterations of
-    /// 1.3 … 1.9 for LP on the sphere in vacuum at 64³, 982; 1.9 did not converge); an ε whose boundary value and floors are far below the
-    /// fluence of interest).
+    /// ε = 1e-6. ω and ε are our choices: ω = 1.5 needed the fewest iterations of 1.3 … 1.9
+    /// for LP on the sphere in vacuum at 64³ with the earlier cell-centred D (1.9 did not
+    /// converge); with the face D of `operator.rs`, ω = 1.3/1.4/1.5/1.6 need 206/177/204/219
+    /// iterations at 24³. ε makes the boundary value and floors far below the fluence of
+    /// interest.
     fn default() -> Self {
         Self {
             limiter: Limiter::LevermorePomraning,

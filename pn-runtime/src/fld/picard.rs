@@ -2,7 +2,7 @@
 //! linear diffusion solves (issue 6, item 3).
 //!
 //! Each step freezes the FLD coefficient at the current iterate, `D_k = F(R(φ_k))/max(σ_t, σ_ε)`
-//! ([`super::cell_diffusion_coefficients`]), assembles the linear diffusion PDE
+//! on the cell faces ([`super::face_diffusion_coefficients`]), assembles the linear diffusion PDE
 //! `−∇·(D_k ∇φ) + σ_a φ = q` from a [`StencilKernel`] (the generated `diffusion_3d` stencil,
 //! DESIGN.md §2.2 with D a field), solves it with one of the project's linear solvers
 //! ([`SolverKind`]) and stops when the *nonlinear* residual of the red–black solver,
@@ -16,10 +16,12 @@
 //!   A stencil term that reaches a boundary-layer cell is moved to the right-hand side with
 //!   that known value, so the unknowns are exactly the interior cells the red–black solver
 //!   relaxes.
-//! * **Fields.** `D_k`, σ_a and q are cell-centred voxel fields ([`VoxelGrid`]) over the same
-//!   cells, and the stencil requests them at half-cell offsets: [`VoxelGrid::sample`] at a
-//!   face is the mean of the two adjacent cells — the face rule `D_f = ½(D_c + D_nb)` of the
-//!   red–black operator (`operator.rs`) and of DESIGN.md §3 for voxel data.
+//! * **Fields.** σ_a and q are cell-centred voxel fields ([`VoxelGrid`]) over the same cells,
+//!   requested by the stencil at the cell centre. `D_k` lives on the faces
+//!   ([`FaceCoefficients`], the Knudsen number being evaluated there, see `operator.rs`); the
+//!   stencil requests D at the half-cell offsets ±1 along one axis, which are exactly those
+//!   faces, and gets the very `D_f` the red–black operator uses. A request for D anywhere
+//!   else is an error.
 //! * **Units.** The stencil is written for `L_0^0` with source `Q_0^0`. The equation is linear
 //!   and both sides scale with `√(4π)` (`φ = √(4π) L_0^0`, `q = √(4π) Q_0^0`, DESIGN.md §1), so
 //!   feeding it the fluence source q yields the fluence φ directly; the caller converts to
@@ -40,6 +42,7 @@ use rayon::prelude::*;
 use sprs::CsMat;
 use std::cell::Cell;
 
+use super::faces::FaceCoefficients;
 use super::grid::{FldGrid, FldProblem};
 use super::operator::Operator;
 use super::params::FldParams;
@@ -178,7 +181,7 @@ pub fn solve_fld_picard(
         Some(phi0) => op.with_boundary(phi0),
         None => op.initial_phi(),
     };
-    let mut d = vec![0.0; len];
+    let mut d = FaceCoefficients::zeros(grid);
     let mut history = Vec::new();
     let mut linear_iterations = Vec::new();
     let mut nonzeros = 0;
@@ -190,7 +193,7 @@ pub fn solve_fld_picard(
     };
     let solver = opts.solver.solver();
     let converged = loop {
-        op.cell_coefficients(&phi, &mut d);
+        op.face_coefficients(&phi, &mut d);
         let rel = op.residual_rms(&phi, &d) / op.rms_source;
         history.push(rel);
         if rel < params.tol {
@@ -201,7 +204,7 @@ pub fn solve_fld_picard(
         }
         let fields = CellFields {
             grid,
-            diffusion: voxels(&d)?,
+            diffusion: &d,
             sigma_a: &sigma_a,
             source: &source,
         };
@@ -251,23 +254,25 @@ pub struct InteriorSystem {
 }
 
 /// Assembles `−∇·(D ∇φ) + σ_a φ = q` from `kernel` at the interior cells of `problem.grid`,
-/// with the cell-centred coefficient `d` (e.g. from [`super::cell_diffusion_coefficients`])
+/// with the face coefficients `d` (e.g. from [`super::face_diffusion_coefficients`])
 /// and the boundary layer fixed at `phi_boundary`. The unknowns are the interior cells in
 /// grid index order (x slowest). For tests and inspection; [`solve_fld_picard`] uses it.
 pub fn assemble_picard_system(
     problem: &FldProblem,
     kernel: &dyn StencilKernel,
-    d: &[f64],
+    d: &FaceCoefficients,
     phi_boundary: f64,
 ) -> Result<InteriorSystem> {
     problem.validate()?;
     check_kernel(kernel)?;
     let grid = problem.grid;
     ensure!(
-        d.len() == grid.len() && d.iter().all(|v| v.is_finite() && *v >= 0.0),
-        "diffusion field must have {} finite non-negative values",
-        grid.len()
+        d.grid == grid,
+        "face diffusion coefficients are for grid {:?}, the problem has {:?}",
+        d.grid,
+        grid
     );
+    d.validate()?;
     let voxels = |data: &[f64]| -> Result<VoxelGrid> {
         let max = grid.n.map(|m| m as f64 * grid.h);
         VoxelGrid::new(grid.n, [0.0; 3], max, data.to_vec())
@@ -276,7 +281,7 @@ pub fn assemble_picard_system(
     let source = voxels(&problem.source)?;
     let fields = CellFields {
         grid,
-        diffusion: voxels(d)?,
+        diffusion: d,
         sigma_a: &sigma_a,
         source: &source,
     };
@@ -343,21 +348,36 @@ impl InteriorIndex {
     }
 }
 
-/// Cell-centred fields of one Picard step, sampled like voxel data.
+/// The fields of one Picard step: D on the faces, σ_a and q cell-centred (sampled like voxel
+/// data).
 struct CellFields<'a> {
     grid: FldGrid,
-    diffusion: VoxelGrid,
+    diffusion: &'a FaceCoefficients,
     sigma_a: &'a VoxelGrid,
     source: &'a VoxelGrid,
 }
 
-/// [`FieldContext`] of one row at cell `cell`: a field at a half-cell offset is the voxel
-/// field at that world position (the mean of the adjacent cells at a face).
+/// [`FieldContext`] of one row at cell `cell`: D at a face offset is that face's coefficient;
+/// σ_a and q at a half-cell offset are the voxel fields at that world position.
 struct CellContext<'a> {
     fields: &'a CellFields<'a>,
     cell: [usize; 3],
     inv_h: f64,
     unsupported: Cell<Option<FieldRefName>>,
+}
+
+/// The face at half-cell `offset` from a cell centre: `(axis, upper)` if the offset is ±1
+/// along exactly one axis and 0 along the others.
+fn face_of(offset: HalfOffset) -> Option<(usize, bool)> {
+    let mut face = None;
+    for (axis, &o) in offset.iter().enumerate() {
+        match (o, face) {
+            (0, _) => {}
+            (1 | -1, None) => face = Some((axis, o == 1)),
+            _ => return None,
+        }
+    }
+    face
 }
 
 /// Name of a field the Picard route cannot provide (for the error message).
@@ -371,7 +391,22 @@ impl FieldContext for CellContext<'_> {
         let p =
             [0, 1, 2].map(|d| (2 * self.cell[d] as i64 + 1 + offset[d] as i64) as f64 * 0.5 * h);
         match field {
-            FieldRef::Diffusion => self.fields.diffusion.sample(p),
+            FieldRef::Diffusion => match face_of(offset) {
+                Some((axis, upper)) => self
+                    .fields
+                    .diffusion
+                    .at(self.cell, axis, upper)
+                    .unwrap_or_else(|| {
+                        self.unsupported
+                            .set(Some(FieldRefName("D beyond the domain")));
+                        0.0
+                    }),
+                None => {
+                    self.unsupported
+                        .set(Some(FieldRefName("D away from a cell face")));
+                    0.0
+                }
+            },
             FieldRef::SigmaA => self.fields.sigma_a.sample(p),
             FieldRef::Source { l: 0, m: 0 } => self.fields.source.sample(p),
             // An isotropic source has no higher moments.

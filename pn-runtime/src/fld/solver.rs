@@ -2,6 +2,7 @@
 
 use anyhow::Result;
 
+use super::faces::FaceCoefficients;
 use super::grid::FldProblem;
 use super::operator::Operator;
 use super::params::FldParams;
@@ -46,7 +47,7 @@ impl FldSolution {
 
 /// Solves `−∇·(D_F ∇φ) + σ_a φ = q` by nonlinear red–black Gauss–Seidel with SOR factor ω.
 ///
-/// Each iteration relaxes the red and then the black interior cells with the cell coefficients
+/// Each iteration relaxes the red and then the black interior cells with the face coefficients
 /// `D_F` of the current φ, then recomputes `D_F` from the new φ (the nonlinear Gauss–Seidel
 /// with SOR of Koerner et al. 2014 as described in issue 6; refreshing D once per iteration
 /// rather than per half-sweep, and clamping relaxed values at φ ≥ 0, are our choices: both
@@ -94,8 +95,8 @@ pub fn solve_fld_from(
         None => op.initial_phi(),
     };
     let mut scratch = vec![0.0; len];
-    let mut d = vec![0.0; len];
-    op.cell_coefficients(&phi, &mut d);
+    let mut d = FaceCoefficients::zeros(op.grid);
+    op.face_coefficients(&phi, &mut d);
     let mut history = Vec::new();
     let mut iterations = 0;
     let converged = loop {
@@ -109,10 +110,10 @@ pub fn solve_fld_from(
         }
         // Both half-sweeps use the same D; it is refreshed once per iteration. Refreshing it
         // between the red and the black half-sweep as well made the iteration stall or diverge
-        // for ω ≳ 1.5 on the sphere in vacuum at 64³ (measured; see the convergence study).
+        // for ω ≳ 1.5 on the sphere in vacuum at 64³ (measured with the earlier cell-centred D).
         op.half_sweep(0, params.omega, &mut phi, &mut scratch, &d);
         op.half_sweep(1, params.omega, &mut phi, &mut scratch, &d);
-        op.cell_coefficients(&phi, &mut d);
+        op.face_coefficients(&phi, &mut d);
         iterations += 1;
     };
     Ok(FldSolution {
@@ -125,17 +126,18 @@ pub fn solve_fld_from(
     })
 }
 
-/// The cell diffusion coefficients `D_F = F(R)/max(σ_t, σ_ε)` of a given φ, as the solver
-/// uses them (for a Picard iteration through another linear solver, or for inspection).
-pub fn cell_diffusion_coefficients(
+/// The face diffusion coefficients `D_F = F(R_f)/max(σ_t,f, σ_ε)` of a given φ, as the solver
+/// uses them (R and σ_t evaluated on the faces; see the module docs of `fld`'s operator), for a
+/// Picard iteration through another linear solver or for inspection.
+pub fn face_diffusion_coefficients(
     problem: &FldProblem,
     params: &FldParams,
     phi: &[f64],
-) -> Result<Vec<f64>> {
+) -> Result<FaceCoefficients> {
     let op = Operator::new(problem, params)?;
     check_len(problem, phi)?;
-    let mut d = vec![0.0; phi.len()];
-    op.cell_coefficients(phi, &mut d);
+    let mut d = FaceCoefficients::zeros(op.grid);
+    op.face_coefficients(phi, &mut d);
     Ok(d)
 }
 
@@ -144,8 +146,8 @@ pub fn cell_diffusion_coefficients(
 pub fn relative_residual(problem: &FldProblem, params: &FldParams, phi: &[f64]) -> Result<f64> {
     let op = Operator::new(problem, params)?;
     check_len(problem, phi)?;
-    let mut d = vec![0.0; phi.len()];
-    op.cell_coefficients(phi, &mut d);
+    let mut d = FaceCoefficients::zeros(op.grid);
+    op.face_coefficients(phi, &mut d);
     let r = op.residual_rms(phi, &d);
     Ok(if op.rms_source > 0.0 {
         r / op.rms_source
@@ -154,10 +156,11 @@ pub fn relative_residual(problem: &FldProblem, params: &FldParams, phi: &[f64]) 
     })
 }
 
-/// `|E|/φ` per cell for a given φ, `E = −D_F ∇φ` being the discrete flux of the scheme (the
-/// mean of the two face fluxes per axis, D_F from φ with `params.limiter`). Flux-limited
-/// solutions satisfy `|E| ≤ φ` (up to discretisation); classical diffusion violates it near
-/// sources. Boundary-layer cells are reported as 0, cells with φ ≤ 0 as ∞ (or 0 without flux).
+/// `|E|/φ` per cell for a given φ, `E = −D_F ∇φ` being the discrete flux of the scheme
+/// reconstructed at the cell centre (per axis the mean of the two face fluxes, D_F from φ with
+/// `params.limiter`), against the cell's φ. Boundary-layer cells are reported as 0, cells with
+/// φ ≤ 0 as ∞ (or 0 without flux). Not bounded by 1 exactly (the mean of two face fluxes
+/// against the cell value), see [`face_flux_ratio`] for the bounded quantity.
 pub fn flux_magnitude_ratio(
     problem: &FldProblem,
     params: &FldParams,
@@ -165,9 +168,38 @@ pub fn flux_magnitude_ratio(
 ) -> Result<Vec<f64>> {
     let op = Operator::new(problem, params)?;
     check_len(problem, phi)?;
-    let mut d = vec![0.0; phi.len()];
-    op.cell_coefficients(phi, &mut d);
+    let mut d = FaceCoefficients::zeros(op.grid);
+    op.face_coefficients(phi, &mut d);
     Ok(op.flux_ratio(phi, &d))
+}
+
+/// Which fluence [`face_flux_ratio`] divides a face flux by.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FaceFluence {
+    /// The fluence of the cell the flux leaves, `max(φ_c, φ_nb)` — the value the Knudsen number
+    /// uses, so every flux limiter keeps the ratio ≤ 1 by construction.
+    Upwind,
+    /// The face mean `½(φ_c + φ_nb)`.
+    Mean,
+}
+
+/// Per interior cell, the largest `|E_f|/φ_f` over its six faces: `E_f = −D_f (φ_nb − φ_c)/h`
+/// is the flux the scheme carries through face f and φ_f the fluence there as chosen by
+/// `fluence`. With [`FaceFluence::Upwind`] every flux limiter (R·F(R) ≤ 1) keeps this ≤ 1
+/// wherever φ is above the floor `ε j̄ h`, because R is evaluated on the same face with the
+/// same φ; classical diffusion exceeds it near sources and in vacuum. Boundary-layer cells are
+/// reported as 0.
+pub fn face_flux_ratio(
+    problem: &FldProblem,
+    params: &FldParams,
+    phi: &[f64],
+    fluence: FaceFluence,
+) -> Result<Vec<f64>> {
+    let op = Operator::new(problem, params)?;
+    check_len(problem, phi)?;
+    let mut d = FaceCoefficients::zeros(op.grid);
+    op.face_coefficients(phi, &mut d);
+    Ok(op.face_flux_ratio(phi, &d, fluence == FaceFluence::Upwind))
 }
 
 fn check_len(problem: &FldProblem, phi: &[f64]) -> Result<()> {
