@@ -50,6 +50,9 @@ pub fn solve_problem(
     solver: SolverKind,
     opts: &SolverOptions,
 ) -> anyhow::Result<Solution> {
+    if solver.is_matrix_free() {
+        return crate::matfree::solve::solve_problem_matrix_free(problem, kernel, solver, opts);
+    }
     problem.validate()?;
     problem.check_not_singular()?;
     let layout = Layout::new(&problem.grid, kernel.moments())?;
@@ -58,7 +61,7 @@ pub fn solve_problem(
     let seconds_assembly = t0.elapsed().as_secs_f64();
     check_magnitudes(&system.matrix, &system.rhs)?;
     let t1 = Instant::now();
-    let (u, stats) = solve_scaled(solver, &system.matrix, &system.rhs, opts);
+    let (u, stats) = solve_scaled(solver, &layout, &system.matrix, &system.rhs, opts);
     let seconds_solve = t1.elapsed().as_secs_f64();
     if stats.status == crate::solver::SolveStatus::Diverged {
         anyhow::bail!(
@@ -111,19 +114,11 @@ fn check_magnitudes(a: &sprs::CsMat<f64>, b: &[f64]) -> anyhow::Result<()> {
 /// residual and ‖b‖ are scaled back.
 fn solve_scaled(
     solver: SolverKind,
+    layout: &Layout,
     a: &sprs::CsMat<f64>,
     b: &[f64],
     opts: &SolverOptions,
 ) -> (Vec<f64>, SolveStats) {
-    let max_b = b.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-    if max_b == 0.0 || (1e-100..=1e100).contains(&max_b) {
-        return solver.solver().solve(a, b, opts);
-    }
-    let scale = 2f64.powi(max_b.log2().round() as i32);
-    let scaled: Vec<f64> = b.iter().map(|v| v / scale).collect();
-    let (mut u, mut stats) = solver.solver().solve(a, &scaled, opts);
-    u.iter_mut().for_each(|v| *v *= scale);
-    stats.absolute_residual *= scale;
-    stats.rhs_norm *= scale;
-    (u, stats)
+    let solver = solver.solver_for(layout);
+    crate::matfree::solve::solve_with_scaled_rhs(b, |b| solver.solve(a, b, opts))
 }

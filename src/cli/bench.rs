@@ -40,7 +40,7 @@ pub struct BenchArgs {
 }
 
 /// One row of bench.csv.
-struct Row {
+pub(super) struct Row {
     problem: String,
     method: String,
     solver: String,
@@ -56,10 +56,10 @@ struct Row {
     converged: bool,
 }
 
-const CSV_HEADER: &str = "problem,method,solver,order,resolution,unknowns,iterations,seconds_assemble,seconds_solve,peak_memory_bytes,error,reference,converged";
+pub(super) const CSV_HEADER: &str = "problem,method,solver,order,resolution,unknowns,iterations,seconds_assemble,seconds_solve,peak_memory_bytes,error,reference,converged";
 
 impl Row {
-    fn csv(&self) -> String {
+    pub(super) fn csv(&self) -> String {
         format!(
             "{},{},{},{},{},{},{},{:.6},{:.6},{},{},{},{}",
             self.problem,
@@ -81,7 +81,7 @@ impl Row {
 
 /// Resets the kernel's peak-RSS counter so that each problem's peak is its own
 /// (`/proc/self/clear_refs`, Linux ≥ 4.0); returns false where that is not possible.
-fn reset_peak_memory() -> bool {
+pub(super) fn reset_peak_memory() -> bool {
     std::fs::write("/proc/self/clear_refs", "5").is_ok()
 }
 
@@ -121,7 +121,7 @@ fn max_rel_diff(a: &[f64], b: &[f64]) -> Option<f64> {
 
 /// Largest relative deviation of `values(k)` (normalised fluence at k cells along +x from
 /// the source) from `exact(τ_k)` at the cells nearest τ = 1, 2, 4.
-fn profile_error(
+pub(super) fn profile_error(
     tau_per_cell: f64,
     max_k: usize,
     values: impl Fn(usize) -> f64,
@@ -170,7 +170,7 @@ fn run_pipeline(
     Ok((sol, res))
 }
 
-fn row_from(
+pub(super) fn row_from(
     problem: &str,
     method: &str,
     order: usize,
@@ -196,6 +196,10 @@ fn row_from(
     }
 }
 
+/// The least-squares solvers and the matrix-free baseline, run next to cgnr and parity-cg
+/// (and skipped with cgnr on problems above `--cgnr-max-unknowns`).
+const LS_SOLVERS: [SolverKind; 3] = [SolverKind::Lsqr, SolverKind::Lsmr, SolverKind::CgnrMf];
+
 fn checkerboard_rows(args: &BenchArgs, rows: &mut Vec<Row>) -> anyhow::Result<()> {
     let orders: &[usize] = if args.quick { &[1, 3] } else { &[1, 3, 5] };
     let opts = BuiltinOptions::default();
@@ -209,7 +213,14 @@ fn checkerboard_rows(args: &BenchArgs, rows: &mut Vec<Row>) -> anyhow::Result<()
             .ok(),
             _ => None,
         };
-        for solver in [SolverKind::Cgnr, SolverKind::ParityCg] {
+        for solver in [
+            SolverKind::Cgnr,
+            SolverKind::ParityIlu,
+            SolverKind::ParityMg,
+        ]
+        .into_iter()
+        .chain(LS_SOLVERS)
+        {
             reset_peak_memory();
             let (sol, res) = run_pipeline("checkerboard", &opts, "pn", order, solver, 1e-10)?;
             let err = reference.as_ref().and_then(|r| max_rel_diff(&sol.l00(), r));
@@ -251,10 +262,18 @@ fn pointsource_rows(args: &BenchArgs, rows: &mut Vec<Row>) -> anyhow::Result<()>
     let orders: &[usize] = if args.quick { &[1, 3] } else { &[1, 3, 5] };
     for &order in orders {
         let modes = pn_point_source(order, params.albedo, params.g)?;
-        for solver in [SolverKind::Cgnr, SolverKind::ParityCg] {
+        for solver in [
+            SolverKind::Cgnr,
+            SolverKind::ParityIlu,
+            SolverKind::ParityMg,
+        ]
+        .into_iter()
+        .chain(LS_SOLVERS)
+        {
             let unknowns_estimate = (order + 1) * (order + 1) * (n + 1).pow(3);
-            if solver == SolverKind::Cgnr && unknowns_estimate > args.cgnr_max_unknowns {
-                eprintln!("bench: skipping cgnr on pointsource P_{order} {n}³ (~{unknowns_estimate} unknowns > --cgnr-max-unknowns)");
+            let baseline_like = solver == SolverKind::Cgnr || LS_SOLVERS.contains(&solver);
+            if baseline_like && unknowns_estimate > args.cgnr_max_unknowns {
+                eprintln!("bench: skipping {} on pointsource P_{order} {n}³ (~{unknowns_estimate} unknowns > --cgnr-max-unknowns)", solver.name());
                 continue;
             }
             reset_peak_memory();
@@ -271,10 +290,14 @@ fn pointsource_rows(args: &BenchArgs, rows: &mut Vec<Row>) -> anyhow::Result<()>
             rows.push(row);
         }
     }
-    // CDA through the same pipeline (input PDE).
-    if (n + 1).pow(3) <= args.cgnr_max_unknowns * 4 {
+    // CDA through the same pipeline (input PDE): the cgnr baseline and multigrid-CG
+    // (`parity-mg` solves this scalar system with MG-preconditioned CG on A itself).
+    for solver in [SolverKind::Cgnr, SolverKind::ParityMg] {
+        if solver == SolverKind::Cgnr && (n + 1).pow(3) > args.cgnr_max_unknowns * 4 {
+            continue;
+        }
         reset_peak_memory();
-        let (sol, res) = run_pipeline("pointsource", &opts, "cda", 0, SolverKind::Cgnr, 1e-6)?;
+        let (sol, res) = run_pipeline("pointsource", &opts, "cda", 0, solver, 1e-6)?;
         let l00 = sol.l00();
         let err = profile_error(
             tau_per_cell,
@@ -288,16 +311,8 @@ fn pointsource_rows(args: &BenchArgs, rows: &mut Vec<Row>) -> anyhow::Result<()>
     }
     // FLD (nonlinear Gauss–Seidel) on the same cells; φ is the fluence of a unit-power source.
     reset_peak_memory();
-    let grid = FldGrid::cube(n, 2.0 * params.half_width)?;
-    let cells = grid.len();
-    let mut source = vec![0.0; cells];
-    source[grid.index(c, c, c)] = 1.0 / (h * h * h);
-    let problem = FldProblem {
-        grid,
-        sigma_t: vec![params.sigma_t; cells],
-        sigma_a: vec![params.sigma_t * (1.0 - params.albedo); cells],
-        source,
-    };
+    let problem = fld_point_source(n, &params)?;
+    let cells = problem.grid.len();
     let fparams = FldParams::for_grid(Limiter::LevermorePomraning, &problem.grid);
     let t0 = Instant::now();
     let fsol = solve_fld(&problem, &fparams)?;
@@ -327,6 +342,23 @@ fn pointsource_rows(args: &BenchArgs, rows: &mut Vec<Row>) -> anyhow::Result<()>
     eprintln!("bench: {}", row.csv());
     rows.push(row);
     Ok(())
+}
+
+/// The point source of `params` on `n³` cells for FLD: a unit-power source in cell
+/// (n/2, n/2, n/2), like the `pointsource` scene.
+pub(super) fn fld_point_source(n: usize, params: &PointSourceParams) -> anyhow::Result<FldProblem> {
+    let grid = FldGrid::cube(n, 2.0 * params.half_width)?;
+    let h = 2.0 * params.half_width / n as f64;
+    let cells = grid.len();
+    let c = n / 2;
+    let mut source = vec![0.0; cells];
+    source[grid.index(c, c, c)] = 1.0 / (h * h * h);
+    Ok(FldProblem {
+        grid,
+        sigma_t: vec![params.sigma_t; cells],
+        sigma_a: vec![params.sigma_t * (1.0 - params.albedo); cells],
+        source,
+    })
 }
 
 /// Markdown table plus the side-by-side speed-ups of parity-cg over cgnr.
@@ -385,11 +417,149 @@ fn markdown(rows: &[Row], quick: bool) -> String {
     md
 }
 
+/// parity-mg (multigrid-preconditioned) against parity-cg (ILU(0)/Jacobi) and cgnr on the
+/// same problems, same process: iterations and assembly + solve seconds.
+fn mg_comparison(rows: &[Row]) -> String {
+    let mut md = String::from("\n## parity-mg vs parity-cg and cgnr (same process)\n\n");
+    md.push_str("| problem | N | resolution | mg it | mg s | parity-cg it | parity-cg s | cgnr it | cgnr s | mg speed-up vs parity-cg | vs cgnr |\n");
+    md.push_str("|---|---|---|---|---|---|---|---|---|---|---|\n");
+    let total = |r: &Row| r.seconds_assemble + r.seconds_solve;
+    for m in rows
+        .iter()
+        .filter(|r| r.solver == "parity-mg" && r.method == "pn")
+    {
+        let find = |solver: &str| {
+            rows.iter().find(|b| {
+                b.solver == solver
+                    && b.method == m.method
+                    && b.problem == m.problem
+                    && b.order == m.order
+                    && b.resolution == m.resolution
+            })
+        };
+        let cell = |r: Option<&Row>| {
+            r.map_or("–|–".to_string(), |r| {
+                format!("{}|{:.3}", r.iterations, total(r))
+            })
+        };
+        let ratio = |r: Option<&Row>| {
+            r.map_or("–".to_string(), |r| {
+                format!("{:.1}×", total(r) / total(m).max(1e-9))
+            })
+        };
+        let (p, c) = (find("parity-cg"), find("cgnr"));
+        if p.is_none() && c.is_none() {
+            continue;
+        }
+        let _ = writeln!(
+            md,
+            "| {} | {} | {} | {} | {:.3} | {} | {} | {} | {} |",
+            m.problem,
+            m.order,
+            m.resolution,
+            m.iterations,
+            total(m),
+            cell(p),
+            cell(c),
+            ratio(p),
+            ratio(c)
+        );
+    }
+    md
+}
+
+/// Side-by-side tables of the iterative solvers (same process): iterations and seconds of
+/// lsqr, lsmr and cgnr against parity-cg, and matrix-free (`cgnr-mf`) against assembled
+/// (`cgnr`) CGNR in solve time, setup time and peak memory.
+fn solver_comparison(rows: &[Row]) -> String {
+    let mut md = String::new();
+    let find = |a: &Row, solver: &str| {
+        rows.iter().find(|b| {
+            b.solver == solver
+                && b.method == a.method
+                && b.problem == a.problem
+                && b.order == a.order
+                && b.resolution == a.resolution
+        })
+    };
+    let _ = writeln!(
+        md,
+        "\n## Solvers: iterations and solve seconds (same process)\n"
+    );
+    let _ = writeln!(
+        md,
+        "| problem | N | resolution | parity-cg | cgnr | cgnr-mf | lsqr | lsmr |"
+    );
+    let _ = writeln!(md, "|---|---|---|---|---|---|---|---|");
+    let cell = |r: Option<&Row>| {
+        r.map_or("–".to_string(), |r| {
+            format!(
+                "{} it, {:.3} s{}",
+                r.iterations,
+                r.seconds_solve,
+                if r.converged { "" } else { " (nc)" }
+            )
+        })
+    };
+    for a in rows
+        .iter()
+        .filter(|r| r.solver == "parity-cg" && r.method == "pn" && find(r, "cgnr").is_some())
+    {
+        let _ = writeln!(
+            md,
+            "| {} | {} | {} | {} | {} | {} | {} | {} |",
+            a.problem,
+            a.order,
+            a.resolution,
+            cell(Some(a)),
+            cell(find(a, "cgnr")),
+            cell(find(a, "cgnr-mf")),
+            cell(find(a, "lsqr")),
+            cell(find(a, "lsmr")),
+        );
+    }
+    let _ = writeln!(md, "\n## Matrix-free vs assembled CGNR (same process)\n");
+    let _ = writeln!(
+        md,
+        "Setup is assembly (CSR) or the weight tables (matrix-free); peak memory is the \
+         process's VmHWM, reset before each problem.\n"
+    );
+    let _ = writeln!(
+        md,
+        "| problem | N | resolution | setup s (asm / mf) | solve s (asm / mf) | solve ratio mf/asm | peak MB (asm / mf) | memory ratio asm/mf |"
+    );
+    let _ = writeln!(md, "|---|---|---|---|---|---|---|---|");
+    for a in rows
+        .iter()
+        .filter(|r| r.solver == "cgnr" && r.method == "pn")
+    {
+        if let Some(b) = find(a, "cgnr-mf") {
+            let _ = writeln!(
+                md,
+                "| {} | {} | {} | {:.3} / {:.3} | {:.3} / {:.3} | {:.2} | {:.0} / {:.0} | {:.2} |",
+                a.problem,
+                a.order,
+                a.resolution,
+                a.seconds_assemble,
+                b.seconds_assemble,
+                a.seconds_solve,
+                b.seconds_solve,
+                b.seconds_solve / a.seconds_solve.max(1e-9),
+                a.peak_memory_bytes as f64 / 1e6,
+                b.peak_memory_bytes as f64 / 1e6,
+                a.peak_memory_bytes as f64 / (b.peak_memory_bytes as f64).max(1.0),
+            );
+        }
+    }
+    md
+}
+
 /// Runs `pn bench`.
 pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     let mut rows = Vec::new();
     checkerboard_rows(args, &mut rows)?;
     pointsource_rows(args, &mut rows)?;
+    let model_md = super::bench_model::model_rows(args.quick, &mut rows)?;
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
     let mut csv = String::from(CSV_HEADER);
@@ -399,7 +569,10 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         csv.push('\n');
     }
     std::fs::write(args.out.join("bench.csv"), csv)?;
-    let md = markdown(&rows, args.quick);
+    let mut md = markdown(&rows, args.quick);
+    md.push_str(&solver_comparison(&rows));
+    md.push_str(&mg_comparison(&rows));
+    md.push_str(&model_md);
     std::fs::write(args.out.join("bench.md"), &md)?;
     println!("{md}");
     eprintln!("wrote {}/bench.csv and bench.md", args.out.display());

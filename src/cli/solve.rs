@@ -74,8 +74,11 @@ pub struct SolveFlags {
     /// --method fld: extinction threshold σ_ε (1/length; default 1e-3 / longest domain edge).
     #[arg(long)]
     pub sigma_eps: Option<f64>,
-    /// Linear solver: parity-cg (eliminates the odd moments; ILU(0)-preconditioned CG or
-    /// BiCGSTAB on the even system) or cgnr (the paper's baseline, CG on AᵀA u = Aᵀb).
+    /// Linear solver: parity-cg (eliminates the odd moments; preconditioned CG, or GMRES/
+    /// BiCGSTAB when the closure makes the even system nonsymmetric; the preconditioner is
+    /// multigrid for large systems, ILU(0) for small ones), parity-mg / parity-ilu (force
+    /// multigrid / the ILU(0)-or-Jacobi choice) or cgnr (the paper's baseline, CG on
+    /// AᵀA u = Aᵀb); also lsqr, lsmr, and the matrix-free cgnr-mf, lsqr-mf, lsmr-mf.
     #[arg(long, default_value = "parity-cg")]
     pub solver: SolverKind,
     /// Raise σ_t to at least this value (required where σ_t reaches 0).

@@ -6,6 +6,10 @@
 //! the returned solution, not taken from a recurrence.
 
 pub mod cgnr;
+pub mod cgnr_mf;
+pub mod lsmr;
+pub mod lsqr;
+pub mod multigrid;
 pub mod parity;
 
 use sprs::CsMat;
@@ -20,6 +24,28 @@ pub enum SolverKind {
     /// CG (BiCGSTAB when the boundary closure makes it nonsymmetric); see [`parity`].
     #[serde(rename = "parity-cg")]
     ParityCg,
+    /// `parity-cg` with the aggregation multigrid preconditioner ([`multigrid`]); needs the
+    /// layout ([`SolverKind::solver_for`]). Systems without the parity structure (CDA)
+    /// are solved with multigrid-preconditioned CG on the matrix itself.
+    #[serde(rename = "parity-mg")]
+    ParityMg,
+    /// `parity-cg` with the preconditioners it chose before multigrid (ILU(0) up to
+    /// [`parity::ILU_MAX_NONZEROS`] stored entries, else Jacobi), for side-by-side runs.
+    #[serde(rename = "parity-ilu")]
+    ParityIlu,
+    /// LSQR (Paige–Saunders) on the assembled matrix; see [`lsqr`].
+    Lsqr,
+    /// LSMR (Fong–Saunders) on the assembled matrix; see [`lsmr`].
+    Lsmr,
+    /// CGNR with the matrix-free operator ([`crate::matfree`]): A is never stored.
+    #[serde(rename = "cgnr-mf")]
+    CgnrMf,
+    /// LSQR with the matrix-free operator.
+    #[serde(rename = "lsqr-mf")]
+    LsqrMf,
+    /// LSMR with the matrix-free operator.
+    #[serde(rename = "lsmr-mf")]
+    LsmrMf,
 }
 
 impl std::str::FromStr for SolverKind {
@@ -28,7 +54,16 @@ impl std::str::FromStr for SolverKind {
         match s {
             "cgnr" => Ok(SolverKind::Cgnr),
             "parity-cg" => Ok(SolverKind::ParityCg),
-            _ => anyhow::bail!("unknown solver {s:?} (available: cgnr, parity-cg)"),
+            "parity-mg" => Ok(SolverKind::ParityMg),
+            "parity-ilu" => Ok(SolverKind::ParityIlu),
+            "lsqr" => Ok(SolverKind::Lsqr),
+            "lsmr" => Ok(SolverKind::Lsmr),
+            "cgnr-mf" => Ok(SolverKind::CgnrMf),
+            "lsqr-mf" => Ok(SolverKind::LsqrMf),
+            "lsmr-mf" => Ok(SolverKind::LsmrMf),
+            _ => anyhow::bail!(
+                "unknown solver {s:?} (available: cgnr, parity-cg, parity-mg, parity-ilu, lsqr, lsmr, cgnr-mf, lsqr-mf, lsmr-mf)"
+            ),
         }
     }
 }
@@ -41,6 +76,59 @@ impl SolverKind {
             // The parity classes are detected from the matrix; with a `Layout` at hand,
             // `parity::ParityCg::for_layout(&layout)` gives the same solver without the detection.
             SolverKind::ParityCg => Box::new(parity::ParityCg::auto(parity::Precond::Auto)),
+            // Without a layout there are no positions to aggregate: parity-cg's default.
+            SolverKind::ParityMg | SolverKind::ParityIlu => {
+                Box::new(parity::ParityCg::auto(parity::Precond::Auto))
+            }
+            // Given an assembled matrix, the matrix-free kinds run on it; the pipeline routes
+            // them to `crate::matfree::solve` so that A is never assembled.
+            SolverKind::Lsqr | SolverKind::LsqrMf => Box::new(lsqr::Lsqr),
+            SolverKind::Lsmr | SolverKind::LsmrMf => Box::new(lsmr::Lsmr),
+            SolverKind::CgnrMf => Box::new(cgnr_mf::CgnrMf),
+        }
+    }
+
+    /// The solver for a system assembled on `layout`: the parity solvers take the even/odd
+    /// classes from the layout (no detection pass over the matrix) and the unknowns'
+    /// positions for multigrid (`parity-cg` picks it automatically for large systems,
+    /// [`parity::MG_MIN_NONZEROS`]); the other kinds are as [`SolverKind::solver`].
+    pub fn solver_for(self, layout: &crate::layout::Layout) -> Box<dyn LinearSolver> {
+        match self {
+            SolverKind::ParityCg => Box::new(multigrid::solve::LayoutSolver::new(
+                parity::ParityCg::for_layout(layout),
+                layout,
+            )),
+            SolverKind::ParityMg => Box::new(multigrid::solve::LayoutSolver::new(
+                parity::ParityCg::for_layout(layout).with_precond(parity::Precond::Multigrid),
+                layout,
+            )),
+            SolverKind::ParityIlu => Box::new(multigrid::solve::LayoutSolver::without_multigrid(
+                parity::ParityCg::new(parity::even_mask(layout), parity::Precond::Auto),
+            )),
+            other => other.solver(),
+        }
+    }
+
+    /// Whether the solver works on the matrix-free operator (the `-mf` names).
+    pub fn is_matrix_free(self) -> bool {
+        matches!(
+            self,
+            SolverKind::CgnrMf | SolverKind::LsqrMf | SolverKind::LsmrMf
+        )
+    }
+
+    /// The `--solver` name.
+    pub fn name(self) -> &'static str {
+        match self {
+            SolverKind::Cgnr => "cgnr",
+            SolverKind::ParityCg => "parity-cg",
+            SolverKind::ParityMg => "parity-mg",
+            SolverKind::ParityIlu => "parity-ilu",
+            SolverKind::Lsqr => "lsqr",
+            SolverKind::Lsmr => "lsmr",
+            SolverKind::CgnrMf => "cgnr-mf",
+            SolverKind::LsqrMf => "lsqr-mf",
+            SolverKind::LsmrMf => "lsmr-mf",
         }
     }
 }

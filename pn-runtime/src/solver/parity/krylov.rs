@@ -114,7 +114,7 @@ impl<'a> Control<'a> {
     }
 
     /// Records one iteration's residual norm; `Some` when the run must stop.
-    fn record(&mut self, rnorm: f64) -> Option<Outcome> {
+    pub(crate) fn record(&mut self, rnorm: f64) -> Option<Outcome> {
         self.iterations += 1;
         let rel = rnorm / self.scale;
         self.history.push(rel);

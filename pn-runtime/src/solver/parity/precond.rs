@@ -34,8 +34,13 @@ pub enum Precond {
         block_of: Vec<usize>,
     },
     /// ILU(0) when `A` has at most `super::ILU_MAX_NONZEROS` stored entries, else Jacobi
-    /// (resolved per solve).
+    /// (resolved per solve; with a layout, [`super::ParityCg`] resolves it to multigrid
+    /// where that wins, see [`super::MG_MIN_NONZEROS`]).
     Auto,
+    /// Aggregation multigrid V-cycle ([`crate::solver::multigrid`]); needs the unknowns'
+    /// positions, so only a solver built from a layout ([`super::ParityCg::for_layout`])
+    /// can use it.
+    Multigrid,
 }
 
 impl Precond {
@@ -65,6 +70,7 @@ impl Precond {
             Precond::Ilu0 => "ilu0",
             Precond::Ilu0Cells { .. } => "ilu0-cells",
             Precond::Auto => "auto",
+            Precond::Multigrid => "mg",
         }
     }
 }
@@ -84,6 +90,8 @@ pub enum Built {
     },
     /// ILU(0) factors of `S`.
     Ilu(Ilu0),
+    /// A multigrid hierarchy; apply it with [`Built::apply_with`].
+    Multigrid(crate::solver::multigrid::Multigrid),
     /// ILU(0) factors of `P S Pᵀ`; `perm[new] = old`.
     PermutedIlu {
         /// Factors.
@@ -152,10 +160,61 @@ impl Built {
                 })
             }
             Precond::Auto => Built::new(&kind.resolve(split.nnz_a), split, formed),
+            Precond::Multigrid => Err(ParityError::Multigrid(
+                crate::solver::multigrid::MgError::NoGeometry,
+            )),
         }
     }
 
-    /// `z = M⁻¹ r`.
+    /// The multigrid preconditioner for the reduced operator of `split`, with `geometry`
+    /// the class and position of every *global* unknown (the even ones are picked).
+    pub fn multigrid(
+        split: &Split,
+        geometry: &crate::solver::multigrid::Geometry,
+        opts: &crate::solver::multigrid::MgOptions,
+    ) -> Result<Self, ParityError> {
+        use crate::solver::multigrid::{galerkin, Geometry, Multigrid};
+        let n = split.even.len() + split.odd.len();
+        if geometry.len() != n {
+            return Err(ParityError::BlockMapLength {
+                len: geometry.len(),
+                rows: n,
+            });
+        }
+        let even = Geometry {
+            class: split.even.iter().map(|&g| geometry.class[g]).collect(),
+            coords: split.even.iter().map(|&g| geometry.coords[g]).collect(),
+        };
+        let op = super::reduced::ReducedOperator::new(split, super::ReducedMode::MatrixFree);
+        let apply = |x: &[f64], y: &mut [f64]| op.apply(x, y);
+        let mg = Multigrid::build(
+            &apply,
+            &diagonal(split),
+            &even,
+            |agg| galerkin::coarse_from_split(split, agg),
+            opts,
+        )?;
+        Ok(Built::Multigrid(mg))
+    }
+
+    /// Applications of `S` spent building it (multigrid's power iteration).
+    pub fn setup_applications(&self) -> usize {
+        match self {
+            Built::Multigrid(mg) => mg.setup_fine_applications(),
+            _ => 0,
+        }
+    }
+
+    /// `z = M⁻¹ r` where `fine` applies the reduced operator (used by multigrid's finest
+    /// level; the other kinds ignore it).
+    pub fn apply_with(&self, fine: &dyn Fn(&[f64], &mut [f64]), r: &[f64], z: &mut [f64]) {
+        match self {
+            Built::Multigrid(mg) => mg.apply(fine, r, z),
+            other => other.apply(r, z),
+        }
+    }
+
+    /// `z = M⁻¹ r` (for [`Built::Multigrid`] use [`Built::apply_with`]).
     pub fn apply(&self, r: &[f64], z: &mut [f64]) {
         match self {
             Built::Identity => z.copy_from_slice(r),
@@ -176,6 +235,9 @@ impl Built {
                 }
             }
             Built::Ilu(f) => f.solve(r, z),
+            // The V-cycle needs the finest operator ([`Built::apply_with`]); without it,
+            // only its finest-level Jacobi scaling is available.
+            Built::Multigrid(mg) => mg.apply_jacobi(r, z),
             Built::PermutedIlu { ilu, perm } => {
                 let rp: Vec<f64> = perm.iter().map(|&o| r[o]).collect();
                 let mut zp = vec![0.0; rp.len()];

@@ -6,6 +6,7 @@
 //! `C̃ = D_o⁻¹ C` (odd rows × even columns, already scaled so that the reduced operator is
 //! two plain sparse products).
 
+use rayon::prelude::*;
 use sprs::CsMat;
 
 /// Why the parity elimination does not apply to a matrix.
@@ -61,6 +62,9 @@ pub enum ParityError {
         /// Block id.
         block: usize,
     },
+    /// The multigrid preconditioner could not be built.
+    #[error(transparent)]
+    Multigrid(#[from] crate::solver::multigrid::MgError),
     /// The block-Jacobi block map does not match the matrix size.
     #[error("the block map has {len} entries but the matrix has {rows} rows")]
     BlockMapLength {
@@ -122,46 +126,106 @@ pub fn split(a: &CsMat<f64>, even: &[bool]) -> Result<Split, ParityError> {
             od.push(g);
         }
     }
-    let mut d_e = vec![0.0; ev.len()];
-    let mut d_o = vec![0.0; od.len()];
-    let (mut b_ptr, mut b_idx, mut b_val) = (vec![0usize], Vec::new(), Vec::new());
-    let (mut c_ptr, mut c_idx, mut c_val) = (vec![0usize], Vec::new(), Vec::new());
-    for (row, vec) in a.outer_iterator().enumerate() {
-        let row_even = even[row];
-        let mut diag = 0.0;
-        for (col, &v) in vec.iter() {
-            if col == row {
-                diag += v;
-            } else if even[col] == row_even {
-                if v != 0.0 {
-                    return Err(ParityError::SameParityCoupling {
-                        row,
-                        col,
-                        parity: if row_even { "even" } else { "odd" },
-                        value: v,
-                    });
+    let ap = a.indptr();
+    let ap = ap.raw_storage();
+    let (ai, av) = (a.indices(), a.data());
+    // Pass 1 (parallel): diagonal, count of off-parity entries per row, and the first
+    // offending entry in row order.
+    let scan: Vec<(f64, usize)> = (0..n)
+        .into_par_iter()
+        .map(|row| {
+            let (mut diag, mut count) = (0.0, 0usize);
+            for p in ap[row]..ap[row + 1] {
+                if ai[p] == row {
+                    diag += av[p];
+                } else if even[ai[p]] != even[row] {
+                    count += 1;
                 }
-            } else if row_even {
-                b_idx.push(local[col]);
-                b_val.push(v);
-            } else {
-                c_idx.push(local[col]);
-                c_val.push(v);
+            }
+            (diag, count)
+        })
+        .collect();
+    // The first offending row (in row order, as a sequential scan would report it).
+    let bad = (0..n).into_par_iter().find_first(|&row| {
+        (!even[row] && (scan[row].0 == 0.0 || !scan[row].0.is_finite()))
+            || (ap[row]..ap[row + 1])
+                .any(|p| ai[p] != row && even[ai[p]] == even[row] && av[p] != 0.0)
+    });
+    if let Some(row) = bad {
+        for p in ap[row]..ap[row + 1] {
+            let col = ai[p];
+            if col != row && even[col] == even[row] && av[p] != 0.0 {
+                return Err(ParityError::SameParityCoupling {
+                    row,
+                    col,
+                    parity: if even[row] { "even" } else { "odd" },
+                    value: av[p],
+                });
             }
         }
-        if row_even {
-            d_e[local[row]] = diag;
-            b_ptr.push(b_idx.len());
-        } else {
-            if diag == 0.0 || !diag.is_finite() {
-                return Err(ParityError::SingularOddDiagonal { row, value: diag });
-            }
-            d_o[local[row]] = diag;
-            let start = *c_ptr.last().unwrap();
-            c_val[start..].iter_mut().for_each(|v| *v /= diag);
-            c_ptr.push(c_idx.len());
+        return Err(ParityError::SingularOddDiagonal {
+            row,
+            value: scan[row].0,
+        });
+    }
+    let d_e: Vec<f64> = ev.iter().map(|&g| scan[g].0).collect();
+    let d_o: Vec<f64> = od.iter().map(|&g| scan[g].0).collect();
+    let prefix = |rows: &[usize]| {
+        let mut ptr = Vec::with_capacity(rows.len() + 1);
+        ptr.push(0usize);
+        for &g in rows {
+            ptr.push(ptr[ptr.len() - 1] + scan[g].1);
+        }
+        ptr
+    };
+    let (b_ptr, c_ptr) = (prefix(&ev), prefix(&od));
+    drop(scan);
+    // Pass 2 (parallel): fill both blocks, each task owning a contiguous range of rows
+    // and hence disjoint slices of the outputs (no second copy of the blocks).
+    let (mut b_idx, mut b_val) = (vec![0usize; b_ptr[ev.len()]], vec![0.0; b_ptr[ev.len()]]);
+    let (mut c_idx, mut c_val) = (vec![0usize; c_ptr[od.len()]], vec![0.0; c_ptr[od.len()]]);
+    let mut tasks = Vec::new();
+    {
+        let (mut bi, mut bv) = (&mut b_idx[..], &mut b_val[..]);
+        let (mut ci, mut cv) = (&mut c_idx[..], &mut c_val[..]);
+        // Even and odd rows before `row` = local index of the next row of each parity.
+        let (mut row, mut e0, mut o0) = (0, 0, 0);
+        while row < n {
+            let end = (row + SPLIT_CHUNK).min(n);
+            let evens = even[row..end].iter().filter(|&&e| e).count();
+            let (e1, o1) = (e0 + evens, o0 + (end - row - evens));
+            let nb = b_ptr[e1] - b_ptr[e0];
+            let nc = c_ptr[o1] - c_ptr[o0];
+            let (bi_head, bi_tail) = std::mem::take(&mut bi).split_at_mut(nb);
+            let (bv_head, bv_tail) = std::mem::take(&mut bv).split_at_mut(nb);
+            let (ci_head, ci_tail) = std::mem::take(&mut ci).split_at_mut(nc);
+            let (cv_head, cv_tail) = std::mem::take(&mut cv).split_at_mut(nc);
+            tasks.push((row, end, bi_head, bv_head, ci_head, cv_head));
+            (bi, bv, ci, cv) = (bi_tail, bv_tail, ci_tail, cv_tail);
+            (row, e0, o0) = (end, e1, o1);
         }
     }
+    tasks.into_par_iter().for_each(|(r0, r1, bi, bv, ci, cv)| {
+        let (mut pb, mut pc) = (0usize, 0usize);
+        for row in r0..r1 {
+            let row_even = even[row];
+            for p in ap[row]..ap[row + 1] {
+                let col = ai[p];
+                if col == row || even[col] == row_even {
+                    continue;
+                }
+                if row_even {
+                    bi[pb] = local[col];
+                    bv[pb] = av[p];
+                    pb += 1;
+                } else {
+                    ci[pc] = local[col];
+                    cv[pc] = av[p] / d_o[local[row]];
+                    pc += 1;
+                }
+            }
+        }
+    });
     // Columns within a row stay sorted: `local` is increasing in the global index.
     let b = CsMat::new((ev.len(), od.len()), b_ptr, b_idx, b_val);
     let c_scaled = CsMat::new((od.len(), ev.len()), c_ptr, c_idx, c_val);
@@ -175,6 +239,9 @@ pub fn split(a: &CsMat<f64>, even: &[bool]) -> Result<Split, ParityError> {
         nnz_a: a.nnz(),
     })
 }
+
+/// Rows per parallel task in [`split`].
+const SPLIT_CHUNK: usize = 16_384;
 
 impl Split {
     /// Scatters even and odd parts back into one global vector.
