@@ -26,6 +26,17 @@ enum Command {
     Converge(cli::converge::ConvergeArgs),
     /// Run the fixed benchmark suite (cgnr vs parity-cg side by side); writes bench.csv/md.
     Bench(cli::bench::BenchArgs),
+    /// Error vs time on the point source for method × resolution × tolerance;
+    /// writes tradeoff.csv/png.
+    Tradeoff(cli::tradeoff::TradeoffArgs),
+    /// Render a scene (TOML or built-in) with single + multiple scattering; image.exr/png, report.json.
+    Render(Box<cli::render::RenderArgs>),
+    /// The comparison figure: one scene with CDA, FLD, P_1, P_3, P_5 (and Mitsuba); figure.png, table.csv/md.
+    Figure(Box<cli::figure::FigureArgs>),
+    /// Write a scene for Mitsuba 3 (density.vol + render_mitsuba.py); --run renders it.
+    ExportMitsuba(cli::export_mitsuba::ExportMitsubaArgs),
+    /// Compare two EXR images: RMSE, relative MSE, mean relative error; difference image.
+    Compare(cli::compare::CompareArgs),
 }
 
 fn main() {
@@ -38,6 +49,11 @@ fn main() {
         Command::Solve(a) => cli::solve::run(a),
         Command::Converge(a) => cli::converge::run(a),
         Command::Bench(a) => cli::bench::run(a),
+        Command::Tradeoff(a) => cli::tradeoff::run(a),
+        Command::Render(a) => cli::render::run(a),
+        Command::Figure(a) => cli::figure::run(a),
+        Command::ExportMitsuba(a) => cli::export_mitsuba::run(a),
+        Command::Compare(a) => cli::compare::run(a),
     };
     if let Err(err) = result {
         eprintln!("error: {err:#}");

@@ -1,0 +1,29 @@
+//! Rendering participating media with the multiple-scattering solutions (issue 7,
+//! DESIGN.md §6).
+//!
+//! * [`scene`]: the TOML render scene ([`RenderScene`]) and the built-in scenes;
+//! * [`medium`]: the piecewise-constant density grid and the procedural media;
+//! * [`lights`], [`camera`]: lights, phase function values and the pinhole camera;
+//! * [`shadow`]: exact optical depth by voxel traversal, deep shadow maps;
+//! * [`solve_setup`], [`first_scatter`]: the cropped solve grid, resampled coefficients and
+//!   the first-scatter source moments (a [`crate::problem::Problem`]);
+//! * [`renderer`]: delta tracking, next-event estimation and the solution lookup;
+//! * [`image_io`]: EXR (write and read back) and tone-mapped PNG;
+//! * `mitsuba`, `compare`: the Mitsuba 3 export and image comparison (helper "mitsuba").
+
+pub mod camera;
+pub mod compare;
+pub mod first_scatter;
+pub mod image_io;
+pub mod lights;
+pub mod medium;
+pub mod mitsuba;
+pub mod renderer;
+pub mod scene;
+pub mod shadow;
+pub mod solve_setup;
+
+pub use camera::Camera;
+pub use lights::Light;
+pub use medium::{DensityGrid, Procedural};
+pub use scene::{MediumSpec, RenderScene, RenderSettings, SolveSettings};

@@ -1,0 +1,342 @@
+//! `pn figure nebula`: the comparison figure of issue 7 item 5. Renders one scene with
+//! single scattering only, CDA, FLD, P_1, P_3 and P_5 (the same camera rays and seeds for
+//! all), and — when a Mitsuba reference is given (`--reference`), already present as
+//! `<out>/mitsuba.exr`, or rendered on request (`--mitsuba`) — compares each against it.
+//!
+//! Writes `<out>/<method>/{image.exr,image.png,report.json}` (and `difference.png`, the
+//! signed false-colour difference of `pn compare`, with a reference), `figure.png` (the
+//! images side by side, one exposure for all, labelled with method and times; with a
+//! reference a second row of absolute-error maps on one common scale) and `table.csv` /
+//! `table.md` (method, solve seconds, render seconds, unknowns, RMSE and relative MSE
+//! against the reference).
+
+use super::render::{render_scene, write_run, RenderRun};
+use anyhow::{ensure, Context, Result};
+use clap::Args;
+use plotters::prelude::*;
+use pn_runtime::render::compare::{metrics, write_difference_png, GrayImage, Metrics};
+use pn_runtime::render::image_io::{exposure, read_exr_gray, srgb8};
+use pn_runtime::render::scene::RenderMethod;
+use pn_runtime::render::RenderScene;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+/// Arguments of `pn figure`.
+#[derive(Args, Debug, Clone)]
+pub struct FigureArgs {
+    /// The scene: a built-in name (default nebula) or a .toml file.
+    #[arg(default_value = "nebula")]
+    pub scene: String,
+    /// Output directory (default out/figure-<scene>).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Samples per pixel (default: the scene's).
+    #[arg(long)]
+    pub spp: Option<usize>,
+    /// Solve-grid cells per axis across the medium box (default: the scene's).
+    #[arg(long)]
+    pub solve_res: Option<usize>,
+    /// Mitsuba reference EXR (default: <out>/mitsuba.exr when it exists).
+    #[arg(long)]
+    pub reference: Option<PathBuf>,
+    /// Export the scene and render the reference with Mitsuba first (needs a Python with
+    /// the `mitsuba` package: --python or PN_PYTHON or the venv of README_mitsuba.md).
+    #[arg(long)]
+    pub mitsuba: bool,
+    /// Samples per pixel of the Mitsuba reference (with --mitsuba; default 1024).
+    #[arg(long, default_value_t = 1024)]
+    pub mitsuba_spp: usize,
+    /// Python interpreter for --mitsuba.
+    #[arg(long)]
+    pub python: Option<PathBuf>,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+}
+
+/// One column of the figure.
+struct Entry {
+    label: &'static str,
+    key: &'static str,
+    run: RenderRun,
+    metrics: Option<Metrics>,
+}
+
+/// The methods of the figure: (label, directory, method, P_N order).
+const METHODS: [(&str, &str, RenderMethod, usize); 6] = [
+    ("single scattering", "single", RenderMethod::None, 1),
+    ("CDA", "cda", RenderMethod::Cda, 1),
+    ("FLD", "fld", RenderMethod::Fld, 1),
+    ("P1", "p1", RenderMethod::Pn, 1),
+    ("P3", "p3", RenderMethod::Pn, 3),
+    ("P5", "p5", RenderMethod::Pn, 5),
+];
+
+fn gray(run: &RenderRun) -> GrayImage {
+    GrayImage {
+        width: run.image.width,
+        height: run.image.height,
+        data: run.image.data.iter().map(|v| *v as f64).collect(),
+    }
+}
+
+/// Runs `pn figure`.
+pub fn run(a: &FigureArgs) -> Result<()> {
+    let mut scene = RenderScene::load(&a.scene)?;
+    if let Some(s) = a.spp {
+        scene.render.spp = s;
+    }
+    if let Some(r) = a.solve_res {
+        scene.solve.resolution = [r; 3];
+    }
+    scene.render.validate()?;
+    scene.solve.validate()?;
+    let out = a
+        .out
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("out").join(format!("figure-{}", scene.name)));
+    std::fs::create_dir_all(&out).with_context(|| format!("cannot create {}", out.display()))?;
+
+    if a.mitsuba {
+        render_reference(&scene, &out, a)?;
+    }
+    let ref_path = a
+        .reference
+        .clone()
+        .or_else(|| Some(out.join("mitsuba.exr")).filter(|p| p.is_file()));
+    let reference = match &ref_path {
+        Some(p) => {
+            let (w, h, data) = read_exr_gray(p)?;
+            ensure!(
+                (w, h) == (scene.camera.width, scene.camera.height),
+                "the reference {} is {w}×{h}, the scene renders {}×{}",
+                p.display(),
+                scene.camera.width,
+                scene.camera.height
+            );
+            Some(GrayImage {
+                width: w,
+                height: h,
+                data: data.into_iter().map(f64::from).collect(),
+            })
+        }
+        None => None,
+    };
+
+    let mut entries = Vec::new();
+    for (label, key, method, order) in METHODS {
+        let mut s = scene.clone();
+        s.solve.method = method;
+        s.solve.order = order;
+        eprintln!("rendering {label} ...");
+        let run = render_scene(&s, a.threads, None, true)?;
+        let dir = out.join(key);
+        write_run(&dir, &run)?;
+        let m = match &reference {
+            Some(r) => {
+                let g = gray(&run);
+                write_difference_png(
+                    &dir.join("difference.png"),
+                    &g,
+                    r,
+                    &format!("{label} − Mitsuba"),
+                )?;
+                Some(metrics(&g, r)?)
+            }
+            None => None,
+        };
+        entries.push(Entry {
+            label,
+            key,
+            run,
+            metrics: m,
+        });
+    }
+    write_tables(&out, &entries, ref_path.as_deref())?;
+    write_figure(&out.join("figure.png"), &entries, reference.as_ref())?;
+    print!("{}", std::fs::read_to_string(out.join("table.md"))?);
+    println!("-> {}", out.display());
+    Ok(())
+}
+
+/// Exports the scene and renders `<out>/mitsuba.exr` with Mitsuba (full transport).
+fn render_reference(scene: &RenderScene, out: &Path, a: &FigureArgs) -> Result<()> {
+    use pn_runtime::render::mitsuba;
+    let dir = out.join("mitsuba");
+    let opts = mitsuba::ExportOptions {
+        spp: a.mitsuba_spp,
+        ..mitsuba::ExportOptions::from_scene(scene)
+    };
+    mitsuba::export(scene, &dir, &opts)?;
+    let python = mitsuba::find_python(a.python.as_deref())?;
+    eprintln!(
+        "rendering the Mitsuba reference ({} spp) ...",
+        a.mitsuba_spp
+    );
+    let run = mitsuba::run_mitsuba_with(
+        &dir,
+        &python,
+        &mitsuba::RunOptions {
+            out: Some(out.join("mitsuba.exr")),
+            ..Default::default()
+        },
+    )?;
+    eprintln!("Mitsuba: {:.1} s", run.seconds);
+    Ok(())
+}
+
+fn fmt_opt(v: Option<f64>) -> String {
+    v.map_or_else(|| "n/a".to_string(), |x| format!("{x:.4e}"))
+}
+
+fn write_tables(out: &Path, entries: &[Entry], reference: Option<&Path>) -> Result<()> {
+    let mut csv = String::from(
+        "method,solve_seconds,render_seconds,total_seconds,unknowns,iterations,rmse,rel_mse,mean_rel_error,rel_bias\n",
+    );
+    let mut md = format!(
+        "Reference: {}\n\n| method | solve s | render s | unknowns | iterations | RMSE | rel. MSE | mean rel. error |\n|---|---|---|---|---|---|---|---|\n",
+        reference.map_or("none (no Mitsuba image)".to_string(), |p| p.display().to_string())
+    );
+    for e in entries {
+        let r = &e.run.report;
+        let solve = r.seconds.shadow_maps + r.seconds.sources + r.seconds.solve;
+        let unknowns = r.unknowns.as_ref().map_or(0, |u| u.solved);
+        let iterations = r.solver.as_ref().map_or(0, |s| s.iterations);
+        let m = e.metrics.as_ref();
+        writeln!(
+            csv,
+            "{},{solve:.4},{:.4},{:.4},{unknowns},{iterations},{},{},{},{}",
+            e.key,
+            r.seconds.render,
+            r.seconds.total,
+            fmt_opt(m.map(|m| m.rmse)),
+            fmt_opt(m.map(|m| m.rel_mse)),
+            fmt_opt(m.map(|m| m.mean_rel_error)),
+            fmt_opt(m.map(|m| m.rel_bias)),
+        )?;
+        writeln!(
+            md,
+            "| {} | {solve:.2} | {:.2} | {unknowns} | {iterations} | {} | {} | {} |",
+            e.label,
+            r.seconds.render,
+            fmt_opt(m.map(|m| m.rmse)),
+            fmt_opt(m.map(|m| m.rel_mse)),
+            fmt_opt(m.map(|m| m.mean_rel_error)),
+        )?;
+    }
+    std::fs::write(out.join("table.csv"), csv).context("writing table.csv")?;
+    std::fs::write(out.join("table.md"), md).context("writing table.md")?;
+    Ok(())
+}
+
+/// Draws the side-by-side figure: one row of tone-mapped images (one exposure, from the
+/// reference if present, else from the last method), the reference at the end; with a
+/// reference a second row of |image − reference| on one white→red scale (0 to the 99th
+/// percentile of the largest error image).
+fn write_figure(path: &Path, entries: &[Entry], reference: Option<&GrayImage>) -> Result<()> {
+    let labels = pn_runtime::reference::register_plot_fonts().is_ok();
+    let err = |e: &dyn std::fmt::Display| pn_runtime::plot::draw_error(path, e);
+    let first = &entries[0].run.image;
+    let (w, h) = (first.width, first.height);
+    let scale = (240 / w.max(1)).clamp(1, 4);
+    let (pw, ph) = ((w * scale) as i32, (h * scale) as i32);
+    let label_h = 44;
+    let cols = entries.len() + usize::from(reference.is_some());
+    let rows = 1 + usize::from(reference.is_some());
+    let size = (
+        (cols as i32 * (pw + 8) + 8) as u32,
+        (rows as i32 * (ph + label_h + 8) + 8) as u32,
+    );
+    let root = pn_runtime::plot::white_canvas(path, size)?;
+    let expo = match reference {
+        Some(r) => exposure(&r.data.iter().map(|v| *v as f32).collect::<Vec<_>>()),
+        None => exposure(&entries[entries.len() - 1].run.image.data),
+    };
+    let draw_panel = |col: usize,
+                      row: usize,
+                      px: &dyn Fn(usize) -> RGBColor,
+                      title: &str,
+                      sub: &str|
+     -> Result<()> {
+        let x0 = 8 + col as i32 * (pw + 8);
+        let y0 = 8 + row as i32 * (ph + label_h + 8);
+        if labels {
+            root.draw_text(title, &("sans-serif", 15).into_text_style(&root), (x0, y0))
+                .map_err(|e| err(&e))?;
+            root.draw_text(
+                sub,
+                &("sans-serif", 12).into_text_style(&root),
+                (x0, y0 + 19),
+            )
+            .map_err(|e| err(&e))?;
+        }
+        let y0 = y0 + label_h;
+        for y in 0..h {
+            for x in 0..w {
+                let c = px(y * w + x);
+                let (a, b) = (x0 + (x * scale) as i32, y0 + (y * scale) as i32);
+                root.draw(&Rectangle::new(
+                    [(a, b), (a + scale as i32, b + scale as i32)],
+                    c.filled(),
+                ))
+                .map_err(|e| err(&e))?;
+            }
+        }
+        Ok(())
+    };
+    let tone = |v: f64| {
+        let g = srgb8(v as f32 * expo);
+        RGBColor(g, g, g)
+    };
+    for (c, e) in entries.iter().enumerate() {
+        let r = &e.run.report;
+        let solve = r.seconds.shadow_maps + r.seconds.sources + r.seconds.solve;
+        let sub = format!("solve {solve:.1} s, render {:.1} s", r.seconds.render);
+        let data = &e.run.image.data;
+        draw_panel(c, 0, &|i| tone(data[i] as f64), e.label, &sub)?;
+    }
+    if let Some(refimg) = reference {
+        draw_panel(
+            entries.len(),
+            0,
+            &|i| tone(refimg.data[i]),
+            "Mitsuba (reference)",
+            "volpath",
+        )?;
+        // Common error scale: the largest 99th percentile of |a − ref| over the methods.
+        let mut range = 0.0f64;
+        for e in entries {
+            let mut d: Vec<f64> = e
+                .run
+                .image
+                .data
+                .iter()
+                .zip(&refimg.data)
+                .map(|(a, b)| (*a as f64 - b).abs())
+                .collect();
+            d.sort_by(|a, b| a.total_cmp(b));
+            range = range.max(d[((d.len() - 1) as f64 * 0.99) as usize]);
+        }
+        let range = if range > 0.0 { range } else { 1.0 };
+        for (c, e) in entries.iter().enumerate() {
+            let data = &e.run.image.data;
+            let sub = format!(
+                "|error|, 0–{range:.2e}; RMSE {}",
+                fmt_opt(e.metrics.as_ref().map(|m| m.rmse))
+            );
+            draw_panel(
+                c,
+                1,
+                &|i| {
+                    let t = ((data[i] as f64 - refimg.data[i]).abs() / range).clamp(0.0, 1.0);
+                    let v = (255.0 * (1.0 - t)) as u8;
+                    RGBColor(255, v, v)
+                },
+                e.label,
+                &sub,
+            )?;
+        }
+    }
+    root.present().map_err(|e| err(&e))?;
+    Ok(())
+}
