@@ -69,42 +69,12 @@ impl VoxelGrid {
 
     /// Trilinear interpolation between cell centres, clamped to the outermost centres.
     pub fn sample(&self, p: Point) -> f64 {
-        let mut lo = [0usize; 3];
-        let mut hi = [0usize; 3];
-        let mut t = [0.0f64; 3];
-        for d in 0..3 {
-            let n = self.dims[d];
-            let h = (self.max[d] - self.min[d]) / n as f64;
-            // Continuous cell-centre coordinate: centre i sits at u = i.
-            let u = if h > 0.0 {
-                (p[d] - self.min[d]) / h - 0.5
-            } else {
-                0.0
-            };
-            let u = u.clamp(0.0, (n - 1) as f64);
-            let f = u.floor();
-            lo[d] = f as usize;
-            hi[d] = (lo[d] + 1).min(n - 1);
-            t[d] = u - f;
-        }
-        let mut v = 0.0;
-        for corner in 0..8 {
-            let mut w = 1.0;
-            let mut idx = [0usize; 3];
-            for d in 0..3 {
-                if corner >> d & 1 == 1 {
-                    w *= t[d];
-                    idx[d] = hi[d];
-                } else {
-                    w *= 1.0 - t[d];
-                    idx[d] = lo[d];
-                }
-            }
-            if w != 0.0 {
-                v += w * self.at(idx[0], idx[1], idx[2]);
-            }
-        }
-        v
+        let h = [0, 1, 2].map(|d| (self.max[d] - self.min[d]) / self.dims[d] as f64);
+        trilinear_corners(p, self.min, h, self.dims)
+            .into_iter()
+            .filter(|&(_, w)| w != 0.0)
+            .map(|(idx, w)| w * self.at(idx[0], idx[1], idx[2]))
+            .sum()
     }
 
     /// The first entry that is NaN, infinite or negative, as (cell index, value).
@@ -311,6 +281,48 @@ impl Field {
             (_, Field::Constant(_) | Field::Voxel(_)) => self.clone(),
         }
     }
+}
+
+/// The eight cell-centre neighbours of `p` on a grid of `dims` cells of size `h` starting at
+/// `min`, with their trilinear weights (clamped to the outermost centres, so weights of
+/// coinciding corners may be 0): `Σ w·value(idx)` interpolates between cell centres.
+pub fn trilinear_corners(
+    p: Point,
+    min: Point,
+    h: [f64; 3],
+    dims: [usize; 3],
+) -> [([usize; 3], f64); 8] {
+    let mut lo = [0usize; 3];
+    let mut hi = [0usize; 3];
+    let mut t = [0.0f64; 3];
+    for d in 0..3 {
+        let n = dims[d];
+        // Continuous cell-centre coordinate: centre i sits at u = i.
+        let u = if h[d] > 0.0 {
+            (p[d] - min[d]) / h[d] - 0.5
+        } else {
+            0.0
+        };
+        let u = u.clamp(0.0, (n - 1) as f64);
+        let f = u.floor();
+        lo[d] = f as usize;
+        hi[d] = (lo[d] + 1).min(n - 1);
+        t[d] = u - f;
+    }
+    std::array::from_fn(|corner| {
+        let mut w = 1.0;
+        let mut idx = [0usize; 3];
+        for d in 0..3 {
+            if corner >> d & 1 == 1 {
+                w *= t[d];
+                idx[d] = hi[d];
+            } else {
+                w *= 1.0 - t[d];
+                idx[d] = lo[d];
+            }
+        }
+        (idx, w)
+    })
 }
 
 #[cfg(test)]

@@ -25,6 +25,7 @@ use super::lights::phase_value;
 use super::medium::DensityGrid;
 use super::scene::RenderScene;
 use super::shadow::Extinction;
+use crate::field::trilinear_corners;
 use crate::problem::{Grid, Phase};
 use crate::unstagger::CellMoments;
 use pn_codegen::quadrature::real_sh;
@@ -98,35 +99,14 @@ impl MsField {
     /// 0 outside the grid.
     pub fn inscatter(&self, x: [f64; 3], coeffs: &[f64]) -> f64 {
         let g = &self.grid;
-        let mut lo = [0usize; 3];
-        let mut hi = [0usize; 3];
-        let mut t = [0.0f64; 3];
-        for d in 0..3 {
-            if !(x[d] >= g.min[d] && x[d] <= g.max[d]) {
-                return 0.0;
-            }
-            let n = g.res[d];
-            let u = ((x[d] - g.min[d]) / g.h(d) - 0.5).clamp(0.0, (n - 1) as f64);
-            let f = u.floor();
-            lo[d] = f as usize;
-            hi[d] = (lo[d] + 1).min(n - 1);
-            t[d] = u - f;
+        if (0..3).any(|d| !(x[d] >= g.min[d] && x[d] <= g.max[d])) {
+            return 0.0;
         }
         let pc = self.moments.per_cell;
         let [_, ny, nz] = g.res;
+        let h = [0, 1, 2].map(|d| g.h(d));
         let mut sum = 0.0;
-        for corner in 0..8 {
-            let mut w = 1.0;
-            let mut idx = [0usize; 3];
-            for d in 0..3 {
-                if corner >> d & 1 == 1 {
-                    w *= t[d];
-                    idx[d] = hi[d];
-                } else {
-                    w *= 1.0 - t[d];
-                    idx[d] = lo[d];
-                }
-            }
+        for (idx, w) in trilinear_corners(x, g.min, h, g.res) {
             if w == 0.0 {
                 continue;
             }
