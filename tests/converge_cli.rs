@@ -274,6 +274,31 @@ fn checkerboard_p1_study_71_to_284() {
     assert!(d71[1] < 0.25 * d71[0], "average sampling: {d71:?}");
 }
 
+/// `pn converge checkerboard --order 1 --res <res> --sampling <sampling>` with parity-cg;
+/// returns the output folder and the parsed `convergence.json`.
+fn converge_p1_checkerboard(res: &str, sampling: &str, tag: &str) -> (PathBuf, serde_json::Value) {
+    let d = dir(&format!("{tag}-{sampling}"));
+    let o = pn(&[
+        "converge",
+        "checkerboard",
+        "--order",
+        "1",
+        "--res",
+        res,
+        "--solver",
+        "parity-cg",
+        "--sampling",
+        sampling,
+        "--out",
+        d.to_str().unwrap(),
+    ]);
+    ok(&o);
+    println!("{sampling}:\n{}", String::from_utf8_lossy(&o.stdout));
+    let json = serde_json::from_str(&std::fs::read_to_string(d.join("convergence.json")).unwrap())
+        .unwrap();
+    (d, json)
+}
+
 /// Issue 10: "the estimate at 71² brackets the difference to the finest grid", P_1
 /// checkerboard 71/142/284 with parity-cg, for both samplings. The estimate of level 71 is
 /// built from 71 and 142 only (`estimate_next`, with the order of 71/142/284); it brackets
@@ -288,26 +313,7 @@ fn checkerboard_p1_study_71_to_284() {
 #[test]
 fn checkerboard_p1_estimate_brackets_at_71() {
     for sampling in ["exact", "average"] {
-        let d = dir(&format!("bracket-{sampling}"));
-        let o = pn(&[
-            "converge",
-            "checkerboard",
-            "--order",
-            "1",
-            "--res",
-            "71,142,284",
-            "--solver",
-            "parity-cg",
-            "--sampling",
-            sampling,
-            "--out",
-            d.to_str().unwrap(),
-        ]);
-        ok(&o);
-        println!("{sampling}:\n{}", String::from_utf8_lossy(&o.stdout));
-        let json: serde_json::Value =
-            serde_json::from_str(&std::fs::read_to_string(d.join("convergence.json")).unwrap())
-                .unwrap();
+        let (d, json) = converge_p1_checkerboard("71,142,284", sampling, "bracket");
         let rows = json["table"]["rows"].as_array().unwrap();
         let est = rows[0]["estimate_next"].as_f64().unwrap();
         let diff = rows[0]["diff_finest"].as_f64().unwrap();
@@ -337,26 +343,7 @@ fn checkerboard_p1_estimate_brackets_at_71() {
 #[ignore]
 fn checkerboard_p1_bracketing_to_568() {
     for sampling in ["exact", "average"] {
-        let d = dir(&format!("bracket568-{sampling}"));
-        let o = pn(&[
-            "converge",
-            "checkerboard",
-            "--order",
-            "1",
-            "--res",
-            "71,142,284,568",
-            "--solver",
-            "parity-cg",
-            "--sampling",
-            sampling,
-            "--out",
-            d.to_str().unwrap(),
-        ]);
-        ok(&o);
-        println!("{sampling}:\n{}", String::from_utf8_lossy(&o.stdout));
-        let json: serde_json::Value =
-            serde_json::from_str(&std::fs::read_to_string(d.join("convergence.json")).unwrap())
-                .unwrap();
+        let (d, json) = converge_p1_checkerboard("71,142,284,568", sampling, "bracket568");
         let rows = json["table"]["rows"].as_array().unwrap();
         assert_eq!(
             rows[0]["bracketed"],
