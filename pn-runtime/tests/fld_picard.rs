@@ -8,40 +8,19 @@ use pn_codegen::placement::Layout;
 use pn_codegen::stencil::Dim;
 use pn_runtime::fld::picard::assemble_picard_system;
 use pn_runtime::fld::{
-    face_diffusion_coefficients, relative_residual, solve_fld, solve_fld_picard, FldGrid,
-    FldParams, FldProblem, Limiter, PicardOptions,
+    face_diffusion_coefficients, relative_residual, solve_fld, solve_fld_picard, FldParams,
+    Limiter, PicardOptions,
 };
 use pn_runtime::linalg::residual;
 use pn_runtime::solver::SolverKind;
+
+mod fld_support;
+use fld_support::sphere_in_vacuum;
 
 /// The diffusion stencil with D as a field, interpreted from its IR (the root crate passes
 /// the compiled `diffusion_3d`; both evaluate the same IR).
 fn diffusion_kernel() -> InterpretedKernel {
     InterpretedKernel::new(diffusion_ir(Dim::Three).unwrap())
-}
-
-/// A sphere of σ_t = 10 (albedo 0.9, uniform emission q = 1 inside) of radius 1/4 in the
-/// centre of the vacuum-filled unit cube, `n³` cells (the heterogeneous test of issue 6; the
-/// same problem as in `fld_solver.rs`).
-fn sphere_in_vacuum(n: usize) -> FldProblem {
-    let grid = FldGrid::cube(n, 1.0).unwrap();
-    let len = grid.len();
-    let (mut sigma_t, mut sigma_a, mut source) = (vec![0.0; len], vec![0.0; len], vec![0.0; len]);
-    for idx in 0..len {
-        let x = grid.centre(grid.cell(idx));
-        let r2: f64 = x.iter().map(|v| (v - 0.5).powi(2)).sum();
-        if r2 < 0.25 * 0.25 {
-            sigma_t[idx] = 10.0;
-            sigma_a[idx] = 1.0;
-            source[idx] = 1.0;
-        }
-    }
-    FldProblem {
-        grid,
-        sigma_t,
-        sigma_a,
-        source,
-    }
 }
 
 /// A deterministic positive pseudo-random field (xorshift), values in [lo, hi).
