@@ -8,7 +8,7 @@
 //! as in [`super::lsqr`]).
 
 use super::cgnr_mf::{finish, monitor, status_of};
-use super::lsqr::{bidiag_step, scale_inv, Recheck};
+use super::lsqr::{bidiag_step, golub_kahan_start, scale_inv, Recheck};
 use super::parity::krylov::Outcome;
 use super::{LinearSolver, SolveStats, SolveStatus, SolverOptions};
 use crate::linalg::{axpy, norm, xpby};
@@ -52,12 +52,7 @@ pub fn lsmr(
     if bnorm == 0.0 {
         return finish(a, b, x, SolveStatus::Converged, mon, opts, name);
     }
-    let mut u = b.to_vec();
-    scale_inv(&mut u, bnorm);
-    let mut v = vec![0.0; n];
-    a.apply_transpose(&u, &mut v);
-    let mut alpha = norm(&v);
-    scale_inv(&mut v, alpha);
+    let (mut u, mut v, mut alpha) = golub_kahan_start(a, b, bnorm);
 
     // Variables of the two QR factorisations (names as in the paper and SciPy's lsmr).
     let mut zetabar = alpha * bnorm;

@@ -36,6 +36,22 @@ pub(crate) fn bidiag_step(w: &[f64], c: f64, v: &mut [f64]) -> f64 {
     norm(v)
 }
 
+/// The start of the Golub–Kahan bidiagonalisation shared by LSQR and LSMR:
+/// β₁u₁ = b (β₁ = `bnorm`), α₁v₁ = Aᵀu₁; returns (u₁, v₁, α₁).
+pub(crate) fn golub_kahan_start(
+    a: &dyn LinearOperator,
+    b: &[f64],
+    bnorm: f64,
+) -> (Vec<f64>, Vec<f64>, f64) {
+    let mut u = b.to_vec();
+    scale_inv(&mut u, bnorm);
+    let mut v = vec![0.0; a.cols()];
+    a.apply_transpose(&u, &mut v);
+    let alpha = norm(&v);
+    scale_inv(&mut v, alpha);
+    (u, v, alpha)
+}
+
 /// `v ← v / s` when `s > 0`.
 pub(crate) fn scale_inv(v: &mut [f64], s: f64) {
     if s > 0.0 {
@@ -101,13 +117,7 @@ pub fn lsqr(
     if bnorm == 0.0 {
         return finish(a, b, x, SolveStatus::Converged, mon, opts, name);
     }
-    // β₁u₁ = b, α₁v₁ = Aᵀu₁.
-    let mut u = b.to_vec();
-    scale_inv(&mut u, bnorm);
-    let mut v = vec![0.0; n];
-    a.apply_transpose(&u, &mut v);
-    let mut alpha = norm(&v);
-    scale_inv(&mut v, alpha);
+    let (mut u, mut v, mut alpha) = golub_kahan_start(a, b, bnorm);
     let mut w = v.clone();
     let mut phibar = bnorm;
     let mut rhobar = alpha;
