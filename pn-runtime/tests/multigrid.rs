@@ -5,9 +5,9 @@
 
 mod common;
 
-use common::QuadKernel;
-use pn_codegen::stencil::{Dim, StencilKernel};
-use pn_runtime::assemble::{assemble, System};
+use common::{opts, rel_diff, system};
+use pn_codegen::stencil::Dim;
+use pn_runtime::assemble::System;
 use pn_runtime::layout::Layout;
 use pn_runtime::linalg::{dot, norm};
 use pn_runtime::problem::{Boundary, Problem};
@@ -19,7 +19,7 @@ use pn_runtime::solver::parity::precond::Built;
 use pn_runtime::solver::parity::reduced::{ReducedMode, ReducedOperator};
 use pn_runtime::solver::parity::split::split;
 use pn_runtime::solver::parity::{even_mask, ParityCg, ParityReport, Precond, SYMMETRY_TOL};
-use pn_runtime::solver::{SolverKind, SolverOptions};
+use pn_runtime::solver::SolverKind;
 use sprs::{CsMat, TriMat};
 
 fn checkerboard(res: usize) -> Problem {
@@ -42,21 +42,6 @@ fn pointsource3d(res: usize, bc: Boundary) -> Problem {
     p
 }
 
-fn system(problem: &Problem, order: i32) -> (Layout, System) {
-    let kernel = QuadKernel::new(order, problem.grid.dim, true);
-    let layout = Layout::new(&problem.grid, kernel.moments()).unwrap();
-    let sys = assemble(problem, &kernel, &layout).unwrap();
-    (layout, sys)
-}
-
-fn opts(tol: f64) -> SolverOptions {
-    SolverOptions {
-        tol,
-        progress: false,
-        ..Default::default()
-    }
-}
-
 fn solve(layout: &Layout, sys: &System, precond: Precond, tol: f64) -> (Vec<f64>, ParityReport) {
     let solver = ParityCg::for_layout(layout).with_precond(precond);
     let (u, rep) = solver
@@ -64,16 +49,6 @@ fn solve(layout: &Layout, sys: &System, precond: Precond, tol: f64) -> (Vec<f64>
         .unwrap();
     assert!(rep.stats.converged(), "{:?}", rep.stats);
     (u, rep)
-}
-
-/// max|a − b| / max|b|.
-fn rel_diff(a: &[f64], b: &[f64]) -> f64 {
-    let m = b.iter().fold(0.0f64, |x, y| x.max(y.abs()));
-    a.iter()
-        .zip(b)
-        .map(|(x, y)| (x - y).abs())
-        .fold(0.0, f64::max)
-        / m
 }
 
 /// Both solutions reach a relative residual of 1e-11; their difference is at most

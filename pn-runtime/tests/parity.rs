@@ -4,9 +4,9 @@
 
 mod common;
 
-use common::QuadKernel;
+use common::{opts, rel_diff, system};
 use pn_codegen::stencil::Dim;
-use pn_runtime::assemble::{assemble, System};
+use pn_runtime::assemble::System;
 use pn_runtime::layout::Layout;
 use pn_runtime::problem::{Boundary, Problem};
 use pn_runtime::scenes::{builtin, BuiltinOptions, PointSourceParams};
@@ -40,26 +40,6 @@ fn pointsource3d(res: usize, g: f64) -> Problem {
     builtin("pointsource", &o).unwrap().problem
 }
 
-fn system(problem: &Problem, order: i32) -> (Layout, System) {
-    let kernel = QuadKernel::new(order, problem.grid.dim, true);
-    let layout = Layout::new(&problem.grid, &kernel_moments(&kernel)).unwrap();
-    let sys = assemble(problem, &kernel, &layout).unwrap();
-    (layout, sys)
-}
-
-fn kernel_moments(k: &QuadKernel) -> Vec<pn_codegen::stencil::MomentPlacement> {
-    use pn_codegen::stencil::StencilKernel;
-    k.moments().to_vec()
-}
-
-fn opts(tol: f64) -> SolverOptions {
-    SolverOptions {
-        tol,
-        progress: false,
-        ..Default::default()
-    }
-}
-
 fn parity(layout: &Layout, sys: &System, precond: Precond, tol: f64) -> (Vec<f64>, ParityReport) {
     let solver = ParityCg::new(even_mask(layout), precond);
     let (u, rep) = solver
@@ -74,16 +54,6 @@ fn cgnr(sys: &System, tol: f64) -> (Vec<f64>, SolveStats) {
     let (u, st) = Cgnr.solve(&sys.matrix, &sys.rhs, &opts(tol));
     assert!(st.converged(), "{st:?}");
     (u, st)
-}
-
-/// max|a − b| / max|b| over all unknowns.
-fn rel_diff(a: &[f64], b: &[f64]) -> f64 {
-    let m = b.iter().fold(0.0f64, |x, y| x.max(y.abs()));
-    a.iter()
-        .zip(b)
-        .map(|(x, y)| (x - y).abs())
-        .fold(0.0, f64::max)
-        / m
 }
 
 /// Both solutions have relative residual ≤ 1e-11; the difference is bounded by

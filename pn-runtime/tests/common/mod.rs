@@ -264,3 +264,33 @@ pub fn reference_dir() -> Option<std::path::PathBuf> {
     eprintln!("skipping: checkerboard reference data not found next to the workspace");
     None
 }
+
+/// Assembles `problem` with the quadrature stencil of order `order` (staggered).
+pub fn system(
+    problem: &pn_runtime::problem::Problem,
+    order: i32,
+) -> (pn_runtime::layout::Layout, pn_runtime::assemble::System) {
+    let kernel = QuadKernel::new(order, problem.grid.dim, true);
+    let layout = pn_runtime::layout::Layout::new(&problem.grid, kernel.moments()).unwrap();
+    let sys = pn_runtime::assemble::assemble(problem, &kernel, &layout).unwrap();
+    (layout, sys)
+}
+
+/// Solver options with tolerance `tol` and no progress bar.
+pub fn opts(tol: f64) -> pn_runtime::solver::SolverOptions {
+    pn_runtime::solver::SolverOptions {
+        tol,
+        progress: false,
+        ..Default::default()
+    }
+}
+
+/// max|a − b| / max|b| over all unknowns.
+pub fn rel_diff(a: &[f64], b: &[f64]) -> f64 {
+    let m = b.iter().fold(0.0f64, |x, y| x.max(y.abs()));
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f64::max)
+        / m
+}
