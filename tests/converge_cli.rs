@@ -8,28 +8,15 @@
 use pn_runtime::convergence::restrict;
 use pn_runtime::npy::read_npy;
 use std::path::PathBuf;
-use std::process::{Command, Output};
+use std::process::Output;
+
+mod support;
+use support::{ok, pn};
 
 fn dir(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("pn-converge-{}-{name}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
     d
-}
-
-fn pn(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_pn"))
-        .args(args)
-        .output()
-        .unwrap()
-}
-
-fn ok(o: &Output) {
-    assert!(
-        o.status.success(),
-        "{}{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    );
 }
 
 fn fails_with(o: &Output, needle: &str) {

@@ -4,7 +4,9 @@
 
 use pn_runtime::npy::{encode_npy, read_npy};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+
+mod support;
+use support::pn;
 
 /// A fresh scratch directory, removed on drop.
 struct Scratch(PathBuf);
@@ -22,13 +24,6 @@ impl Drop for Scratch {
     fn drop(&mut self) {
         let _ = std::fs::remove_dir_all(&self.0);
     }
-}
-
-fn pn(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_pn"))
-        .args(args)
-        .output()
-        .unwrap()
 }
 
 /// Runs `pn solve` and returns (fluence.npy data, report).

@@ -2,14 +2,9 @@
 
 use pn_runtime::render::image_io::write_exr_gray;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 
-fn pn(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_pn"))
-        .args(args)
-        .output()
-        .unwrap()
-}
+mod support;
+use support::pn;
 
 fn dir(name: &str) -> PathBuf {
     let d = Path::new(env!("CARGO_TARGET_TMPDIR")).join(name);

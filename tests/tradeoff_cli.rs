@@ -4,28 +4,14 @@
 //! Also `pn solve --solver cgnr-mf/lsqr/lsmr` and a bad `--solver` name.
 
 use std::path::PathBuf;
-use std::process::{Command, Output};
+
+mod support;
+use support::{ok, pn};
 
 fn dir(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("pn-tradeoff-{}-{name}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
     d
-}
-
-fn pn(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_pn"))
-        .args(args)
-        .output()
-        .unwrap()
-}
-
-fn ok(o: &Output) {
-    assert!(
-        o.status.success(),
-        "{}{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    );
 }
 
 #[test]

@@ -1,8 +1,10 @@
-//! Shared by the Mitsuba comparison tests: finding Mitsuba's Python and scratch folders.
+//! Shared by the integration tests: running the `pn` binary, finding Mitsuba's Python and
+//! scratch folders.
 #![allow(dead_code)]
 
 use pn_runtime::render::mitsuba;
 use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
 
 /// The Mitsuba interpreter, or `None` (test skipped) when there is none and
 /// PN_REQUIRE_MITSUBA is not 1.
@@ -27,4 +29,22 @@ pub fn work_dir(name: &str) -> PathBuf {
     let d = Path::new(env!("CARGO_TARGET_TMPDIR")).join(name);
     let _ = std::fs::remove_dir_all(&d);
     d
+}
+
+/// Runs the `pn` binary with `args`.
+pub fn pn(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_pn"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+/// Asserts that a `pn` run succeeded, showing its output otherwise.
+pub fn ok(o: &Output) {
+    assert!(
+        o.status.success(),
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
 }
