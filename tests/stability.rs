@@ -447,6 +447,36 @@ fn memory_estimate_matches_the_assembled_system() {
     }
 }
 
+/// The per-solver estimate: the parity solvers hold the blocks of A once (never A beside
+/// them), so their estimate is below the assembled bound but still above the blocks of the
+/// actual system; the CDA stencil (no parity structure) keeps the assembled bound, and the
+/// matrix-free solvers need no matrix.
+#[test]
+fn memory_estimate_per_solver() {
+    use pn_runtime::memory_estimate::{estimate, estimate_for_solver};
+    let mut c = base("estimate per solver");
+    c.order = 3;
+    c.dim = Dim::Three;
+    c.res = [6, 5, 4];
+    let p = problem(&c);
+    let k = pn_kernel(3, Dim::Three, Layout::Staggered).unwrap();
+    let full = estimate(&p.grid, k.kernel.as_ref());
+    let parity = estimate_for_solver(&p.grid, k.kernel.as_ref(), SolverKind::ParityCg);
+    let mf = estimate_for_solver(&p.grid, k.kernel.as_ref(), SolverKind::CgnrMf);
+    let cgnr = estimate_for_solver(&p.grid, k.kernel.as_ref(), SolverKind::Cgnr);
+    assert_eq!(cgnr, full);
+    assert!(
+        parity.bytes < full.bytes && mf.bytes < parity.bytes,
+        "{parity} {mf} {full}"
+    );
+    assert!(parity.bytes >= parity.nonzeros * 16, "{parity}");
+    let cda = pnsolver::stencils::cda_kernel(Dim::Three).unwrap();
+    assert_eq!(
+        estimate_for_solver(&p.grid, cda.kernel.as_ref(), SolverKind::ParityCg),
+        estimate(&p.grid, cda.kernel.as_ref())
+    );
+}
+
 /// Tiny and huge sources: the system is linear, so the fluence scales with the source.
 /// Without rescaling, ‖b‖² underflows for a source of 1e-300 and the solver returned
 /// u = 0 as "converged" (a silent wrong answer); now it matches the unit source.

@@ -22,13 +22,15 @@ pub struct System {
 }
 
 /// Rows per parallel work item.
-const CHUNK: usize = 2048;
+pub(crate) const CHUNK: usize = 2048;
 
-struct Chunk {
-    row_nnz: Vec<usize>,
-    cols: Vec<usize>,
-    vals: Vec<f64>,
-    rhs: Vec<f64>,
+/// Consecutive assembled rows: entries per row, then the rows' columns and values
+/// (columns sorted and unique within a row) and right-hand sides.
+pub(crate) struct Chunk {
+    pub(crate) row_nnz: Vec<usize>,
+    pub(crate) cols: Vec<usize>,
+    pub(crate) vals: Vec<f64>,
+    pub(crate) rhs: Vec<f64>,
 }
 
 /// Checks that the kernel fits the problem and the layout (dimension, parity of offsets).
@@ -90,7 +92,8 @@ pub fn assemble(
     Ok(System { matrix, rhs })
 }
 
-fn assemble_chunk(
+/// Assembles the rows `rows` (storage indices) into a [`Chunk`].
+pub(crate) fn assemble_chunk(
     problem: &Problem,
     kernel: &dyn StencilKernel,
     layout: &Layout,

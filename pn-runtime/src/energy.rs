@@ -34,11 +34,12 @@ pub struct EnergyBalance {
 }
 
 /// Computes the balance of solution `u`. Returns `None` when the stencil has no
-/// centred (0,0) moment.
+/// centred (0,0) moment, or has no L_1 face moments and `a` (needed for the stencil route
+/// of the outflow) is not given.
 pub fn energy_balance(
     problem: &Problem,
     layout: &Layout,
-    a: &CsMat<f64>,
+    a: Option<&CsMat<f64>>,
     u: &[f64],
 ) -> Option<EnergyBalance> {
     let grid = &problem.grid;
@@ -103,7 +104,7 @@ pub fn energy_balance(
         }
         None => {
             let mut au = vec![0.0; u.len()];
-            spmv(a, u, &mut au);
+            spmv(a?, u, &mut au);
             let mut div = 0.0;
             let mut c = 0usize;
             for i in 0..res[0] {

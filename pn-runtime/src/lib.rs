@@ -13,6 +13,7 @@ pub mod fld;
 pub mod reference;
 
 pub mod assemble;
+pub mod assemble_split;
 pub mod context;
 pub mod convergence;
 pub mod energy;

@@ -17,6 +17,50 @@ pub trait LinearOperator: Send + Sync {
     fn apply_transpose(&self, x: &[f64], y: &mut [f64]);
 }
 
+/// An operator that counts the products taken with it (`A x` and `Aᵀ x` alike), so that
+/// solvers can report their work in products with `A` ([`crate::solver::SolveStats::operator_applications`]).
+pub struct Counted<'a> {
+    inner: &'a dyn LinearOperator,
+    count: std::sync::atomic::AtomicUsize,
+}
+
+impl<'a> Counted<'a> {
+    /// Wraps `inner` with a zero count.
+    pub fn new(inner: &'a dyn LinearOperator) -> Self {
+        Self {
+            inner,
+            count: std::sync::atomic::AtomicUsize::new(0),
+        }
+    }
+
+    /// Products taken so far.
+    pub fn count(&self) -> usize {
+        self.count.load(std::sync::atomic::Ordering::Relaxed)
+    }
+
+    fn tick(&self) {
+        self.count
+            .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    }
+}
+
+impl LinearOperator for Counted<'_> {
+    fn rows(&self) -> usize {
+        self.inner.rows()
+    }
+    fn cols(&self) -> usize {
+        self.inner.cols()
+    }
+    fn apply(&self, x: &[f64], y: &mut [f64]) {
+        self.tick();
+        self.inner.apply(x, y);
+    }
+    fn apply_transpose(&self, x: &[f64], y: &mut [f64]) {
+        self.tick();
+        self.inner.apply_transpose(x, y);
+    }
+}
+
 /// `r = b − A x` for any operator.
 pub fn op_residual(a: &dyn LinearOperator, x: &[f64], b: &[f64], r: &mut [f64]) {
     a.apply(x, r);

@@ -2,9 +2,11 @@
 //! layout → assembly → solve → un-stagger → energy balance.
 
 use crate::assemble::assemble;
+use crate::assemble_split::{assemble_split, has_parity_structure};
 use crate::energy::{energy_balance, EnergyBalance};
 use crate::layout::Layout;
 use crate::problem::Problem;
+use crate::solver::multigrid::solve::LayoutSolver;
 use crate::solver::{SolveStats, SolverKind, SolverOptions};
 use crate::unstagger::{unstagger, CellMoments};
 use pn_codegen::stencil::StencilKernel;
@@ -56,6 +58,15 @@ pub fn solve_problem(
     problem.validate()?;
     problem.check_not_singular()?;
     let layout = Layout::new(&problem.grid, kernel.moments())?;
+    if let Some(parity) = solver.parity_solver_for(&layout) {
+        if has_parity_structure(kernel) {
+            if let Some(solution) =
+                solve_split_system(problem, kernel, layout.clone(), &parity, opts)?
+            {
+                return Ok(solution);
+            }
+        }
+    }
     let t0 = Instant::now();
     let system = assemble(problem, kernel, &layout)?;
     let seconds_assembly = t0.elapsed().as_secs_f64();
@@ -63,6 +74,72 @@ pub fn solve_problem(
     let t1 = Instant::now();
     let (u, stats) = solve_scaled(solver, &layout, &system.matrix, &system.rhs, opts);
     let seconds_solve = t1.elapsed().as_secs_f64();
+    let energy = energy_balance(problem, &layout, Some(&system.matrix), &u);
+    let nonzeros = system.matrix.nnz();
+    drop(system);
+    finish(
+        problem,
+        layout,
+        u,
+        stats,
+        energy,
+        nonzeros,
+        seconds_assembly,
+        seconds_solve,
+    )
+}
+
+/// The parity solvers' route: assemble straight into the even/odd blocks
+/// ([`assemble_split`]) so that `A` is never held next to them, and solve from the blocks.
+/// `None` when the system turns out to lack the parity structure (σ_t = 0 somewhere);
+/// the caller then assembles `A` and the solver falls back as usual.
+fn solve_split_system(
+    problem: &Problem,
+    kernel: &dyn StencilKernel,
+    layout: Layout,
+    parity: &LayoutSolver,
+    opts: &SolverOptions,
+) -> anyhow::Result<Option<Solution>> {
+    let t0 = Instant::now();
+    let system = match assemble_split(problem, kernel, &layout)? {
+        Ok(s) => s,
+        Err(_) => return Ok(None),
+    };
+    let seconds_assembly = t0.elapsed().as_secs_f64();
+    check_magnitude_values(system.max_entry, true, &system.rhs)?;
+    let t1 = Instant::now();
+    let (u, stats) = crate::matfree::solve::solve_with_scaled_rhs(&system.rhs, |b| {
+        parity.solve_split(&system.split, b, opts)
+    });
+    let seconds_solve = t1.elapsed().as_secs_f64();
+    let nonzeros = system.split.nnz_a;
+    drop(system);
+    let energy = energy_balance(problem, &layout, None, &u);
+    finish(
+        problem,
+        layout,
+        u,
+        stats,
+        energy,
+        nonzeros,
+        seconds_assembly,
+        seconds_solve,
+    )
+    .map(Some)
+}
+
+/// Checks the solver's status, un-staggers and packs the [`Solution`].
+#[allow(clippy::too_many_arguments)]
+fn finish(
+    problem: &Problem,
+    layout: Layout,
+    u: Vec<f64>,
+    stats: SolveStats,
+    energy: Option<EnergyBalance>,
+    nonzeros: usize,
+    seconds_assembly: f64,
+    seconds_solve: f64,
+) -> anyhow::Result<Solution> {
     if stats.status == crate::solver::SolveStatus::Diverged {
         anyhow::bail!(
             "the {} solver diverged after {} iterations (relative residual {:.3e})",
@@ -72,10 +149,9 @@ pub fn solve_problem(
         );
     }
     let moments = unstagger(&problem.grid, &layout, &u);
-    let energy = energy_balance(problem, &layout, &system.matrix, &u);
     Ok(Solution {
         unknowns: layout.len(),
-        nonzeros: system.matrix.nnz(),
+        nonzeros,
         layout,
         u,
         moments,
@@ -95,8 +171,14 @@ pub const MAX_ENTRY_MAGNITUDE: f64 = 1e150;
 /// the value (e.g. σ_t = 1e300, or a source of 1e200), instead of a NaN residual later.
 fn check_magnitudes(a: &sprs::CsMat<f64>, b: &[f64]) -> anyhow::Result<()> {
     let max_a = a.data().iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let finite = a.data().iter().all(|v| v.is_finite());
+    check_magnitude_values(max_a, finite, b)
+}
+
+/// [`check_magnitudes`] given the matrix's largest magnitude and finiteness.
+fn check_magnitude_values(max_a: f64, finite_a: bool, b: &[f64]) -> anyhow::Result<()> {
     let max_b = b.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-    let finite = a.data().iter().chain(b).all(|v| v.is_finite());
+    let finite = finite_a && max_a.is_finite() && b.iter().all(|v| v.is_finite());
     anyhow::ensure!(
         finite && max_a <= MAX_ENTRY_MAGNITUDE && max_b <= MAX_ENTRY_MAGNITUDE,
         "the assembled system has entries up to {max_a:.3e} (matrix) and {max_b:.3e} \

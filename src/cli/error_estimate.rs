@@ -60,8 +60,11 @@ pub fn check_memory_and_set_sigma_t_min(
     scene: &mut Scene,
     choice: &KernelChoice,
 ) -> Result<Option<f64>> {
-    let estimate =
-        pn_runtime::memory_estimate::estimate(&scene.problem.grid, choice.kernel.as_ref());
+    let estimate = pn_runtime::memory_estimate::estimate_for_solver(
+        &scene.problem.grid,
+        choice.kernel.as_ref(),
+        a.solver,
+    );
     pn_runtime::memory_estimate::check_limit(
         &estimate,
         a.max_memory

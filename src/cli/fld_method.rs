@@ -402,6 +402,8 @@ fn as_solution(grid: &pn_runtime::problem::Grid, run: &FldRun, tol: f64) -> Resu
         rhs_norm: rhs_rms * ((nx * ny * nz) as f64).sqrt(),
         tolerance: tol,
         history: s.residual_history.iter().skip(1).copied().collect(),
+        // Nonlinear sweeps, not products with a fixed matrix: not counted.
+        operator_applications: 0,
     };
     Ok(Solution {
         layout,

@@ -92,14 +92,9 @@ pub fn solve_problem_matrix_free(
         );
     }
     let moments = unstagger(&problem.grid, &layout, &u);
-    let has_faces = layout.moments.iter().any(|m| m.l == 1);
-    let energy = if has_faces {
-        // The faces route of `energy_balance` reads L_1 at the boundary and never the matrix.
-        let n = layout.len();
-        energy_balance(problem, &layout, &sprs::CsMat::zero((n, n)), &u)
-    } else {
-        None
-    };
+    // Without A only the faces route (L_1 at the boundary) is available; stencils without
+    // L_1 moments get no balance.
+    let energy = energy_balance(problem, &layout, None, &u);
     Ok(Solution {
         unknowns: layout.len(),
         nonzeros: op.stored_weights(),

@@ -64,6 +64,8 @@ pub struct Report {
     pub converged: bool,
     /// Iterations.
     pub iterations: usize,
+    /// Work in products with `A` ([`crate::solver::SolveStats::operator_applications`]).
+    pub operator_applications: usize,
     /// Final relative residual ‖b − Au‖₂/‖b‖₂ (recomputed from the solution).
     pub final_residual: f64,
     /// Which norm `final_residual` and `tolerance` refer to.
@@ -130,6 +132,7 @@ impl Report {
             status: st.status,
             converged: st.converged(),
             iterations: st.iterations,
+            operator_applications: st.operator_applications,
             final_residual: st.relative_residual,
             residual_norm: "relative l2: ||b - A u||_2 / ||b||_2 over all unknowns".into(),
             absolute_residual: st.absolute_residual,

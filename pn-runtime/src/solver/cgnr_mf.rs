@@ -12,7 +12,7 @@
 use super::parity::krylov::{Control, Outcome};
 use super::{progress_bar, LinearSolver, SolveStats, SolveStatus, SolverOptions};
 use crate::linalg::{axpy, dot, norm, xpby};
-use crate::operator::{op_residual, AssembledOperator, LinearOperator};
+use crate::operator::{op_residual, AssembledOperator, Counted, LinearOperator};
 use sprs::CsMat;
 
 /// CGLS with the matrix-free operator; given an assembled matrix (through
@@ -95,7 +95,7 @@ pub(crate) fn status_of(outcome: Outcome) -> SolveStatus {
 
 /// The stats of a finished run, with the residual recomputed from `x`.
 pub(crate) fn finish(
-    a: &dyn LinearOperator,
+    a: &Counted,
     b: &[f64],
     x: Vec<f64>,
     status: SolveStatus,
@@ -128,6 +128,7 @@ pub(crate) fn finish(
         rhs_norm: mon.bnorm,
         tolerance: opts.tol,
         history: mon.ctl.history,
+        operator_applications: a.count(),
     };
     (x, stats)
 }
@@ -139,6 +140,8 @@ pub fn cgls(
     opts: &SolverOptions,
     name: &str,
 ) -> (Vec<f64>, SolveStats) {
+    let counted = Counted::new(a);
+    let a = &counted;
     let n = a.cols();
     let bnorm = norm(b);
     let mut x = vec![0.0; n];

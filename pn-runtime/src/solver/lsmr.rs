@@ -44,6 +44,8 @@ pub fn lsmr(
     opts: &SolverOptions,
     name: &str,
 ) -> (Vec<f64>, SolveStats) {
+    let counted = crate::operator::Counted::new(a);
+    let a = &counted;
     let (m, n) = (a.rows(), a.cols());
     let bnorm = norm(b);
     let mut x = vec![0.0; n];

@@ -93,19 +93,32 @@ impl SolverKind {
     /// positions for multigrid (`parity-cg` picks it automatically for large systems,
     /// [`parity::MG_MIN_NONZEROS`]); the other kinds are as [`SolverKind::solver`].
     pub fn solver_for(self, layout: &crate::layout::Layout) -> Box<dyn LinearSolver> {
+        match self.parity_solver_for(layout) {
+            Some(s) => Box::new(s),
+            None => self.solver(),
+        }
+    }
+
+    /// For the parity kinds (`parity-cg`, `parity-mg`, `parity-ilu`), the layout solver
+    /// [`SolverKind::solver_for`] uses, which can also solve from the parity blocks alone
+    /// ([`multigrid::solve::LayoutSolver::solve_split`]); `None` for the other kinds.
+    pub fn parity_solver_for(
+        self,
+        layout: &crate::layout::Layout,
+    ) -> Option<multigrid::solve::LayoutSolver> {
         match self {
-            SolverKind::ParityCg => Box::new(multigrid::solve::LayoutSolver::new(
+            SolverKind::ParityCg => Some(multigrid::solve::LayoutSolver::new(
                 parity::ParityCg::for_layout(layout),
                 layout,
             )),
-            SolverKind::ParityMg => Box::new(multigrid::solve::LayoutSolver::new(
+            SolverKind::ParityMg => Some(multigrid::solve::LayoutSolver::new(
                 parity::ParityCg::for_layout(layout).with_precond(parity::Precond::Multigrid),
                 layout,
             )),
-            SolverKind::ParityIlu => Box::new(multigrid::solve::LayoutSolver::without_multigrid(
+            SolverKind::ParityIlu => Some(multigrid::solve::LayoutSolver::without_multigrid(
                 parity::ParityCg::new(parity::even_mask(layout), parity::Precond::Auto),
             )),
-            other => other.solver(),
+            _ => None,
         }
     }
 
@@ -197,6 +210,14 @@ pub struct SolveStats {
     pub tolerance: f64,
     /// Relative residual after each iteration (from the recurrence).
     pub history: Vec<f64>,
+    /// Work in products with `A`: CGNR, LSQR and LSMR count every product with `A` and
+    /// `Aᵀ` (two per iteration, plus the start and the residual checks); the parity solvers
+    /// count every application of the reduced operator `S` — Krylov steps, multigrid
+    /// smoothing and residuals on the finest level, setup and probes — as one each, since it
+    /// touches the off-diagonal entries of `A` once
+    /// ([`parity::ParityReport::a_equivalent_applications`]); multigrid-CG on a scalar
+    /// system counts its products with the matrix. 0 where nothing is counted (FLD).
+    pub operator_applications: usize,
 }
 
 impl SolveStats {

@@ -35,6 +35,62 @@ impl LayoutSolver {
     }
 }
 
+impl LayoutSolver {
+    /// Solves the system given by its parity blocks (no `A` to fall back on): when the
+    /// chosen preconditioner cannot be built (multigrid on a degenerate grid, a singular
+    /// block), says so and solves with the Jacobi preconditioner instead.
+    pub fn solve_split(
+        &self,
+        split: &crate::solver::parity::split::Split,
+        b: &[f64],
+        opts: &SolverOptions,
+    ) -> (Vec<f64>, SolveStats) {
+        match self.parity.solve_split(split, b, opts) {
+            Ok((u, report)) => (u, report.stats),
+            Err(e) => {
+                eprintln!("note: the parity preconditioner could not be built ({e}); using Jacobi");
+                let jacobi = self
+                    .parity
+                    .clone()
+                    .with_precond(crate::solver::parity::Precond::Jacobi);
+                match jacobi.solve_split(split, b, opts) {
+                    Ok((u, report)) => (u, report.stats),
+                    Err(e) => {
+                        eprintln!("note: Jacobi could not be built either ({e}); unpreconditioned");
+                        match jacobi
+                            .with_precond(crate::solver::parity::Precond::None)
+                            .solve_split(split, b, opts)
+                        {
+                            Ok((u, report)) => (u, report.stats),
+                            // Unreachable: `Precond::None` builds nothing that can fail.
+                            Err(e) => failed_solve(b.len(), opts, &e.to_string()),
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// A `Diverged` result for a solve that could not start.
+fn failed_solve(n: usize, opts: &SolverOptions, why: &str) -> (Vec<f64>, SolveStats) {
+    eprintln!("error: the parity solve could not start: {why}");
+    (
+        vec![0.0; n],
+        SolveStats {
+            solver: "parity-cg".into(),
+            status: SolveStatus::Diverged,
+            iterations: 0,
+            relative_residual: f64::NAN,
+            absolute_residual: f64::NAN,
+            rhs_norm: f64::NAN,
+            tolerance: opts.tol,
+            history: Vec::new(),
+            operator_applications: 0,
+        },
+    )
+}
+
 impl LinearSolver for LayoutSolver {
     fn name(&self) -> &'static str {
         "parity-cg"
@@ -126,7 +182,12 @@ pub fn mg_krylov(
         opts.divergence_limit,
         &show,
     );
-    let apply = |x: &[f64], y: &mut [f64]| spmv(a, x, y);
+    // Every product with `a`, the multigrid cycle's finest level included.
+    let products = std::sync::atomic::AtomicUsize::new(0);
+    let apply = |x: &[f64], y: &mut [f64]| {
+        products.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        spmv(a, x, y)
+    };
     let prec = |r: &[f64], z: &mut [f64]| mg.apply(&apply, r, z);
     let mut x = vec![0.0; b.len()];
     let outcome = if bnorm == 0.0 {
@@ -162,6 +223,10 @@ pub fn mg_krylov(
             rhs_norm: bnorm,
             tolerance: opts.tol,
             history: ctl.history,
+            // The products above, the final residual, and the setup's power iteration.
+            operator_applications: products.load(std::sync::atomic::Ordering::Relaxed)
+                + 1
+                + mg.setup_fine_applications(),
         },
     ))
 }

@@ -6,6 +6,7 @@
 //! `C̃ = D_o⁻¹ C` (odd rows × even columns, already scaled so that the reduced operator is
 //! two plain sparse products).
 
+use crate::linalg::spmv;
 use rayon::prelude::*;
 use sprs::CsMat;
 
@@ -254,6 +255,36 @@ impl Split {
             u[g] = v;
         }
         u
+    }
+
+    /// `‖b − A u‖₂` from the blocks, with `u` and `b` given by parity:
+    /// `r_e = b_e − D_e u_e − B u_o`, `r_o = b_o − D_o (u_o + C̃ u_e)`. Equal to the norm of
+    /// the residual of the assembled `A` up to rounding, so a solve can check its result
+    /// after `A` itself has been dropped (or was never assembled, [`crate::assemble::assemble_split`]).
+    pub fn residual_norm(&self, u_e: &[f64], u_o: &[f64], b_e: &[f64], b_o: &[f64]) -> f64 {
+        let mut t = vec![0.0; b_e.len()];
+        spmv(&self.b, u_o, &mut t);
+        let even: f64 = (
+            t.par_iter(),
+            b_e.par_iter(),
+            self.d_e.par_iter(),
+            u_e.par_iter(),
+        )
+            .into_par_iter()
+            .map(|(t, b, d, u)| (b - d * u - t).powi(2))
+            .sum();
+        let mut t = vec![0.0; b_o.len()];
+        spmv(&self.c_scaled, u_e, &mut t);
+        let odd: f64 = (
+            t.par_iter(),
+            b_o.par_iter(),
+            self.d_o.par_iter(),
+            u_o.par_iter(),
+        )
+            .into_par_iter()
+            .map(|(t, b, d, u)| (b - d * (u + t)).powi(2))
+            .sum();
+        (even + odd).sqrt()
     }
 
     /// Gathers the even and odd parts of a global vector.
