@@ -49,6 +49,8 @@ use super::params::FldParams;
 use super::solver::FldSolution;
 use crate::field::VoxelGrid;
 use crate::linalg::residual;
+use crate::solver::multigrid::solve::mg_krylov;
+use crate::solver::multigrid::Geometry;
 use crate::solver::{SolveStatus, SolverKind, SolverOptions};
 
 /// Options of the Picard route (the nonlinear tolerance and σ_ε, ε, limiter come from
@@ -148,7 +150,17 @@ pub fn solve_fld_picard(
     let grid = op.grid;
     let len = grid.len();
     let interior = InteriorIndex::new(grid);
-    let solver_name = opts.solver.solver().name().to_string();
+    // The steps are scalar diffusion systems (SPD): the parity kinds, which would find no
+    // parity structure to eliminate, solve them with multigrid-preconditioned CG, as they
+    // do for CDA through the pipeline (falling back to their usual route if the hierarchy
+    // cannot be built); the other kinds run as given.
+    let geometry = matches!(opts.solver, SolverKind::ParityCg | SolverKind::ParityMg)
+        .then(|| interior.geometry());
+    let solver_name = if geometry.is_some() {
+        "mg-cg".to_string()
+    } else {
+        opts.solver.solver().name().to_string()
+    };
     if let Some(phi0) = initial {
         ensure!(
             phi0.len() == len && phi0.iter().all(|v| v.is_finite()),
@@ -214,7 +226,11 @@ pub fn solve_fld_picard(
         let x: Vec<f64> = interior.cells.iter().map(|&c| phi[c]).collect();
         let mut r = vec![0.0; x.len()];
         residual(&system.matrix, &x, &system.rhs, &mut r);
-        let (delta, stats) = solver.solve(&system.matrix, &r, &linear_opts);
+        let multigrid = geometry
+            .as_ref()
+            .and_then(|g| mg_krylov(&system.matrix, &r, g, &linear_opts).ok());
+        let (delta, stats) =
+            multigrid.unwrap_or_else(|| solver.solve(&system.matrix, &r, &linear_opts));
         linear_iterations.push(stats.iterations);
         if stats.status == SolveStatus::Diverged || delta.iter().any(|v| !v.is_finite()) {
             bail!(
@@ -339,6 +355,24 @@ impl InteriorIndex {
 
     fn len(&self) -> usize {
         self.cells.len()
+    }
+
+    /// The unknowns' positions for the multigrid preconditioner: one class (φ), the
+    /// interior cell `(i, j, k)` at `(i − 1, j − 1, k − 1)`, in unknown order.
+    fn geometry(&self) -> Geometry {
+        let [nx, ny, nz] = self.grid.n;
+        let mut coords = Vec::with_capacity(self.len());
+        for i in 0..nx - 2 {
+            for j in 0..ny - 2 {
+                for k in 0..nz - 2 {
+                    coords.push([i, j, k].map(|v| v as u32));
+                }
+            }
+        }
+        Geometry {
+            class: vec![0; coords.len()],
+            coords,
+        }
     }
 
     /// Unknown number of interior cell `(i, j, k)`.
