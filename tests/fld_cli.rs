@@ -215,7 +215,8 @@ fn picard_and_gs_routes_agree_via_cli() {
         &d.0.join("pc"),
     );
     assert_eq!(rep_pc["fld"]["route"], "picard");
-    assert_eq!(rep_pc["fld"]["linear_solver"], "parity-cg");
+    // parity-cg solves the scalar SPD steps with multigrid-preconditioned CG and says so.
+    assert_eq!(rep_pc["fld"]["linear_solver"], "mg-cg");
     assert_eq!(rep_pc["stencil"], "diffusion_3d");
     assert!(rep_pc["fld"]["omega"].is_null());
     let steps = rep_pc["fld"]["iterations"].as_u64().unwrap() as usize;

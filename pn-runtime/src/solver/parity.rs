@@ -89,7 +89,10 @@ pub struct ParityReport {
     pub method: KrylovMethod,
     /// Preconditioner name.
     pub precond: &'static str,
-    /// Measured relative asymmetry of `S` (see [`reduced::ReducedOperator::asymmetry`]).
+    /// Measured relative asymmetry of `S` (random probes, see
+    /// [`reduced::ReducedOperator::asymmetry`]); with multigrid, when its first Galerkin
+    /// operator is already asymmetric, that operator's asymmetry
+    /// ([`crate::solver::multigrid::Multigrid::first_coarse_asymmetry`]) and no probes.
     pub asymmetry: f64,
     /// Whether `S` was formed as CSR.
     pub formed: bool,
@@ -265,8 +268,23 @@ impl ParityCg {
             Err(e) => return Err(e),
         };
         let t_pre = t_split + t0.elapsed().as_secs_f64();
-        let probes = if op.is_empty() { 0 } else { PROBE_PAIRS };
-        let asymmetry = op.asymmetry(probes);
+        // With multigrid, an asymmetric first Galerkin operator PᵀSP proves S asymmetric
+        // (PᵀSP is symmetric whenever S is), so the random probes, 2·PROBE_PAIRS
+        // applications of S, are skipped and its asymmetry is reported instead.
+        let coarse_asymmetry = match &pre {
+            precond::Built::Multigrid(mg)
+                if mg.first_coarse_asymmetry() > crate::solver::multigrid::COARSE_SYMMETRY_TOL =>
+            {
+                Some(mg.first_coarse_asymmetry())
+            }
+            _ => None,
+        };
+        let probes = if op.is_empty() || coarse_asymmetry.is_some() {
+            0
+        } else {
+            PROBE_PAIRS
+        };
+        let asymmetry = coarse_asymmetry.unwrap_or_else(|| op.asymmetry(probes));
         // Nonsymmetric S: BiCGSTAB (two preconditioner applications per iteration) is
         // cheapest for the light preconditioners; with multigrid, whose cycle costs several
         // S applications, GMRES needs one per iteration and as many iterations (80³ P_3).

@@ -8,7 +8,9 @@
 //! * [`smoother`]: Jacobi-preconditioned Chebyshev smoothing.
 //! * [`vcycle`]: the symmetric V-cycle `z = M⁻¹ r` (same smoother before and after the
 //!   coarse correction, dense LU on the coarsest level), so `M` is symmetric positive
-//!   definite when `S` is, as CG requires.
+//!   definite when `S` is, as CG requires; or, with [`FineCycle::Additive`], the finest
+//!   level joined additively, `M⁻¹ = ω D⁻¹ + P M_c⁻¹ Pᵀ`, which applies the finest
+//!   operator not at all (the Krylov method's own products do the fine-level smoothing).
 //!
 //! The finest operator is not stored here: every application takes it as a closure, so
 //! the same hierarchy serves the matrix-free `S` and an assembled matrix.
@@ -80,8 +82,21 @@ pub struct MgOptions {
     pub fine_degree: usize,
     /// Chebyshev degree on the coarse levels (they are cheap).
     pub coarse_degree: usize,
+    /// Chebyshev degree on the coarse levels where aggregation coarsens by at most 4 per
+    /// level (2D grids), so that the coarse levels are relatively larger and the cycle
+    /// leans on them more. On the 71² checkerboard (GMRES, to 1e-10) degree 3 instead of 2
+    /// saves 3 iterations at P_5 (50 vs 53, 261 vs 276 applications of `S`) and P_3 (39 vs
+    /// 42); on the 3D point source it saved none (40³ P_3 11, 32³ P_5 12) while adding
+    /// coarse work, so 3D keeps `coarse_degree`.
+    pub coarse_degree_2d: usize,
     /// The smoother damps `[λ_max/ratio, λ_max]` of `D⁻¹A` (degree ≥ 2).
     pub ratio: f64,
+    /// The same for the finest level's smoother (degree ≥ 2). On the even-parity
+    /// systems 15 saves about one iteration against 10 (5 applications of `S`; GMRES
+    /// iterations 15 vs 10 vs 20): 40³ P_3 point source 11 / 12 / 11, 32³ P_5 12 / 13 / 13,
+    /// 71² checkerboard P_5 53 / 54 / 53, P_3 42 / 42 / 42. [`Multigrid::for_matrix`] uses
+    /// `ratio` instead.
+    pub fine_ratio: f64,
     /// Power iterations for `λ_max`.
     pub power_steps: usize,
     /// Stop coarsening at this many unknowns.
@@ -93,6 +108,51 @@ pub struct MgOptions {
     /// The coarse correction is added as `x += scale · P x_c` (over-correction makes up
     /// for the energy that piecewise-constant interpolation loses; 1 = plain).
     pub correction_scale: f64,
+    /// How the finest level enters the preconditioner.
+    pub fine_cycle: FineCycle,
+}
+
+/// How the finest level enters the preconditioner.
+///
+/// Measured (`pn solve pointsource --tol 1e-6`, CG iterations / applications of `S` in the
+/// iteration, the multiplicative setup's 8 power steps not included): 40³ P_1
+/// multiplicative 9 / 46, additive 19 / 20; 80³ P_1 12 / 61 vs 22 / 23 (iterate 0.46 s vs
+/// 0.26 s); 40³ P_3 Dirichlet 12 / 61 vs 39 / 40 (iterate 0.56–0.65 s vs 0.53–0.58 s,
+/// three runs each). Under GMRES (the slightly nonsymmetric Neumann `S` from P_3 on) the
+/// additive form also needs fewer applications, but its many more iterations cost more
+/// orthogonalisation than they save: 80³ P_5 19 / 101 vs 64 / 69, iterate 26 s vs 36 s;
+/// 71² checkerboard P_5 54 vs 178 iterations, 0.49 s vs 1.12 s. (CG instead of GMRES
+/// diverged on the checkerboard.) Hence the default [`FineCycle::AdditiveIfSymmetric`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum FineCycle {
+    /// Chebyshev smoothing before and after the coarse correction (V-cycle): `2·degree`
+    /// applications of the finest operator per cycle.
+    Multiplicative,
+    /// `M⁻¹ = ω D⁻¹ + P M_c⁻¹ Pᵀ` with `M_c⁻¹` the V-cycle of the coarse levels: no
+    /// application of the finest operator in the cycle and no power iteration. Symmetric;
+    /// the Krylov method needs more iterations (one application each).
+    Additive {
+        /// Weight of the fine-level Jacobi term relative to the coarse correction (the
+        /// iteration counts hardly depend on it: 0.5, 1 and 2 gave 39, 39 and 40
+        /// iterations on the 40³ P_3 point source).
+        omega: f64,
+    },
+    /// Additive (`ω = 1`) where the finest operator is symmetric (so that CG, with its
+    /// short recurrence, runs), multiplicative elsewhere. Symmetry is read off the first
+    /// Galerkin operator `PᵀAP` (no application of `A`). [`Multigrid::for_matrix`] (scalar
+    /// systems such as CDA) takes it as multiplicative.
+    AdditiveIfSymmetric,
+}
+
+impl FineCycle {
+    /// `AdditiveIfSymmetric` resolved for an operator that is (or is not) symmetric.
+    pub fn resolve(self, symmetric: bool) -> Self {
+        match self {
+            FineCycle::AdditiveIfSymmetric if symmetric => FineCycle::Additive { omega: 1.0 },
+            FineCycle::AdditiveIfSymmetric => FineCycle::Multiplicative,
+            other => other,
+        }
+    }
 }
 
 impl Default for MgOptions {
@@ -100,20 +160,25 @@ impl Default for MgOptions {
         Self {
             fine_degree: 2,
             coarse_degree: 2,
+            coarse_degree_2d: 3,
             ratio: 10.0,
+            fine_ratio: 15.0,
             power_steps: 8,
             coarse_max: 300,
             dense_max: 6000,
             max_levels: 25,
             correction_scale: 1.0,
+            fine_cycle: FineCycle::AdditiveIfSymmetric,
         }
     }
 }
 
 impl MgOptions {
     /// The defaults with overrides from the environment (`PN_MG_FINE_DEGREE`,
-    /// `PN_MG_COARSE_DEGREE`, `PN_MG_RATIO`, `PN_MG_POWER_STEPS`, `PN_MG_COARSE_MAX`,
-    /// `PN_MG_SCALE`), for tuning experiments; unparsable values are ignored.
+    /// `PN_MG_COARSE_DEGREE`, `PN_MG_COARSE_DEGREE_2D`, `PN_MG_RATIO`, `PN_MG_FINE_RATIO`,
+    /// `PN_MG_POWER_STEPS`, `PN_MG_COARSE_MAX`, `PN_MG_SCALE`; `PN_MG_ADDITIVE=ω` forces
+    /// [`FineCycle::Additive`], `PN_MG_ADDITIVE=0` [`FineCycle::Multiplicative`]), for
+    /// tuning experiments; unparsable values are ignored.
     pub fn from_env() -> Self {
         fn get<T: std::str::FromStr>(name: &str, default: T) -> T {
             std::env::var(name)
@@ -125,10 +190,17 @@ impl MgOptions {
         Self {
             fine_degree: get("PN_MG_FINE_DEGREE", d.fine_degree),
             coarse_degree: get("PN_MG_COARSE_DEGREE", d.coarse_degree),
+            coarse_degree_2d: get("PN_MG_COARSE_DEGREE_2D", d.coarse_degree_2d),
             ratio: get("PN_MG_RATIO", d.ratio),
+            fine_ratio: get("PN_MG_FINE_RATIO", d.fine_ratio),
             power_steps: get("PN_MG_POWER_STEPS", d.power_steps),
             coarse_max: get("PN_MG_COARSE_MAX", d.coarse_max),
             correction_scale: get("PN_MG_SCALE", d.correction_scale),
+            fine_cycle: match get("PN_MG_ADDITIVE", f64::NAN) {
+                w if w > 0.0 && w.is_finite() => FineCycle::Additive { omega: w },
+                w if w.is_nan() || w < 0.0 || w.is_infinite() => d.fine_cycle,
+                _ => FineCycle::Multiplicative,
+            },
             ..d
         }
     }
@@ -169,6 +241,12 @@ pub struct Multigrid {
     coarse_nnz: Vec<usize>,
     scale: f64,
     setup_apps: usize,
+    /// The finest level is additive ([`FineCycle::Additive`]).
+    additive: bool,
+    /// [`csr_asymmetry`] of the first Galerkin operator `PᵀAP`.
+    first_coarse_asymmetry: f64,
+    /// Cycles applied and nanoseconds spent in them (for the profile line).
+    cycle_stats: [std::sync::atomic::AtomicU64; 2],
     work: Mutex<Vec<Work>>,
 }
 
@@ -188,6 +266,52 @@ fn inverse_diagonal(level: usize, diag: &[f64]) -> Result<Vec<f64>, MgError> {
         })
         .collect()
 }
+
+/// `max |a_ij − a_ji| / (max_k |a_ik| + max_k |a_jk|)` over the entries of a square CSR
+/// matrix with sorted columns (infinite for a non-square or non-CSR matrix).
+fn csr_asymmetry(a: &CsMat<f64>) -> f64 {
+    use rayon::prelude::*;
+    if !a.is_csr() || a.rows() != a.cols() {
+        return f64::INFINITY;
+    }
+    let ap = a.indptr();
+    let ap = ap.raw_storage();
+    let (ai, av) = (a.indices(), a.data());
+    let scale: Vec<f64> = (0..a.rows())
+        .into_par_iter()
+        .map(|i| {
+            av[ap[i]..ap[i + 1]]
+                .iter()
+                .fold(0.0f64, |m, v| m.max(v.abs()))
+        })
+        .collect();
+    (0..a.rows())
+        .into_par_iter()
+        .map(|i| {
+            (ap[i]..ap[i + 1])
+                .map(|p| {
+                    let j = ai[p];
+                    let t = match ai[ap[j]..ap[j + 1]].binary_search(&i) {
+                        Ok(q) => av[ap[j] + q],
+                        Err(_) => 0.0,
+                    };
+                    let denom = scale[i] + scale[j];
+                    if denom > 0.0 {
+                        (av[p] - t).abs() / denom
+                    } else {
+                        0.0
+                    }
+                })
+                .fold(0.0f64, f64::max)
+        })
+        .reduce(|| 0.0, f64::max)
+}
+
+/// [`FineCycle::AdditiveIfSymmetric`] treats the finest operator as symmetric when its
+/// first Galerkin operator's [`csr_asymmetry`] is at most this tolerance: rounding in
+/// the coarse sums is ~1e-15 of the row scale, while the Neumann closure's asymmetry of
+/// `S` measured 4e-5 to 4e-4 (random probes) on the point source and checkerboard P_3/P_5.
+pub const COARSE_SYMMETRY_TOL: f64 = 1e-11;
 
 fn csr_diagonal(a: &CsMat<f64>) -> Vec<f64> {
     let mut d = vec![0.0; a.rows()];
@@ -216,18 +340,48 @@ impl Multigrid {
         }
         let t0 = std::time::Instant::now();
         let inv = inverse_diagonal(0, fine_diag)?;
-        let smoother = Chebyshev::new(
-            fine_apply,
-            inv,
-            opts.fine_degree,
-            opts.ratio_for(opts.fine_degree),
-            opts.power_steps,
-        );
-        let t_power = t0.elapsed().as_secs_f64();
         let agg = aggregate(geom);
         let t_agg = t0.elapsed().as_secs_f64();
         let mut a = first_coarse(&agg);
         let t_first = t0.elapsed().as_secs_f64();
+        // `PᵀAP` is symmetric (to rounding) when `A` is; an asymmetric `A` could pass only
+        // if its asymmetry cancelled within every aggregate pair. No application of `A`.
+        let first_coarse_asymmetry = csr_asymmetry(&a);
+        let fine_cycle = match opts.fine_cycle {
+            FineCycle::AdditiveIfSymmetric => opts
+                .fine_cycle
+                .resolve(first_coarse_asymmetry <= COARSE_SYMMETRY_TOL),
+            c => c,
+        };
+        let t_sym = t0.elapsed().as_secs_f64();
+        let smoother = match fine_cycle {
+            // The additive term ω D⁻¹ needs no spectrum: no power iteration.
+            FineCycle::Additive { omega } => Chebyshev {
+                inv_diag: inv,
+                lambda_max: 1.0 / omega,
+                lambda_min: 1.0 / omega,
+                degree: 1,
+            },
+            _ => Chebyshev::new(
+                fine_apply,
+                inv,
+                opts.fine_degree,
+                if opts.fine_degree <= 1 {
+                    opts.ratio_for(1)
+                } else {
+                    opts.fine_ratio
+                },
+                opts.power_steps,
+            ),
+        };
+        let additive = matches!(fine_cycle, FineCycle::Additive { .. });
+        let t_power = t0.elapsed().as_secs_f64();
+        // 2D-like coarsening (at most 4 fine unknowns per aggregate on average).
+        let coarse_degree = if 4 * agg.coarse_len() >= geom.len() {
+            opts.coarse_degree_2d
+        } else {
+            opts.coarse_degree
+        };
         let mut g = agg.coarse.clone();
         let mut levels = vec![Level {
             op: None,
@@ -246,8 +400,8 @@ impl Multigrid {
                 Chebyshev::new(
                     &op,
                     inv,
-                    opts.coarse_degree,
-                    opts.ratio_for(opts.coarse_degree),
+                    coarse_degree,
+                    opts.ratio_for(coarse_degree),
                     opts.power_steps.max(10),
                 )
             };
@@ -263,10 +417,11 @@ impl Multigrid {
         }
         if crate::solver::parity::profile_enabled() {
             eprintln!(
-                "profile mg setup: power {t_power:.3} s, aggregate {:.3} s, first Galerkin {:.3} s, coarser levels {:.3} s",
-                t_agg - t_power,
+                "profile mg setup: aggregate {t_agg:.3} s, first Galerkin {:.3} s, symmetry check {:.3} s, power {:.3} s, coarser levels {:.3} s",
                 t_first - t_agg,
-                t0.elapsed().as_secs_f64() - t_first
+                t_sym - t_first,
+                t_power - t_sym,
+                t0.elapsed().as_secs_f64() - t_power
             );
         }
         let n = a.rows();
@@ -308,7 +463,10 @@ impl Multigrid {
             coarsest_len: n,
             coarse_nnz,
             scale: opts.correction_scale,
-            setup_apps: opts.power_steps.max(1),
+            setup_apps: if additive { 0 } else { opts.power_steps.max(1) },
+            additive,
+            first_coarse_asymmetry,
+            cycle_stats: Default::default(),
             work: Mutex::new(work),
         })
     }
@@ -322,12 +480,25 @@ impl Multigrid {
             });
         }
         let apply = |x: &[f64], y: &mut [f64]| spmv(a, x, y);
+        // Scalar systems (CDA): the multiplicative cycle unless asked, one coarse degree
+        // and one damped interval on all levels, as tested (a finest ratio of 15 gave
+        // 11 / 11 / 12 CG iterations at 16³ / 32³ / 64³ instead of 9 / 10 / 11; the
+        // additive form is untested there).
+        let opts = MgOptions {
+            fine_cycle: match opts.fine_cycle {
+                FineCycle::AdditiveIfSymmetric => FineCycle::Multiplicative,
+                c => c,
+            },
+            fine_ratio: opts.ratio,
+            coarse_degree_2d: opts.coarse_degree,
+            ..opts.clone()
+        };
         Self::build(
             &apply,
             &csr_diagonal(a),
             geom,
             |agg| galerkin::coarse_from_csr(a, agg),
-            opts,
+            &opts,
         )
     }
 
@@ -360,19 +531,43 @@ impl Multigrid {
         &self.coarse_nnz
     }
 
-    /// One line describing the hierarchy (sizes, non-zeros, smoother bounds).
+    /// Whether the finest level is additive ([`FineCycle::Additive`]).
+    pub fn is_additive(&self) -> bool {
+        self.additive
+    }
+
+    /// Relative asymmetry of the first Galerkin operator `PᵀAP`
+    /// (`max |c_ij − c_ji| / (max_k |c_ik| + max_k |c_jk|)`). `PᵀAP` is symmetric to
+    /// rounding (~1e-15) whenever `A` is, so a value above [`COARSE_SYMMETRY_TOL`] proves
+    /// `A` nonsymmetric without a single application of `A`.
+    pub fn first_coarse_asymmetry(&self) -> f64 {
+        self.first_coarse_asymmetry
+    }
+
+    /// One line describing the hierarchy (sizes, non-zeros, smoother bounds, and the
+    /// cycles applied so far with their time).
     pub fn describe(&self) -> String {
+        use std::sync::atomic::Ordering::Relaxed;
         let sizes = self.level_sizes();
+        let fine = match self.levels.first() {
+            Some(l) if self.additive => {
+                format!("fine additive ω = {:.3}", 1.0 / l.smoother.lambda_max)
+            }
+            Some(l) => format!(
+                "fine λ_max(D⁻¹A) ≈ {:.3}, degree {}",
+                l.smoother.lambda_max / 1.1,
+                l.smoother.degree
+            ),
+            None => "no fine level".into(),
+        };
         format!(
-            "{} levels, unknowns {:?}, coarse nnz {:?}, fine λ_max(D⁻¹A) ≈ {:.3}, degrees {}/{}",
+            "{} levels, unknowns {:?}, coarse nnz {:?}, {fine}, coarse degree {}, {} cycles in {:.3} s",
             sizes.len(),
             sizes,
             self.coarse_nnz,
-            self.levels
-                .first()
-                .map_or(0.0, |l| l.smoother.lambda_max / 1.1),
-            self.levels.first().map_or(0, |l| l.smoother.degree),
             self.levels.get(1).map_or(0, |l| l.smoother.degree),
+            self.cycle_stats[0].load(Relaxed),
+            self.cycle_stats[1].load(Relaxed) as f64 * 1e-9,
         )
     }
 }

@@ -5,6 +5,10 @@
 //! residual and smooth again with the same polynomial. The coarsest level is solved
 //! exactly (dense LU). With the same smoother before and after, and `Pᵀ` as restriction,
 //! `M⁻¹` is symmetric whenever `A` is (tested in `tests/multigrid.rs`).
+//!
+//! An additive finest level ([`super::FineCycle::Additive`]) is `x = ω D⁻¹ b + s·P x_c`
+//! with `x_c` the cycle of the coarse levels for `Pᵀ b`: symmetric as well, and without
+//! any application of the finest operator.
 
 use super::{Multigrid, Work};
 use crate::linalg::spmv;
@@ -14,9 +18,13 @@ impl Multigrid {
     /// `z = M⁻¹ r`, with `fine_apply` the finest operator (`S`, or the matrix the
     /// hierarchy was built for).
     pub fn apply(&self, fine_apply: &dyn Fn(&[f64], &mut [f64]), r: &[f64], z: &mut [f64]) {
+        let t0 = std::time::Instant::now();
         let mut work = self.work.lock().unwrap_or_else(|e| e.into_inner());
         z.iter_mut().for_each(|v| *v = 0.0);
         self.cycle(0, fine_apply, r, z, &mut work);
+        use std::sync::atomic::Ordering::Relaxed;
+        self.cycle_stats[0].fetch_add(1, Relaxed);
+        self.cycle_stats[1].fetch_add(t0.elapsed().as_nanos() as u64, Relaxed);
     }
 
     fn cycle(
@@ -44,10 +52,20 @@ impl Multigrid {
             }
             None => fine_apply,
         };
-        // Pre-smoothing from x = 0 (x was zeroed by the caller).
+        let additive = l == 0 && self.additive;
         w.r.copy_from_slice(b);
-        lev.smoother
-            .smooth(apply, &mut w.r, x, &mut w.d, &mut w.t, true);
+        if additive {
+            // x = ω D⁻¹ b; the coarse levels get Pᵀ b.
+            let inv = &lev.smoother.inv_diag;
+            let omega = 1.0 / lev.smoother.lambda_max;
+            x.par_iter_mut()
+                .zip(b.par_iter().zip(inv.par_iter()))
+                .for_each(|(xi, (bi, di))| *xi = omega * bi * di);
+        } else {
+            // Pre-smoothing from x = 0 (x was zeroed by the caller).
+            lev.smoother
+                .smooth(apply, &mut w.r, x, &mut w.d, &mut w.t, true);
+        }
         // Restriction b_c = Pᵀ r.
         let agg = &lev.agg;
         let r = &w.r;
@@ -64,6 +82,9 @@ impl Multigrid {
         x.par_iter_mut()
             .zip(agg.agg.par_iter())
             .for_each(|(xi, &c)| *xi += s * xc[c as usize]);
+        if additive {
+            return;
+        }
         // Post-smoothing on the new residual.
         apply(x, &mut w.t);
         w.r.par_iter_mut()
