@@ -267,9 +267,11 @@ fn inverse_diagonal(level: usize, diag: &[f64]) -> Result<Vec<f64>, MgError> {
         .collect()
 }
 
-/// `max |a_ij − a_ji| / (max_k |a_ik| + max_k |a_jk|)` over the entries of a square CSR
-/// matrix with sorted columns (infinite for a non-square or non-CSR matrix).
-fn csr_asymmetry(a: &CsMat<f64>) -> f64 {
+/// Relative asymmetry `|a_ij − a_ji| / (max_k |a_ik| + max_k |a_jk|)` of some entry of a
+/// square CSR matrix with sorted columns where it exceeds `tol` (the search stops at the
+/// first such entry found), or 0 when every entry is within `tol`; infinite for a
+/// non-square or non-CSR matrix.
+fn csr_asymmetry(a: &CsMat<f64>, tol: f64) -> f64 {
     use rayon::prelude::*;
     if !a.is_csr() || a.rows() != a.cols() {
         return f64::INFINITY;
@@ -287,24 +289,18 @@ fn csr_asymmetry(a: &CsMat<f64>) -> f64 {
         .collect();
     (0..a.rows())
         .into_par_iter()
-        .map(|i| {
-            (ap[i]..ap[i + 1])
-                .map(|p| {
-                    let j = ai[p];
-                    let t = match ai[ap[j]..ap[j + 1]].binary_search(&i) {
-                        Ok(q) => av[ap[j] + q],
-                        Err(_) => 0.0,
-                    };
-                    let denom = scale[i] + scale[j];
-                    if denom > 0.0 {
-                        (av[p] - t).abs() / denom
-                    } else {
-                        0.0
-                    }
-                })
-                .fold(0.0f64, f64::max)
+        .find_map_any(|i| {
+            (ap[i]..ap[i + 1]).find_map(|p| {
+                let j = ai[p];
+                let t = match ai[ap[j]..ap[j + 1]].binary_search(&i) {
+                    Ok(q) => av[ap[j] + q],
+                    Err(_) => 0.0,
+                };
+                let d = (av[p] - t).abs();
+                (d > tol * (scale[i] + scale[j])).then(|| d / (scale[i] + scale[j]))
+            })
         })
-        .reduce(|| 0.0, f64::max)
+        .unwrap_or(0.0)
 }
 
 /// [`FineCycle::AdditiveIfSymmetric`] treats the finest operator as symmetric when its
@@ -346,7 +342,7 @@ impl Multigrid {
         let t_first = t0.elapsed().as_secs_f64();
         // `PᵀAP` is symmetric (to rounding) when `A` is; an asymmetric `A` could pass only
         // if its asymmetry cancelled within every aggregate pair. No application of `A`.
-        let first_coarse_asymmetry = csr_asymmetry(&a);
+        let first_coarse_asymmetry = csr_asymmetry(&a, COARSE_SYMMETRY_TOL);
         let fine_cycle = match opts.fine_cycle {
             FineCycle::AdditiveIfSymmetric => opts
                 .fine_cycle
@@ -536,10 +532,10 @@ impl Multigrid {
         self.additive
     }
 
-    /// Relative asymmetry of the first Galerkin operator `PᵀAP`
-    /// (`max |c_ij − c_ji| / (max_k |c_ik| + max_k |c_jk|)`). `PᵀAP` is symmetric to
-    /// rounding (~1e-15) whenever `A` is, so a value above [`COARSE_SYMMETRY_TOL`] proves
-    /// `A` nonsymmetric without a single application of `A`.
+    /// Relative asymmetry of an entry of the first Galerkin operator `PᵀAP` above
+    /// [`COARSE_SYMMETRY_TOL`], or 0 if there is none ([`csr_asymmetry`]). `PᵀAP` is
+    /// symmetric to rounding (~1e-15) whenever `A` is, so a positive value proves `A`
+    /// nonsymmetric without a single application of `A`.
     pub fn first_coarse_asymmetry(&self) -> f64 {
         self.first_coarse_asymmetry
     }
