@@ -58,35 +58,53 @@ pub fn solve_problem(
     problem.validate()?;
     problem.check_not_singular()?;
     let layout = Layout::new(&problem.grid, kernel.moments())?;
-    if let Some(parity) = solver.parity_solver_for(&layout) {
-        if has_parity_structure(kernel) {
-            if let Some(solution) =
-                solve_split_system(problem, kernel, layout.clone(), &parity, opts)?
-            {
-                return Ok(solution);
-            }
+    let split_route = match solver.parity_solver_for(&layout) {
+        Some(parity) if has_parity_structure(kernel) => {
+            solve_split_system(problem, kernel, &layout, &parity, opts)?
         }
-    }
+        _ => None,
+    };
+    let solved = match split_route {
+        Some(solved) => solved,
+        None => solve_assembled(problem, kernel, &layout, solver, opts)?,
+    };
+    finish(problem, layout, solved)
+}
+
+/// What either route produced, before un-staggering.
+struct Solved {
+    u: Vec<f64>,
+    stats: SolveStats,
+    energy: Option<EnergyBalance>,
+    nonzeros: usize,
+    seconds_assembly: f64,
+    seconds_solve: f64,
+}
+
+/// Assembles `A` and solves with `solver` (every solver; the parity solvers split `A`).
+fn solve_assembled(
+    problem: &Problem,
+    kernel: &dyn StencilKernel,
+    layout: &Layout,
+    solver: SolverKind,
+    opts: &SolverOptions,
+) -> anyhow::Result<Solved> {
     let t0 = Instant::now();
-    let system = assemble(problem, kernel, &layout)?;
+    let system = assemble(problem, kernel, layout)?;
     let seconds_assembly = t0.elapsed().as_secs_f64();
     check_magnitudes(&system.matrix, &system.rhs)?;
     let t1 = Instant::now();
-    let (u, stats) = solve_scaled(solver, &layout, &system.matrix, &system.rhs, opts);
+    let (u, stats) = solve_scaled(solver, layout, &system.matrix, &system.rhs, opts);
     let seconds_solve = t1.elapsed().as_secs_f64();
-    let energy = energy_balance(problem, &layout, Some(&system.matrix), &u);
-    let nonzeros = system.matrix.nnz();
-    drop(system);
-    finish(
-        problem,
-        layout,
+    let energy = energy_balance(problem, layout, Some(&system.matrix), &u);
+    Ok(Solved {
         u,
         stats,
         energy,
-        nonzeros,
+        nonzeros: system.matrix.nnz(),
         seconds_assembly,
         seconds_solve,
-    )
+    })
 }
 
 /// The parity solvers' route: assemble straight into the even/odd blocks
@@ -96,12 +114,12 @@ pub fn solve_problem(
 fn solve_split_system(
     problem: &Problem,
     kernel: &dyn StencilKernel,
-    layout: Layout,
+    layout: &Layout,
     parity: &LayoutSolver,
     opts: &SolverOptions,
-) -> anyhow::Result<Option<Solution>> {
+) -> anyhow::Result<Option<Solved>> {
     let t0 = Instant::now();
-    let system = match assemble_split(problem, kernel, &layout)? {
+    let system = match assemble_split(problem, kernel, layout)? {
         Ok(s) => s,
         Err(_) => return Ok(None),
     };
@@ -114,32 +132,27 @@ fn solve_split_system(
     let seconds_solve = t1.elapsed().as_secs_f64();
     let nonzeros = system.split.nnz_a;
     drop(system);
-    let energy = energy_balance(problem, &layout, None, &u);
-    finish(
-        problem,
-        layout,
+    let energy = energy_balance(problem, layout, None, &u);
+    Ok(Some(Solved {
         u,
         stats,
         energy,
         nonzeros,
         seconds_assembly,
         seconds_solve,
-    )
-    .map(Some)
+    }))
 }
 
 /// Checks the solver's status, un-staggers and packs the [`Solution`].
-#[allow(clippy::too_many_arguments)]
-fn finish(
-    problem: &Problem,
-    layout: Layout,
-    u: Vec<f64>,
-    stats: SolveStats,
-    energy: Option<EnergyBalance>,
-    nonzeros: usize,
-    seconds_assembly: f64,
-    seconds_solve: f64,
-) -> anyhow::Result<Solution> {
+fn finish(problem: &Problem, layout: Layout, solved: Solved) -> anyhow::Result<Solution> {
+    let Solved {
+        u,
+        stats,
+        energy,
+        nonzeros,
+        seconds_assembly,
+        seconds_solve,
+    } = solved;
     if stats.status == crate::solver::SolveStatus::Diverged {
         anyhow::bail!(
             "the {} solver diverged after {} iterations (relative residual {:.3e})",

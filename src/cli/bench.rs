@@ -401,12 +401,7 @@ fn markdown(rows: &[Row], quick: bool) -> String {
         .iter()
         .filter(|r| r.solver == "cgnr" && r.method == "pn")
     {
-        if let Some(b) = rows.iter().find(|b| {
-            b.solver == "parity-cg"
-                && b.problem == a.problem
-                && b.order == a.order
-                && b.resolution == a.resolution
-        }) {
+        if let Some(b) = same_problem(rows, a, "parity-cg") {
             let _ = writeln!(
                 md,
                 "| {} | {} | {} | {:.3} | {:.3} | {:.1}× |",
@@ -420,6 +415,17 @@ fn markdown(rows: &[Row], quick: bool) -> String {
         }
     }
     md
+}
+
+/// The row of `solver` on the same problem, method, order and resolution as `like`.
+fn same_problem<'a>(rows: &'a [Row], like: &Row, solver: &str) -> Option<&'a Row> {
+    rows.iter().find(|b| {
+        b.solver == solver
+            && b.method == like.method
+            && b.problem == like.problem
+            && b.order == like.order
+            && b.resolution == like.resolution
+    })
 }
 
 /// Work in products with `A` (issue 8 asks parity-cg for ≥ 20× fewer than cgnr to the same
@@ -439,15 +445,7 @@ fn work_comparison(rows: &[Row]) -> String {
         .iter()
         .filter(|r| r.solver == "cgnr" && r.method == "pn")
     {
-        let find = |solver: &str| {
-            rows.iter().find(|b| {
-                b.solver == solver
-                    && b.method == c.method
-                    && b.problem == c.problem
-                    && b.order == c.order
-                    && b.resolution == c.resolution
-            })
-        };
+        let find = |solver: &str| same_problem(rows, c, solver);
         let apps =
             |r: Option<&Row>| r.map_or("–".to_string(), |r| r.operator_applications.to_string());
         let ratio = |r: Option<&Row>| {
@@ -486,15 +484,7 @@ fn mg_comparison(rows: &[Row]) -> String {
         .iter()
         .filter(|r| r.solver == "parity-mg" && r.method == "pn")
     {
-        let find = |solver: &str| {
-            rows.iter().find(|b| {
-                b.solver == solver
-                    && b.method == m.method
-                    && b.problem == m.problem
-                    && b.order == m.order
-                    && b.resolution == m.resolution
-            })
-        };
+        let find = |solver: &str| same_problem(rows, m, solver);
         let cell = |r: Option<&Row>| {
             r.map_or("–|–".to_string(), |r| {
                 format!("{}|{:.3}", r.iterations, total(r))
@@ -531,15 +521,7 @@ fn mg_comparison(rows: &[Row]) -> String {
 /// (`cgnr`) CGNR in solve time, setup time and peak memory.
 fn solver_comparison(rows: &[Row]) -> String {
     let mut md = String::new();
-    let find = |a: &Row, solver: &str| {
-        rows.iter().find(|b| {
-            b.solver == solver
-                && b.method == a.method
-                && b.problem == a.problem
-                && b.order == a.order
-                && b.resolution == a.resolution
-        })
-    };
+    let find = |a: &Row, solver: &str| same_problem(rows, a, solver);
     let _ = writeln!(
         md,
         "\n## Solvers: iterations and solve seconds (same process)\n"

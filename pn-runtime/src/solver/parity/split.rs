@@ -262,29 +262,27 @@ impl Split {
     /// the residual of the assembled `A` up to rounding, so a solve can check its result
     /// after `A` itself has been dropped (or was never assembled, [`crate::assemble::assemble_split`]).
     pub fn residual_norm(&self, u_e: &[f64], u_o: &[f64], b_e: &[f64], b_o: &[f64]) -> f64 {
-        let mut t = vec![0.0; b_e.len()];
-        spmv(&self.b, u_o, &mut t);
-        let even: f64 = (
-            t.par_iter(),
-            b_e.par_iter(),
-            self.d_e.par_iter(),
-            u_e.par_iter(),
-        )
-            .into_par_iter()
-            .map(|(t, b, d, u)| (b - d * u - t).powi(2))
-            .sum();
-        let mut t = vec![0.0; b_o.len()];
-        spmv(&self.c_scaled, u_e, &mut t);
-        let odd: f64 = (
-            t.par_iter(),
-            b_o.par_iter(),
-            self.d_o.par_iter(),
-            u_o.par_iter(),
-        )
-            .into_par_iter()
-            .map(|(t, b, d, u)| (b - d * (u + t)).powi(2))
-            .sum();
-        (even + odd).sqrt()
+        // Σ r² over one parity: `coupling` times the other parity's unknowns gives `t`;
+        // the odd rows hold C̃ = D_o⁻¹C, so their coupling is scaled by the diagonal too.
+        let part =
+            |coupling: &CsMat<f64>, other: &[f64], b: &[f64], d: &[f64], u: &[f64], scaled| {
+                let mut t = vec![0.0; b.len()];
+                spmv(coupling, other, &mut t);
+                (t.par_iter(), b.par_iter(), d.par_iter(), u.par_iter())
+                    .into_par_iter()
+                    .map(|(t, b, d, u)| {
+                        let r = if scaled {
+                            b - d * (u + t)
+                        } else {
+                            b - d * u - t
+                        };
+                        r * r
+                    })
+                    .sum::<f64>()
+            };
+        (part(&self.b, u_o, b_e, &self.d_e, u_e, false)
+            + part(&self.c_scaled, u_e, b_o, &self.d_o, u_o, true))
+        .sqrt()
     }
 
     /// Gathers the even and odd parts of a global vector.
