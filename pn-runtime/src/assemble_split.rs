@@ -15,10 +15,9 @@ use crate::assemble::{assemble_chunk, check_kernel, Chunk, CHUNK};
 use crate::layout::Layout;
 use crate::problem::Problem;
 use crate::solver::parity::even_mask;
-use crate::solver::parity::split::{ParityError, Split};
+use crate::solver::parity::split::{check_index_range, BlockMat, ParityError, Split};
 use pn_codegen::stencil::StencilKernel;
 use rayon::prelude::*;
-use sprs::CsMat;
 
 /// Rows assembled before they are split and appended (about 3.4 M entries, ~100 MB of
 /// transient buffers, for P_5 in 3D; 128 parallel chunks).
@@ -54,10 +53,10 @@ struct SplitChunk {
     d_e: Vec<f64>,
     d_o: Vec<f64>,
     b_row_nnz: Vec<usize>,
-    b_cols: Vec<usize>,
+    b_cols: Vec<u32>,
     b_vals: Vec<f64>,
     c_row_nnz: Vec<usize>,
-    c_cols: Vec<usize>,
+    c_cols: Vec<u32>,
     c_vals: Vec<f64>,
     rhs: Vec<f64>,
     /// Stored diagonal entries (rows with a centred term of their own moment).
@@ -79,11 +78,16 @@ pub fn assemble_split(
     let even = even_mask(layout);
     // Local index of each unknown within its parity class (increasing in the global
     // index, so columns stay sorted within a row).
-    let mut local = vec![0usize; n];
+    let evens = even.iter().filter(|&&e| e).count();
+    if let Err(e) = check_index_range(evens, n - evens) {
+        return Ok(Err(e));
+    }
+    let mut local = vec![0u32; n];
     let (mut ev, mut od) = (Vec::new(), Vec::new());
     for (g, &e) in even.iter().enumerate() {
         let list = if e { &mut ev } else { &mut od };
-        local[g] = list.len();
+        // In range: checked above.
+        local[g] = list.len() as u32;
         list.push(g);
     }
     // Upper bounds of the off-diagonal entries of each block, from the pattern.
@@ -109,8 +113,8 @@ pub fn assemble_split(
     c_ptr.push(0usize);
     // Zero-initialised at the bound: the allocator maps zero pages lazily, so the pages are
     // first touched by the parallel copies below, and the unused tail never is.
-    let (mut b_idx, mut b_val) = (vec![0usize; b_cap], vec![0.0f64; b_cap]);
-    let (mut c_idx, mut c_val) = (vec![0usize; c_cap], vec![0.0f64; c_cap]);
+    let (mut b_idx, mut b_val) = (vec![0u32; b_cap], vec![0.0f64; b_cap]);
+    let (mut c_idx, mut c_val) = (vec![0u32; c_cap], vec![0.0f64; c_cap]);
     let (mut b_len, mut c_len) = (0usize, 0usize);
     let mut rhs = Vec::with_capacity(n);
     let (mut max_entry, mut diag_entries) = (0.0f64, 0usize);
@@ -183,9 +187,9 @@ pub fn assemble_split(
     c_idx.truncate(c_len);
     c_val.truncate(c_len);
     let nnz_a = b_len + c_len + diag_entries;
-    let b = CsMat::try_new((ev.len(), od.len()), b_ptr, b_idx, b_val)
+    let b = BlockMat::try_new((ev.len(), od.len()), b_ptr, b_idx, b_val)
         .map_err(|e| anyhow::anyhow!("internal error building the B block: {}", e.3))?;
-    let c_scaled = CsMat::try_new((od.len(), ev.len()), c_ptr, c_idx, c_val)
+    let c_scaled = BlockMat::try_new((od.len(), ev.len()), c_ptr, c_idx, c_val)
         .map_err(|e| anyhow::anyhow!("internal error building the C block: {}", e.3))?;
     Ok(Ok(SplitSystem {
         split: Split {
@@ -218,7 +222,7 @@ fn split_chunk(
     chunk: &Chunk,
     first: usize,
     even: &[bool],
-    local: &[usize],
+    local: &[u32],
 ) -> Result<SplitChunk, ParityError> {
     let mut out = SplitChunk {
         d_e: Vec::new(),

@@ -93,8 +93,9 @@ impl CsrOperator {
     }
 }
 
-/// `y = A x` for a CSR matrix.
-pub fn spmv(a: &CsMat<f64>, x: &[f64], y: &mut [f64]) {
+/// `y = A x` for a CSR matrix with any column-index type (`usize`, or `u32` for the
+/// parity blocks, [`crate::solver::parity::split::BlockMat`]).
+pub fn spmv<I: sprs::SpIndex>(a: &sprs::CsMatI<f64, I, usize>, x: &[f64], y: &mut [f64]) {
     assert!(a.is_csr(), "spmv needs a CSR matrix");
     assert_eq!(a.cols(), x.len());
     assert_eq!(a.rows(), y.len());
@@ -110,7 +111,7 @@ pub fn spmv(a: &CsMat<f64>, x: &[f64], y: &mut [f64]) {
                 let r = base + k;
                 let mut s = 0.0;
                 for j in indptr[r]..indptr[r + 1] {
-                    s += data[j] * x[indices[j]];
+                    s += data[j] * x[indices[j].index()];
                 }
                 *yi = s;
             }

@@ -130,7 +130,7 @@ pub fn coarse_from_split(split: &Split, ag: &Aggregation) -> CsMat<f64> {
         for &i in &ag.members[ag.ptr[row]..ag.ptr[row + 1]] {
             let i = i as usize;
             acc.add(row as u32, split.d_e[i]);
-            pb.extend((bp[i]..bp[i + 1]).map(|p| (bi[p], bv[p])));
+            pb.extend((bp[i]..bp[i + 1]).map(|p| (bi[p] as usize, bv[p])));
         }
         pb.sort_unstable_by_key(|e| e.0);
         let mut q = 0;
@@ -142,7 +142,7 @@ pub fn coarse_from_split(split: &Split, ag: &Aggregation) -> CsMat<f64> {
                 q += 1;
             }
             for t in cp[k]..cp[k + 1] {
-                acc.add(ag.agg[ci[t]], -v * cv[t]);
+                acc.add(ag.agg[ci[t] as usize], -v * cv[t]);
             }
         }
     })

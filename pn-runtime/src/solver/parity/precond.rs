@@ -263,9 +263,9 @@ pub fn diagonal(split: &Split) -> Vec<f64> {
         .map(|i| {
             let mut s = split.d_e[i];
             for j in bp[i]..bp[i + 1] {
-                let k = bi[j];
+                let k = bi[j] as usize;
                 for l in cp[k]..cp[k + 1] {
-                    if ci[l] == i {
+                    if ci[l] as usize == i {
                         s -= bv[j] * cv[l];
                     }
                 }
@@ -308,9 +308,9 @@ fn block_inverses(split: &Split, block_of: &[usize]) -> Result<Built, ParityErro
             for (a, &i) in m.iter().enumerate() {
                 blk[a * k + a] += split.d_e[i];
                 for j in bp[i]..bp[i + 1] {
-                    let o = bi[j];
+                    let o = bi[j] as usize;
                     for l in cp[o]..cp[o + 1] {
-                        let (cb, p) = pos_in_block[ci[l]];
+                        let (cb, p) = pos_in_block[ci[l] as usize];
                         if cb == bid {
                             blk[a * k + p] -= bv[j] * cv[l];
                         }

@@ -149,9 +149,9 @@ pub fn form(split: &Split) -> CsMat<f64> {
                 row.clear();
                 row.push((i, split.d_e[i]));
                 for p in bp[i]..bp[i + 1] {
-                    let k = bi[p];
+                    let k = bi[p] as usize;
                     for q in cp[k]..cp[k + 1] {
-                        row.push((ci[q], -bv[p] * cv[q]));
+                        row.push((ci[q] as usize, -bv[p] * cv[q]));
                     }
                 }
                 row.sort_unstable_by_key(|e| e.0);

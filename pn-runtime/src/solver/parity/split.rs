@@ -66,6 +66,17 @@ pub enum ParityError {
     /// The multigrid preconditioner could not be built.
     #[error(transparent)]
     Multigrid(#[from] crate::solver::multigrid::MgError),
+    /// More unknowns of one parity than 32-bit block indices can address.
+    #[error(
+        "{unknowns} unknowns of one parity exceed the 32-bit indices of the parity blocks \
+         (at most {max}); lower --res or --order, or use --solver cgnr-mf"
+    )]
+    TooManyUnknowns {
+        /// Unknowns of the larger class.
+        unknowns: usize,
+        /// The limit.
+        max: usize,
+    },
     /// The block-Jacobi block map does not match the matrix size.
     #[error("the block map has {len} entries but the matrix has {rows} rows")]
     BlockMapLength {
@@ -74,6 +85,20 @@ pub enum ParityError {
         /// Matrix rows.
         rows: usize,
     },
+}
+
+/// CSR with 32-bit column indices: the blocks are read once per application of `S`, and the
+/// products are memory-bound, so 12 instead of 16 bytes per entry saves a quarter of the
+/// traffic (and 0.9 GB at 80³ P_5). Row pointers stay `usize` (entries may exceed 2³²).
+pub type BlockMat = sprs::CsMatI<f64, u32, usize>;
+
+/// Checks that both parity classes fit [`BlockMat`]'s 32-bit column indices.
+pub fn check_index_range(even: usize, odd: usize) -> Result<(), ParityError> {
+    let max = u32::MAX as usize;
+    match even.max(odd) {
+        k if k > max => Err(ParityError::TooManyUnknowns { unknowns: k, max }),
+        _ => Ok(()),
+    }
 }
 
 /// The parity blocks of `A`.
@@ -87,10 +112,10 @@ pub struct Split {
     pub d_e: Vec<f64>,
     /// Diagonal of the odd–odd block.
     pub d_o: Vec<f64>,
-    /// Even rows × odd columns (CSR).
-    pub b: CsMat<f64>,
-    /// `D_o⁻¹ C`: odd rows × even columns (CSR).
-    pub c_scaled: CsMat<f64>,
+    /// Even rows × odd columns (CSR, 32-bit columns).
+    pub b: BlockMat,
+    /// `D_o⁻¹ C`: odd rows × even columns (CSR, 32-bit columns).
+    pub c_scaled: BlockMat,
     /// Stored non-zeros of the original matrix.
     pub nnz_a: usize,
 }
@@ -116,16 +141,15 @@ pub fn split(a: &CsMat<f64>, even: &[bool]) -> Result<Split, ParityError> {
         std::borrow::Cow::Owned(a.to_csr())
     };
     // Local index of each global unknown within its parity class.
-    let mut local = vec![0usize; n];
+    let evens = even.iter().filter(|&&e| e).count();
+    check_index_range(evens, n - evens)?;
+    let mut local = vec![0u32; n];
     let (mut ev, mut od) = (Vec::new(), Vec::new());
     for (g, &e) in even.iter().enumerate() {
-        if e {
-            local[g] = ev.len();
-            ev.push(g);
-        } else {
-            local[g] = od.len();
-            od.push(g);
-        }
+        let list = if e { &mut ev } else { &mut od };
+        // In range: checked above.
+        local[g] = list.len() as u32;
+        list.push(g);
     }
     let ap = a.indptr();
     let ap = ap.raw_storage();
@@ -183,8 +207,8 @@ pub fn split(a: &CsMat<f64>, even: &[bool]) -> Result<Split, ParityError> {
     drop(scan);
     // Pass 2 (parallel): fill both blocks, each task owning a contiguous range of rows
     // and hence disjoint slices of the outputs (no second copy of the blocks).
-    let (mut b_idx, mut b_val) = (vec![0usize; b_ptr[ev.len()]], vec![0.0; b_ptr[ev.len()]]);
-    let (mut c_idx, mut c_val) = (vec![0usize; c_ptr[od.len()]], vec![0.0; c_ptr[od.len()]]);
+    let (mut b_idx, mut b_val) = (vec![0u32; b_ptr[ev.len()]], vec![0.0; b_ptr[ev.len()]]);
+    let (mut c_idx, mut c_val) = (vec![0u32; c_ptr[od.len()]], vec![0.0; c_ptr[od.len()]]);
     let mut tasks = Vec::new();
     {
         let (mut bi, mut bv) = (&mut b_idx[..], &mut b_val[..]);
@@ -221,15 +245,15 @@ pub fn split(a: &CsMat<f64>, even: &[bool]) -> Result<Split, ParityError> {
                     pb += 1;
                 } else {
                     ci[pc] = local[col];
-                    cv[pc] = av[p] / d_o[local[row]];
+                    cv[pc] = av[p] / d_o[local[row] as usize];
                     pc += 1;
                 }
             }
         }
     });
     // Columns within a row stay sorted: `local` is increasing in the global index.
-    let b = CsMat::new((ev.len(), od.len()), b_ptr, b_idx, b_val);
-    let c_scaled = CsMat::new((od.len(), ev.len()), c_ptr, c_idx, c_val);
+    let b = BlockMat::new((ev.len(), od.len()), b_ptr, b_idx, b_val);
+    let c_scaled = BlockMat::new((od.len(), ev.len()), c_ptr, c_idx, c_val);
     Ok(Split {
         even: ev,
         odd: od,
@@ -264,22 +288,21 @@ impl Split {
     pub fn residual_norm(&self, u_e: &[f64], u_o: &[f64], b_e: &[f64], b_o: &[f64]) -> f64 {
         // Σ r² over one parity: `coupling` times the other parity's unknowns gives `t`;
         // the odd rows hold C̃ = D_o⁻¹C, so their coupling is scaled by the diagonal too.
-        let part =
-            |coupling: &CsMat<f64>, other: &[f64], b: &[f64], d: &[f64], u: &[f64], scaled| {
-                let mut t = vec![0.0; b.len()];
-                spmv(coupling, other, &mut t);
-                (t.par_iter(), b.par_iter(), d.par_iter(), u.par_iter())
-                    .into_par_iter()
-                    .map(|(t, b, d, u)| {
-                        let r = if scaled {
-                            b - d * (u + t)
-                        } else {
-                            b - d * u - t
-                        };
-                        r * r
-                    })
-                    .sum::<f64>()
-            };
+        let part = |coupling: &BlockMat, other: &[f64], b: &[f64], d: &[f64], u: &[f64], scaled| {
+            let mut t = vec![0.0; b.len()];
+            spmv(coupling, other, &mut t);
+            (t.par_iter(), b.par_iter(), d.par_iter(), u.par_iter())
+                .into_par_iter()
+                .map(|(t, b, d, u)| {
+                    let r = if scaled {
+                        b - d * (u + t)
+                    } else {
+                        b - d * u - t
+                    };
+                    r * r
+                })
+                .sum::<f64>()
+        };
         (part(&self.b, u_o, b_e, &self.d_e, u_e, false)
             + part(&self.c_scaled, u_e, b_o, &self.d_o, u_o, true))
         .sqrt()
@@ -297,6 +320,17 @@ impl Split {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn index_range_is_checked() {
+        let max = u32::MAX as usize;
+        assert!(check_index_range(max, max).is_ok());
+        let err = check_index_range(10, max + 1).unwrap_err();
+        assert!(
+            matches!(err, ParityError::TooManyUnknowns { unknowns, .. } if unknowns == max + 1)
+        );
+        assert!(err.to_string().contains("cgnr-mf"), "{err}");
+    }
 
     #[test]
     fn splits_and_rejects() {
