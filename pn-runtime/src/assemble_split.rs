@@ -15,7 +15,7 @@ use crate::assemble::{assemble_chunk, check_kernel, Chunk, CHUNK};
 use crate::layout::Layout;
 use crate::problem::Problem;
 use crate::solver::parity::even_mask;
-use crate::solver::parity::split::{check_index_range, BlockMat, ParityError, Split};
+use crate::solver::parity::split::{classes, BlockMat, Classes, ParityError, Split};
 use pn_codegen::stencil::StencilKernel;
 use rayon::prelude::*;
 
@@ -76,20 +76,14 @@ pub fn assemble_split(
     check_kernel(problem, kernel, layout)?;
     let n = layout.len();
     let even = even_mask(layout);
-    // Local index of each unknown within its parity class (increasing in the global
-    // index, so columns stay sorted within a row).
-    let evens = even.iter().filter(|&&e| e).count();
-    if let Err(e) = check_index_range(evens, n - evens) {
-        return Ok(Err(e));
-    }
-    let mut local = vec![0u32; n];
-    let (mut ev, mut od) = (Vec::new(), Vec::new());
-    for (g, &e) in even.iter().enumerate() {
-        let list = if e { &mut ev } else { &mut od };
-        // In range: checked above.
-        local[g] = list.len() as u32;
-        list.push(g);
-    }
+    let Classes {
+        local,
+        even: ev,
+        odd: od,
+    } = match classes(&even) {
+        Ok(c) => c,
+        Err(e) => return Ok(Err(e)),
+    };
     // Upper bounds of the off-diagonal entries of each block, from the pattern.
     let (mut b_cap, mut c_cap) = (0usize, 0usize);
     for (q, mp) in layout.moments.iter().enumerate() {

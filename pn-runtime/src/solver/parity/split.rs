@@ -101,6 +101,36 @@ pub fn check_index_range(even: usize, odd: usize) -> Result<(), ParityError> {
     }
 }
 
+/// The unknowns of each parity class and every unknown's index within its class.
+pub struct Classes {
+    /// Index of each global unknown within its class (increasing in the global index, so
+    /// block columns stay sorted within a row).
+    pub local: Vec<u32>,
+    /// Global indices of the even unknowns, increasing.
+    pub even: Vec<usize>,
+    /// Global indices of the odd unknowns, increasing.
+    pub odd: Vec<usize>,
+}
+
+/// [`Classes`] of the mask `even`, after checking that they fit [`BlockMat`]'s indices.
+pub fn classes(even: &[bool]) -> Result<Classes, ParityError> {
+    let evens = even.iter().filter(|&&e| e).count();
+    check_index_range(evens, even.len() - evens)?;
+    let mut local = vec![0u32; even.len()];
+    let (mut ev, mut od) = (Vec::new(), Vec::new());
+    for (g, &e) in even.iter().enumerate() {
+        let list = if e { &mut ev } else { &mut od };
+        // In range: checked above.
+        local[g] = list.len() as u32;
+        list.push(g);
+    }
+    Ok(Classes {
+        local,
+        even: ev,
+        odd: od,
+    })
+}
+
 /// The parity blocks of `A`.
 #[derive(Clone, Debug)]
 pub struct Split {
@@ -140,17 +170,11 @@ pub fn split(a: &CsMat<f64>, even: &[bool]) -> Result<Split, ParityError> {
     } else {
         std::borrow::Cow::Owned(a.to_csr())
     };
-    // Local index of each global unknown within its parity class.
-    let evens = even.iter().filter(|&&e| e).count();
-    check_index_range(evens, n - evens)?;
-    let mut local = vec![0u32; n];
-    let (mut ev, mut od) = (Vec::new(), Vec::new());
-    for (g, &e) in even.iter().enumerate() {
-        let list = if e { &mut ev } else { &mut od };
-        // In range: checked above.
-        local[g] = list.len() as u32;
-        list.push(g);
-    }
+    let Classes {
+        local,
+        even: ev,
+        odd: od,
+    } = classes(even)?;
     let ap = a.indptr();
     let ap = ap.raw_storage();
     let (ai, av) = (a.indices(), a.data());
