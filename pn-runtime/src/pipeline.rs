@@ -71,14 +71,15 @@ pub fn solve_problem(
     finish(problem, layout, solved)
 }
 
-/// What either route produced, before un-staggering.
-struct Solved {
-    u: Vec<f64>,
-    stats: SolveStats,
-    energy: Option<EnergyBalance>,
-    nonzeros: usize,
-    seconds_assembly: f64,
-    seconds_solve: f64,
+/// What a route (assembled, parity blocks, matrix-free) produced, before un-staggering.
+pub(crate) struct Solved {
+    pub(crate) u: Vec<f64>,
+    pub(crate) stats: SolveStats,
+    pub(crate) energy: Option<EnergyBalance>,
+    /// Stored entries of A (or of the operator's weight tables, matrix-free).
+    pub(crate) nonzeros: usize,
+    pub(crate) seconds_assembly: f64,
+    pub(crate) seconds_solve: f64,
 }
 
 /// Assembles `A` and solves with `solver` (every solver; the parity solvers split `A`).
@@ -144,7 +145,11 @@ fn solve_split_system(
 }
 
 /// Checks the solver's status, un-staggers and packs the [`Solution`].
-fn finish(problem: &Problem, layout: Layout, solved: Solved) -> anyhow::Result<Solution> {
+pub(crate) fn finish(
+    problem: &Problem,
+    layout: Layout,
+    solved: Solved,
+) -> anyhow::Result<Solution> {
     let Solved {
         u,
         stats,
@@ -188,13 +193,14 @@ fn check_magnitudes(a: &sprs::CsMat<f64>, b: &[f64]) -> anyhow::Result<()> {
     check_magnitude_values(max_a, finite, b)
 }
 
-/// [`check_magnitudes`] given the matrix's largest magnitude and finiteness.
-fn check_magnitude_values(max_a: f64, finite_a: bool, b: &[f64]) -> anyhow::Result<()> {
+/// [`check_magnitudes`] given the matrix's largest magnitude and finiteness (for the
+/// parity blocks and the matrix-free operator, which hold no CSR `A`).
+pub(crate) fn check_magnitude_values(max_a: f64, finite_a: bool, b: &[f64]) -> anyhow::Result<()> {
     let max_b = b.iter().fold(0.0f64, |m, v| m.max(v.abs()));
     let finite = finite_a && max_a.is_finite() && b.iter().all(|v| v.is_finite());
     anyhow::ensure!(
         finite && max_a <= MAX_ENTRY_MAGNITUDE && max_b <= MAX_ENTRY_MAGNITUDE,
-        "the assembled system has entries up to {max_a:.3e} (matrix) and {max_b:.3e} \
+        "the system has entries up to {max_a:.3e} (matrix) and {max_b:.3e} \
          (right-hand side){}; the solvers need magnitudes below {MAX_ENTRY_MAGNITUDE:.0e} \
          (their squares must fit in f64): rescale σ_t, the sources or the domain",
         if finite { "" } else { ", some not finite" }

@@ -5,10 +5,9 @@ use super::MatFreeOperator;
 use crate::energy::energy_balance;
 use crate::layout::Layout;
 use crate::operator::LinearOperator;
-use crate::pipeline::{Solution, MAX_ENTRY_MAGNITUDE};
+use crate::pipeline::{check_magnitude_values, finish, Solution, Solved};
 use crate::problem::Problem;
-use crate::solver::{cgnr_mf, lsmr, lsqr, SolveStats, SolveStatus, SolverKind, SolverOptions};
-use crate::unstagger::unstagger;
+use crate::solver::{cgnr_mf, lsmr, lsqr, SolveStats, SolverKind, SolverOptions};
 use pn_codegen::stencil::StencilKernel;
 use std::time::Instant;
 
@@ -72,38 +71,20 @@ pub fn solve_problem_matrix_free(
     let t0 = Instant::now();
     let op = MatFreeOperator::new(problem, kernel, &layout)?;
     let seconds_assembly = t0.elapsed().as_secs_f64();
-    let max_b = op.rhs().iter().fold(0.0f64, |m, v| m.max(v.abs()));
-    anyhow::ensure!(
-        op.max_weight() <= MAX_ENTRY_MAGNITUDE && max_b <= MAX_ENTRY_MAGNITUDE,
-        "the system has entries up to {:.3e} (matrix) and {max_b:.3e} (right-hand side); the \
-         solvers need magnitudes below {MAX_ENTRY_MAGNITUDE:.0e}: rescale σ_t, the sources or \
-         the domain",
-        op.max_weight()
-    );
+    check_magnitude_values(op.max_weight(), true, op.rhs())?;
     let t1 = Instant::now();
     let (u, stats) = solve_operator(kind, &op, op.rhs(), opts)?;
     let seconds_solve = t1.elapsed().as_secs_f64();
-    if stats.status == SolveStatus::Diverged {
-        anyhow::bail!(
-            "the {} solver diverged after {} iterations (relative residual {:.3e})",
-            stats.solver,
-            stats.iterations,
-            stats.relative_residual
-        );
-    }
-    let moments = unstagger(&problem.grid, &layout, &u);
     // Without A only the faces route (L_1 at the boundary) is available; stencils without
     // L_1 moments get no balance.
     let energy = energy_balance(problem, &layout, None, &u);
-    Ok(Solution {
-        unknowns: layout.len(),
-        nonzeros: op.stored_weights(),
-        layout,
+    let solved = Solved {
         u,
-        moments,
         stats,
         energy,
+        nonzeros: op.stored_weights(),
         seconds_assembly,
         seconds_solve,
-    })
+    };
+    finish(problem, layout, solved)
 }
