@@ -69,15 +69,7 @@ pub(crate) fn monitor<'a>(
     progress: &'a dyn Fn(usize, f64),
 ) -> Monitor<'a> {
     Monitor {
-        ctl: Control::new(
-            opts.tol * bnorm,
-            bnorm,
-            opts.max_iter,
-            opts.stagnation_window,
-            opts.stagnation_drop,
-            opts.divergence_limit,
-            progress,
-        ),
+        ctl: Control::for_options(opts, bnorm, progress),
         bnorm,
         pb: progress_bar(opts.max_iter, opts.progress),
     }
@@ -133,6 +125,29 @@ pub(crate) fn finish(
     (x, stats)
 }
 
+/// The frame CGLS, LSQR and LSMR share: counts the products with `a`, returns u = 0 for
+/// b = 0, else runs `iterate(a, ‖b‖, x, monitor)` from x = 0, and reports the status it
+/// returns with the residual recomputed ([`finish`]).
+pub(crate) fn run_from_zero(
+    a: &dyn LinearOperator,
+    b: &[f64],
+    opts: &SolverOptions,
+    name: &str,
+    iterate: impl FnOnce(&Counted, f64, &mut [f64], &mut Monitor) -> SolveStatus,
+) -> (Vec<f64>, SolveStats) {
+    let counted = Counted::new(a);
+    let bnorm = norm(b);
+    let mut x = vec![0.0; counted.cols()];
+    let noop = |_: usize, _: f64| {};
+    let mut mon = monitor(bnorm, opts, &noop);
+    let status = if bnorm == 0.0 {
+        SolveStatus::Converged
+    } else {
+        iterate(&counted, bnorm, &mut x, &mut mon)
+    };
+    finish(&counted, b, x, status, mon, opts, name)
+}
+
 /// CGLS on `a u = b` from u = 0, reported as solver `name`.
 pub fn cgls(
     a: &dyn LinearOperator,
@@ -140,64 +155,57 @@ pub fn cgls(
     opts: &SolverOptions,
     name: &str,
 ) -> (Vec<f64>, SolveStats) {
-    let counted = Counted::new(a);
-    let a = &counted;
-    let n = a.cols();
-    let bnorm = norm(b);
-    let mut x = vec![0.0; n];
-    let noop = |_: usize, _: f64| {};
-    let mut mon = monitor(bnorm, opts, &noop);
-    if bnorm == 0.0 {
-        return finish(a, b, x, SolveStatus::Converged, mon, opts, name);
-    }
-    let mut r = b.to_vec();
-    let mut s = vec![0.0; n];
-    a.apply_transpose(&r, &mut s);
-    let mut p = s.clone();
-    let mut gamma = dot(&s, &s);
-    let mut q = vec![0.0; a.rows()];
-    let mut replacements = 0usize;
-    let mut status = SolveStatus::MaxIterations;
-    while mon.iterations() < opts.max_iter {
-        a.apply(&p, &mut q);
-        let delta = dot(&q, &q);
-        if delta == 0.0 || gamma == 0.0 {
-            // Aᵀr = 0: the least-squares minimum is reached but b − Au ≠ 0.
-            status = SolveStatus::Stagnated;
-            break;
-        }
-        let alpha = gamma / delta;
-        axpy(alpha, &p, &mut x);
-        axpy(-alpha, &q, &mut r);
-        match mon.record(norm(&r)) {
-            None => {}
-            Some(Outcome::Reached) => {
-                // Confirm with the true residual; restart from it if rounding drifted.
-                op_residual(a, &x, b, &mut r);
-                if norm(&r) <= mon.target() {
-                    status = SolveStatus::Converged;
-                    break;
-                }
-                replacements += 1;
-                if replacements > MAX_REPLACEMENTS {
-                    status = SolveStatus::Stagnated;
-                    break;
-                }
-                a.apply_transpose(&r, &mut s);
-                p.copy_from_slice(&s);
-                gamma = dot(&s, &s);
-                continue;
-            }
-            Some(o) => {
-                status = status_of(o);
+    run_from_zero(a, b, opts, name, |a, _bnorm, x, mon| {
+        let n = a.cols();
+        let mut r = b.to_vec();
+        let mut s = vec![0.0; n];
+        a.apply_transpose(&r, &mut s);
+        let mut p = s.clone();
+        let mut gamma = dot(&s, &s);
+        let mut q = vec![0.0; a.rows()];
+        let mut replacements = 0usize;
+        let mut status = SolveStatus::MaxIterations;
+        while mon.iterations() < opts.max_iter {
+            a.apply(&p, &mut q);
+            let delta = dot(&q, &q);
+            if delta == 0.0 || gamma == 0.0 {
+                // Aᵀr = 0: the least-squares minimum is reached but b − Au ≠ 0.
+                status = SolveStatus::Stagnated;
                 break;
             }
+            let alpha = gamma / delta;
+            axpy(alpha, &p, x);
+            axpy(-alpha, &q, &mut r);
+            match mon.record(norm(&r)) {
+                None => {}
+                Some(Outcome::Reached) => {
+                    // Confirm with the true residual; restart from it if rounding drifted.
+                    op_residual(a, x, b, &mut r);
+                    if norm(&r) <= mon.target() {
+                        status = SolveStatus::Converged;
+                        break;
+                    }
+                    replacements += 1;
+                    if replacements > MAX_REPLACEMENTS {
+                        status = SolveStatus::Stagnated;
+                        break;
+                    }
+                    a.apply_transpose(&r, &mut s);
+                    p.copy_from_slice(&s);
+                    gamma = dot(&s, &s);
+                    continue;
+                }
+                Some(o) => {
+                    status = status_of(o);
+                    break;
+                }
+            }
+            a.apply_transpose(&r, &mut s);
+            let gamma_new = dot(&s, &s);
+            let beta = gamma_new / gamma;
+            gamma = gamma_new;
+            xpby(&s, beta, &mut p);
         }
-        a.apply_transpose(&r, &mut s);
-        let gamma_new = dot(&s, &s);
-        let beta = gamma_new / gamma;
-        gamma = gamma_new;
-        xpby(&s, beta, &mut p);
-    }
-    finish(a, b, x, status, mon, opts, name)
+        status
+    })
 }

@@ -7,11 +7,11 @@
 //! the estimate over ‖b‖₂ is ≤ tol and the recomputed true residual confirms it (re-checks
 //! as in [`super::lsqr`]).
 
-use super::cgnr_mf::{finish, monitor, status_of};
+use super::cgnr_mf::{run_from_zero, status_of};
 use super::lsqr::{bidiag_step, golub_kahan_start, scale_inv, Recheck};
 use super::parity::krylov::Outcome;
 use super::{LinearSolver, SolveStats, SolveStatus, SolverOptions};
-use crate::linalg::{axpy, norm, xpby};
+use crate::linalg::{axpy, xpby};
 use crate::operator::{AssembledOperator, LinearOperator};
 use sprs::CsMat;
 
@@ -44,96 +44,89 @@ pub fn lsmr(
     opts: &SolverOptions,
     name: &str,
 ) -> (Vec<f64>, SolveStats) {
-    let counted = crate::operator::Counted::new(a);
-    let a = &counted;
-    let (m, n) = (a.rows(), a.cols());
-    let bnorm = norm(b);
-    let mut x = vec![0.0; n];
-    let noop = |_: usize, _: f64| {};
-    let mut mon = monitor(bnorm, opts, &noop);
-    if bnorm == 0.0 {
-        return finish(a, b, x, SolveStatus::Converged, mon, opts, name);
-    }
-    let (mut u, mut v, mut alpha) = golub_kahan_start(a, b, bnorm);
+    run_from_zero(a, b, opts, name, |a, bnorm, x, mon| {
+        let (m, n) = (a.rows(), a.cols());
+        let (mut u, mut v, mut alpha) = golub_kahan_start(a, b, bnorm);
 
-    // Variables of the two QR factorisations (names as in the paper and SciPy's lsmr).
-    let mut zetabar = alpha * bnorm;
-    let mut alphabar = alpha;
-    let (mut rho, mut rhobar, mut cbar, mut sbar) = (1.0f64, 1.0f64, 1.0f64, 0.0f64);
-    let mut h = v.clone();
-    let mut hbar = vec![0.0; n];
-    // ‖r‖ estimation.
-    let mut betadd = bnorm;
-    let mut betad = 0.0f64;
-    let mut rhodold = 1.0f64;
-    let mut tautildeold = 0.0f64;
-    let mut thetatilde = 0.0f64;
-    let mut zeta = 0.0f64;
+        // Variables of the two QR factorisations (names as in the paper and SciPy's lsmr).
+        let mut zetabar = alpha * bnorm;
+        let mut alphabar = alpha;
+        let (mut rho, mut rhobar, mut cbar, mut sbar) = (1.0f64, 1.0f64, 1.0f64, 0.0f64);
+        let mut h = v.clone();
+        let mut hbar = vec![0.0; n];
+        // ‖r‖ estimation.
+        let mut betadd = bnorm;
+        let mut betad = 0.0f64;
+        let mut rhodold = 1.0f64;
+        let mut tautildeold = 0.0f64;
+        let mut thetatilde = 0.0f64;
+        let mut zeta = 0.0f64;
 
-    let mut av = vec![0.0; m];
-    let mut atu = vec![0.0; n];
-    let mut r = vec![0.0; m];
-    let mut recheck = Recheck::new(mon.target());
-    let mut status = SolveStatus::MaxIterations;
-    while mon.iterations() < opts.max_iter {
-        if alpha == 0.0 {
-            status = SolveStatus::Stagnated;
-            break;
-        }
-        a.apply(&v, &mut av);
-        let beta = bidiag_step(&av, alpha, &mut u);
-        scale_inv(&mut u, beta);
-        a.apply_transpose(&u, &mut atu);
-        alpha = bidiag_step(&atu, beta, &mut v);
-        scale_inv(&mut v, alpha);
+        let mut av = vec![0.0; m];
+        let mut atu = vec![0.0; n];
+        let mut r = vec![0.0; m];
+        let mut recheck = Recheck::new(mon.target());
+        let mut status = SolveStatus::MaxIterations;
+        while mon.iterations() < opts.max_iter {
+            if alpha == 0.0 {
+                status = SolveStatus::Stagnated;
+                break;
+            }
+            a.apply(&v, &mut av);
+            let beta = bidiag_step(&av, alpha, &mut u);
+            scale_inv(&mut u, beta);
+            a.apply_transpose(&u, &mut atu);
+            alpha = bidiag_step(&atu, beta, &mut v);
+            scale_inv(&mut v, alpha);
 
-        // First rotation (no damping: α̂ = ᾱ).
-        let rhoold = rho;
-        let (c, s, rho_new) = sym_ortho(alphabar, beta);
-        rho = rho_new;
-        let thetanew = s * alpha;
-        alphabar = c * alpha;
-        // Second rotation.
-        let rhobarold = rhobar;
-        let zetaold = zeta;
-        let thetabar = sbar * rho;
-        let (cb, sb, rb) = sym_ortho(cbar * rho, thetanew);
-        cbar = cb;
-        sbar = sb;
-        rhobar = rb;
-        zeta = cbar * zetabar;
-        zetabar *= -sbar;
-        // h̄ = h − (θ̄ρ/(ρ_old ρ̄_old)) h̄;  x += ζ/(ρ ρ̄) h̄;  h = v − (θ/ρ) h.
-        xpby(&h, -(thetabar * rho / (rhoold * rhobarold)), &mut hbar);
-        axpy(zeta / (rho * rhobar), &hbar, &mut x);
-        xpby(&v, -(thetanew / rho), &mut h);
+            // First rotation (no damping: α̂ = ᾱ).
+            let rhoold = rho;
+            let (c, s, rho_new) = sym_ortho(alphabar, beta);
+            rho = rho_new;
+            let thetanew = s * alpha;
+            alphabar = c * alpha;
+            // Second rotation.
+            let rhobarold = rhobar;
+            let zetaold = zeta;
+            let thetabar = sbar * rho;
+            let (cb, sb, rb) = sym_ortho(cbar * rho, thetanew);
+            cbar = cb;
+            sbar = sb;
+            rhobar = rb;
+            zeta = cbar * zetabar;
+            zetabar *= -sbar;
+            // h̄ = h − (θ̄ρ/(ρ_old ρ̄_old)) h̄;  x += ζ/(ρ ρ̄) h̄;  h = v − (θ/ρ) h.
+            xpby(&h, -(thetabar * rho / (rhoold * rhobarold)), &mut hbar);
+            axpy(zeta / (rho * rhobar), &hbar, x);
+            xpby(&v, -(thetanew / rho), &mut h);
 
-        // ‖r‖ estimate.
-        let betaacute = betadd;
-        let betahat = c * betaacute;
-        betadd = -s * betaacute;
-        let thetatildeold = thetatilde;
-        let (ctildeold, stildeold, rhotildeold) = sym_ortho(rhodold, thetabar);
-        thetatilde = stildeold * rhobar;
-        rhodold = ctildeold * rhobar;
-        betad = -stildeold * betad + ctildeold * betahat;
-        tautildeold = (zetaold - thetatildeold * tautildeold) / rhotildeold;
-        let taud = (zeta - thetatilde * tautildeold) / rhodold;
-        let normr = ((betad - taud).powi(2) + betadd * betadd).sqrt();
+            // ‖r‖ estimate.
+            let betaacute = betadd;
+            let betahat = c * betaacute;
+            betadd = -s * betaacute;
+            let thetatildeold = thetatilde;
+            let (ctildeold, stildeold, rhotildeold) = sym_ortho(rhodold, thetabar);
+            thetatilde = stildeold * rhobar;
+            rhodold = ctildeold * rhobar;
+            betad = -stildeold * betad + ctildeold * betahat;
+            tautildeold = (zetaold - thetatildeold * tautildeold) / rhotildeold;
+            let taud = (zeta - thetatilde * tautildeold) / rhodold;
+            let normr = ((betad - taud).powi(2) + betadd * betadd).sqrt();
 
-        match mon.record(normr) {
-            None => {}
-            Some(Outcome::Reached) => {
-                if let Some(st) = recheck.check(normr, a, &x, b, &mut r, mon.target()) {
-                    status = st;
+            match mon.record(normr) {
+                None => {}
+                Some(Outcome::Reached) => {
+                    if let Some(st) = recheck.check(normr, a, x, b, &mut r, mon.target()) {
+                        status = st;
+                        break;
+                    }
+                }
+                Some(o) => {
+                    status = status_of(o);
                     break;
                 }
             }
-            Some(o) => {
-                status = status_of(o);
-                break;
-            }
         }
-    }
-    finish(a, b, x, status, mon, opts, name)
+        status
+    })
 }

@@ -8,7 +8,7 @@
 //! iterates on and re-checks each time φ̄ has fallen by another factor 2 (at most
 //! [`MAX_REPLACEMENTS`] re-checks, then "stagnated" with the residual reached).
 
-use super::cgnr_mf::{finish, monitor, status_of, MAX_REPLACEMENTS};
+use super::cgnr_mf::{run_from_zero, status_of, MAX_REPLACEMENTS};
 use super::parity::krylov::Outcome;
 use super::{LinearSolver, SolveStats, SolveStatus, SolverOptions};
 use crate::linalg::{axpy, norm, xpby};
@@ -109,61 +109,54 @@ pub fn lsqr(
     opts: &SolverOptions,
     name: &str,
 ) -> (Vec<f64>, SolveStats) {
-    let counted = crate::operator::Counted::new(a);
-    let a = &counted;
-    let (m, n) = (a.rows(), a.cols());
-    let bnorm = norm(b);
-    let mut x = vec![0.0; n];
-    let noop = |_: usize, _: f64| {};
-    let mut mon = monitor(bnorm, opts, &noop);
-    if bnorm == 0.0 {
-        return finish(a, b, x, SolveStatus::Converged, mon, opts, name);
-    }
-    let (mut u, mut v, mut alpha) = golub_kahan_start(a, b, bnorm);
-    let mut w = v.clone();
-    let mut phibar = bnorm;
-    let mut rhobar = alpha;
-    let mut av = vec![0.0; m];
-    let mut atu = vec![0.0; n];
-    let mut r = vec![0.0; m];
-    let mut recheck = Recheck::new(mon.target());
-    let mut status = SolveStatus::MaxIterations;
-    while mon.iterations() < opts.max_iter {
-        if alpha == 0.0 {
-            // Aᵀr = 0: the least-squares minimum is reached (b − Au ≠ 0 unless converged).
-            status = SolveStatus::Stagnated;
-            break;
-        }
-        // β u = A v − α u;  α v = Aᵀu − β v.
-        a.apply(&v, &mut av);
-        let beta = bidiag_step(&av, alpha, &mut u);
-        scale_inv(&mut u, beta);
-        a.apply_transpose(&u, &mut atu);
-        alpha = bidiag_step(&atu, beta, &mut v);
-        scale_inv(&mut v, alpha);
-        // Plane rotation eliminating β.
-        let rho = rhobar.hypot(beta);
-        let (c, s) = (rhobar / rho, beta / rho);
-        let theta = s * alpha;
-        rhobar = -c * alpha;
-        let phi = c * phibar;
-        phibar *= s;
-        axpy(phi / rho, &w, &mut x);
-        // w = v − (θ/ρ) w.
-        xpby(&v, -theta / rho, &mut w);
-        match mon.record(phibar.abs()) {
-            None => {}
-            Some(Outcome::Reached) => {
-                if let Some(st) = recheck.check(phibar.abs(), a, &x, b, &mut r, mon.target()) {
-                    status = st;
+    run_from_zero(a, b, opts, name, |a, bnorm, x, mon| {
+        let (m, n) = (a.rows(), a.cols());
+        let (mut u, mut v, mut alpha) = golub_kahan_start(a, b, bnorm);
+        let mut w = v.clone();
+        let mut phibar = bnorm;
+        let mut rhobar = alpha;
+        let mut av = vec![0.0; m];
+        let mut atu = vec![0.0; n];
+        let mut r = vec![0.0; m];
+        let mut recheck = Recheck::new(mon.target());
+        let mut status = SolveStatus::MaxIterations;
+        while mon.iterations() < opts.max_iter {
+            if alpha == 0.0 {
+                // Aᵀr = 0: the least-squares minimum is reached (b − Au ≠ 0 unless converged).
+                status = SolveStatus::Stagnated;
+                break;
+            }
+            // β u = A v − α u;  α v = Aᵀu − β v.
+            a.apply(&v, &mut av);
+            let beta = bidiag_step(&av, alpha, &mut u);
+            scale_inv(&mut u, beta);
+            a.apply_transpose(&u, &mut atu);
+            alpha = bidiag_step(&atu, beta, &mut v);
+            scale_inv(&mut v, alpha);
+            // Plane rotation eliminating β.
+            let rho = rhobar.hypot(beta);
+            let (c, s) = (rhobar / rho, beta / rho);
+            let theta = s * alpha;
+            rhobar = -c * alpha;
+            let phi = c * phibar;
+            phibar *= s;
+            axpy(phi / rho, &w, x);
+            // w = v − (θ/ρ) w.
+            xpby(&v, -theta / rho, &mut w);
+            match mon.record(phibar.abs()) {
+                None => {}
+                Some(Outcome::Reached) => {
+                    if let Some(st) = recheck.check(phibar.abs(), a, x, b, &mut r, mon.target()) {
+                        status = st;
+                        break;
+                    }
+                }
+                Some(o) => {
+                    status = status_of(o);
                     break;
                 }
             }
-            Some(o) => {
-                status = status_of(o);
-                break;
-            }
         }
-    }
-    finish(a, b, x, status, mon, opts, name)
+        status
+    })
 }

@@ -235,6 +235,17 @@ pub trait LinearSolver: Send + Sync {
     fn solve(&self, a: &CsMat<f64>, b: &[f64], opts: &SolverOptions) -> (Vec<f64>, SolveStats);
 }
 
+/// The progress callback of the Krylov loops: every 16 iterations, the iteration count and
+/// the relative residual on `pb`.
+pub(crate) fn report_progress(pb: &indicatif::ProgressBar) -> impl Fn(usize, f64) + '_ {
+    move |it, rel| {
+        if it.is_multiple_of(16) {
+            pb.set_position(it as u64);
+            pb.set_message(format!("relative residual {rel:.3e}"));
+        }
+    }
+}
+
 /// An indicatif progress bar that is hidden unless stderr is a terminal.
 pub(crate) fn progress_bar(len: usize, enabled: bool) -> indicatif::ProgressBar {
     use std::io::IsTerminal;

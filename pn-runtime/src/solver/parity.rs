@@ -50,7 +50,7 @@ pub use precond::Precond;
 pub use reduced::ReducedMode;
 pub use split::ParityError;
 
-use super::{progress_bar, LinearSolver, SolveStats, SolveStatus, SolverOptions};
+use super::{progress_bar, report_progress, LinearSolver, SolveStats, SolveStatus, SolverOptions};
 use crate::layout::Layout;
 use crate::linalg::norm;
 use krylov::{Control, Outcome};
@@ -306,22 +306,9 @@ impl ParityCg {
         let f = op.rhs(&b_e, &b_o);
         let mut x = vec![0.0; op.len()];
         let pb = progress_bar(opts.max_iter, opts.progress);
-        let show = |it: usize, rel: f64| {
-            if it.is_multiple_of(16) {
-                pb.set_position(it as u64);
-                pb.set_message(format!("relative residual {rel:.3e}"));
-            }
-        };
+        let show = report_progress(&pb);
         let scale = if bnorm > 0.0 { bnorm } else { 1.0 };
-        let mut ctl = Control::new(
-            opts.tol * bnorm,
-            scale,
-            opts.max_iter,
-            opts.stagnation_window,
-            opts.stagnation_drop,
-            opts.divergence_limit,
-            &show,
-        );
+        let mut ctl = Control::for_options(opts, bnorm, &show);
         // Every application of S, by the Krylov method and inside the multigrid cycle.
         let s_apps = std::sync::atomic::AtomicUsize::new(0);
         let apply = |v: &[f64], out: &mut [f64]| {

@@ -7,7 +7,9 @@ use crate::layout::Layout;
 use crate::linalg::{dot, norm, residual, spmv};
 use crate::solver::parity::krylov::{self, Control, KrylovMethod, Outcome};
 use crate::solver::parity::{ParityCg, SYMMETRY_TOL};
-use crate::solver::{progress_bar, LinearSolver, SolveStats, SolveStatus, SolverOptions};
+use crate::solver::{
+    progress_bar, report_progress, LinearSolver, SolveStats, SolveStatus, SolverOptions,
+};
 use sprs::CsMat;
 
 /// A [`ParityCg`] built for one layout. When the matrix lacks the parity structure and
@@ -167,21 +169,8 @@ pub fn mg_krylov(
     let bnorm = norm(b);
     let scale = if bnorm > 0.0 { bnorm } else { 1.0 };
     let pb = progress_bar(opts.max_iter, opts.progress);
-    let show = |it: usize, rel: f64| {
-        if it.is_multiple_of(16) {
-            pb.set_position(it as u64);
-            pb.set_message(format!("relative residual {rel:.3e}"));
-        }
-    };
-    let mut ctl = Control::new(
-        opts.tol * bnorm,
-        scale,
-        opts.max_iter,
-        opts.stagnation_window,
-        opts.stagnation_drop,
-        opts.divergence_limit,
-        &show,
-    );
+    let show = report_progress(&pb);
+    let mut ctl = Control::for_options(opts, bnorm, &show);
     // Every product with `a`, the multigrid cycle's finest level included.
     let products = std::sync::atomic::AtomicUsize::new(0);
     let apply = |x: &[f64], y: &mut [f64]| {

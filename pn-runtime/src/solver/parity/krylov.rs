@@ -74,6 +74,24 @@ pub struct Control<'a> {
 }
 
 impl<'a> Control<'a> {
+    /// The controller for a system whose right-hand side has norm `bnorm`, with the limits of
+    /// `opts`: target `tol·‖b‖`, residuals recorded relative to `‖b‖` (to 1 when `b = 0`).
+    pub fn for_options(
+        opts: &crate::solver::SolverOptions,
+        bnorm: f64,
+        progress: &'a dyn Fn(usize, f64),
+    ) -> Self {
+        Self::new(
+            opts.tol * bnorm,
+            if bnorm > 0.0 { bnorm } else { 1.0 },
+            opts.max_iter,
+            opts.stagnation_window,
+            opts.stagnation_drop,
+            opts.divergence_limit,
+            progress,
+        )
+    }
+
     /// A controller with the given limits.
     #[allow(clippy::too_many_arguments)]
     pub fn new(
