@@ -3,24 +3,18 @@
 
 mod common;
 
-use common::{opts, rel_diff, QuadKernel};
+use common::{builtin_problem, opts, rel_diff, QuadKernel};
 use pn_codegen::stencil::{Dim, StencilKernel};
 use pn_runtime::assemble::assemble;
 use pn_runtime::assemble_split::{assemble_split, has_parity_structure};
 use pn_runtime::field::Field;
 use pn_runtime::layout::Layout;
 use pn_runtime::problem::{Boundary, Problem};
-use pn_runtime::scenes::{builtin, BuiltinOptions};
 use pn_runtime::solver::parity::split::split;
 use pn_runtime::solver::parity::{even_mask, ParityCg, Precond};
 
 fn scene(name: &str, dim: Dim, res: usize, boundary: Boundary) -> Problem {
-    let o = BuiltinOptions {
-        dim: Some(dim),
-        res: Some(vec![res]),
-        ..Default::default()
-    };
-    let mut p = builtin(name, &o).unwrap().problem;
+    let mut p = builtin_problem(name, dim, &[res]);
     p.boundary = boundary;
     p
 }

@@ -5,13 +5,12 @@
 
 mod common;
 
-use common::{opts, rel_diff, system};
+use common::{builtin_problem, opts, rel_diff, system};
 use pn_codegen::stencil::Dim;
 use pn_runtime::assemble::System;
 use pn_runtime::layout::Layout;
 use pn_runtime::linalg::{dot, norm};
 use pn_runtime::problem::{Boundary, Problem};
-use pn_runtime::scenes::{builtin, BuiltinOptions};
 use pn_runtime::solver::multigrid::smoother::pseudo_random;
 use pn_runtime::solver::multigrid::solve::mg_krylov;
 use pn_runtime::solver::multigrid::{FineCycle, Geometry, MgOptions};
@@ -23,21 +22,11 @@ use pn_runtime::solver::SolverKind;
 use sprs::{CsMat, TriMat};
 
 fn checkerboard(res: usize) -> Problem {
-    let o = BuiltinOptions {
-        dim: Some(Dim::Two),
-        res: Some(vec![res]),
-        ..Default::default()
-    };
-    builtin("checkerboard", &o).unwrap().problem
+    builtin_problem("checkerboard", Dim::Two, &[res])
 }
 
 fn pointsource3d(res: usize, bc: Boundary) -> Problem {
-    let o = BuiltinOptions {
-        dim: Some(Dim::Three),
-        res: Some(vec![res]),
-        ..Default::default()
-    };
-    let mut p = builtin("pointsource", &o).unwrap().problem;
+    let mut p = builtin_problem("pointsource", Dim::Three, &[res]);
     p.boundary = bc;
     p
 }

@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{opts, rel_diff, system};
+use common::{builtin_problem, opts, rel_diff, system};
 use pn_codegen::stencil::Dim;
 use pn_runtime::assemble::System;
 use pn_runtime::layout::Layout;
@@ -19,12 +19,7 @@ use pn_runtime::solver::parity::{
 use pn_runtime::solver::{LinearSolver, SolveStats, SolverOptions};
 
 fn checkerboard(res: usize) -> Problem {
-    let o = BuiltinOptions {
-        dim: Some(Dim::Two),
-        res: Some(vec![res]),
-        ..Default::default()
-    };
-    builtin("checkerboard", &o).unwrap().problem
+    builtin_problem("checkerboard", Dim::Two, &[res])
 }
 
 /// A homogeneous 3D point source (σ_t = 8, albedo 0.9, optional Henyey–Greenstein g).

@@ -276,6 +276,17 @@ pub fn system(
     (layout, sys)
 }
 
+/// The built-in scene `name` (`checkerboard`, `pointsource`) in `dim` with `res` cells per
+/// axis (one number for all axes), with its default parameters.
+pub fn builtin_problem(name: &str, dim: Dim, res: &[usize]) -> pn_runtime::problem::Problem {
+    let o = pn_runtime::scenes::BuiltinOptions {
+        dim: Some(dim),
+        res: Some(res.to_vec()),
+        ..Default::default()
+    };
+    pn_runtime::scenes::builtin(name, &o).unwrap().problem
+}
+
 /// Solver options with tolerance `tol` and no progress bar.
 pub fn opts(tol: f64) -> pn_runtime::solver::SolverOptions {
     pn_runtime::solver::SolverOptions {
