@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Issue 9: no unwrap/expect/panic reachable from user input.
 #
-# Scans the non-test Rust source of the binary's input paths (src/ and pn-runtime/src/)
+# Scans the non-test Rust source of the binary's input paths (src/, crates/pn-runtime, pn-drivers and pn-kernels)
 # for `.unwrap()`, `.expect(` and `panic!` outside `#[cfg(test)]` items and comments.
 # Every remaining occurrence must be listed in .ci/no-panics.allow as
 #     <path> | <code fragment on the line> | <one-line justification>
@@ -46,7 +46,7 @@ scan() {
     }' "$@"
 }
 
-mapfile -t files < <(find src pn-runtime/src -name '*.rs' | sort)
+mapfile -t files < <(find src crates/pn-runtime/src crates/pn-drivers/src crates/pn-kernels/src -name '*.rs' | sort)
 while IFS= read -r hit; do
     [ -z "$hit" ] && continue
     path=${hit%%:*}

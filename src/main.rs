@@ -1,6 +1,6 @@
 //! The `pn` command-line tool.
 use clap::{Parser, Subcommand};
-use pnsolver::cli;
+use pn_drivers as cli;
 
 /// pnsolver: deterministic multiple scattering (P_N, diffusion, flux-limited diffusion).
 #[derive(Parser, Debug)]

@@ -35,24 +35,21 @@ fn solve(name: &str, args: &[&str]) -> (Vec<usize>, Vec<f64>, serde_json::Value)
     (f.shape, f.data, report)
 }
 
-fn reference(file: &str) -> Option<Vec<f64>> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/reference/checkerboard");
-    let path = dir.join(file);
-    if !path.exists() {
-        eprintln!("skipping: {} not found", path.display());
-        return None;
-    }
-    let text = std::fs::read_to_string(path).unwrap();
-    Some(
-        text.lines()
-            .filter(|l| !l.trim().is_empty())
-            .flat_map(|l| {
-                l.split(',')
-                    .map(|v| v.trim().parse::<f64>().unwrap())
-                    .collect::<Vec<_>>()
-            })
-            .collect(),
-    )
+/// A StaRMAP reference from `tests/data/checkerboard` (a missing file fails the test).
+fn reference(file: &str) -> Vec<f64> {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data/checkerboard")
+        .join(file);
+    let text = std::fs::read_to_string(&path)
+        .unwrap_or_else(|e| panic!("reference data {} is missing: {e}", path.display()));
+    text.lines()
+        .filter(|l| !l.trim().is_empty())
+        .flat_map(|l| {
+            l.split(',')
+                .map(|v| v.trim().parse::<f64>().unwrap())
+                .collect::<Vec<_>>()
+        })
+        .collect()
 }
 
 /// max|a − b| / max|b|.
@@ -72,9 +69,7 @@ fn rel_diff(a: &[f64], b: &[f64]) -> f64 {
 /// coefficients, placement, closure or field evaluation shows up far above it.
 #[test]
 fn p1_matches_starmap() {
-    let Some(r) = reference("starmap_p1_n71.csv") else {
-        return;
-    };
+    let r = reference("starmap_p1_n71.csv");
     let (shape, f, rep) = solve("p1", &["checkerboard", "--order", "1"]);
     assert_eq!(shape, vec![71, 71]);
     let d = rel_diff(&f, &r);
@@ -88,9 +83,7 @@ fn p1_matches_starmap() {
 /// The main job: `pn solve checkerboard` = P_5, 71×71, Neumann, residual 1e-10.
 #[test]
 fn p5_main_job_matches_starmap_and_is_symmetric() {
-    let Some(r) = reference("starmap_p5_n71.csv") else {
-        return;
-    };
+    let r = reference("starmap_p5_n71.csv");
     let (shape, f, rep) = solve("p5", &["checkerboard"]);
     assert_eq!(shape, vec![71, 71]);
     assert_eq!(rep["order"], 5);

@@ -11,13 +11,13 @@
 //! solution near the centre, where the L2 norm lives — far below the discretization errors
 //! measured here (≥ 1e-3).
 
+use pn_kernels::{pn_kernel, Dim, Staggering};
 use pn_runtime::convergence::{observed_order, rel_l2_diff, restrict, richardson};
 use pn_runtime::field::Field;
 use pn_runtime::pipeline::solve_problem;
 use pn_runtime::problem::{Boundary, Grid, Phase, Problem, Scattering, SourceTerm};
 use pn_runtime::reference::pn_point_source;
 use pn_runtime::solver::{SolverKind, SolverOptions};
-use pnsolver::stencils::{pn_kernel, Dim, Layout};
 use std::f64::consts::PI;
 
 const SIGMA_T: f64 = 1.0;
@@ -54,7 +54,7 @@ fn problem(n: usize) -> Problem {
 
 /// φ = √(4π) L_0^0 at the cell centres.
 fn solve(n: usize) -> Vec<f64> {
-    let k = pn_kernel(1, Dim::Three, Layout::Staggered).unwrap();
+    let k = pn_kernel(1, Dim::Three, Staggering::Staggered).unwrap();
     let opts = SolverOptions {
         tol: 1e-11,
         max_iter: 200_000,

@@ -4,6 +4,7 @@
 //! one prints the issue-8 table for 71² P_1/P_3/P_5 at residual 1e-10:
 //! `cargo test --release --test parity_bench -- --ignored --nocapture`.
 
+use pn_kernels::{pn_kernel, Dim, Staggering};
 use pn_runtime::assemble::{assemble, System};
 use pn_runtime::layout::Layout;
 use pn_runtime::problem::Problem;
@@ -14,7 +15,6 @@ use pn_runtime::solver::parity::{
 };
 use pn_runtime::solver::{LinearSolver, SolveStats, SolverOptions};
 use pn_runtime::unstagger::unstagger;
-use pnsolver::stencils::{pn_kernel, Dim, Layout as StencilLayout};
 use std::time::Instant;
 
 fn checkerboard(res: usize) -> Problem {
@@ -27,7 +27,7 @@ fn checkerboard(res: usize) -> Problem {
 }
 
 fn system(problem: &Problem, order: usize) -> (Layout, System) {
-    let k = pn_kernel(order, Dim::Two, StencilLayout::Staggered).unwrap();
+    let k = pn_kernel(order, Dim::Two, Staggering::Staggered).unwrap();
     let layout = Layout::new(&problem.grid, k.kernel.moments()).unwrap();
     let sys = assemble(problem, k.kernel.as_ref(), &layout).unwrap();
     (layout, sys)
@@ -209,7 +209,7 @@ fn pointsource_table() {
     println!("| N | res | unknowns | cgnr it | cgnr s | parity precond | method | parity it | work ratio | parity s (setup) | time ratio | max fluence diff |");
     println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
     for order in orders {
-        let k = pn_kernel(order, Dim::Three, StencilLayout::Staggered).unwrap();
+        let k = pn_kernel(order, Dim::Three, Staggering::Staggered).unwrap();
         let layout = Layout::new(&p.grid, k.kernel.moments()).unwrap();
         let sys = assemble(&p, k.kernel.as_ref(), &layout).unwrap();
         let (uc, sc, c_secs) = cgnr(&sys, tol);

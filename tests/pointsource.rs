@@ -10,13 +10,13 @@
 //!
 //! Numbers measured with these tests are in `README_pointsource.md`.
 
+use pn_drivers::pointsource_extras::{exact_modes, profile, Ray};
+use pn_kernels::{cda_kernel, pn_kernel, Dim, Staggering};
 use pn_runtime::pipeline::{solve_problem, Solution};
 use pn_runtime::problem::Boundary;
 use pn_runtime::reference::{ProfileRow, PROFILE_CSV_HEADER};
 use pn_runtime::scenes::{builtin, BuiltinOptions, PointSourceParams, PointSourceShape};
 use pn_runtime::solver::{SolverKind, SolverOptions};
-use pnsolver::cli::pointsource_extras::{exact_modes, profile, Ray};
-use pnsolver::stencils::{cda_kernel, pn_kernel, Dim, Layout};
 use std::process::Command;
 
 /// A point-source solve: `order` 0 means CDA.
@@ -44,7 +44,7 @@ impl Run {
         let choice = if self.order == 0 {
             cda_kernel(Dim::Three).unwrap()
         } else {
-            pn_kernel(self.order, Dim::Three, Layout::Staggered).unwrap()
+            pn_kernel(self.order, Dim::Three, Staggering::Staggered).unwrap()
         };
         let opts = SolverOptions {
             tol: self.tol,
@@ -132,7 +132,7 @@ fn gaussian_error(run: &Run) -> f64 {
     let st = run.params.sigma_t;
     let modes = exact_modes(run.order, &run.params).unwrap();
     let l00 = sol.l00();
-    let c = pnsolver::cli::pointsource_extras::source_cell(g);
+    let c = pn_drivers::pointsource_extras::source_cell(g);
     let centre: Vec<f64> = (0..3)
         .map(|d| g.min[d] + (c[d] as f64 + 0.5) * g.h(d))
         .collect();

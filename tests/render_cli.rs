@@ -2,10 +2,10 @@
 //! few spp): every method runs and writes its files; the multiple-scattering part behaves
 //! as the theory says; bad input gives one clear error.
 
+use pn_drivers::render::render_scene;
 use pn_runtime::render::image_io::read_exr_gray;
 use pn_runtime::render::scene::RenderMethod;
 use pn_runtime::render::RenderScene;
-use pnsolver::cli::render::render_scene;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -92,7 +92,7 @@ fn p1_equals_cda_for_isotropic_scattering() {
 #[test]
 fn multiple_scattering_adds_light_and_methods_agree_roughly() {
     let none = render_scene(&scene(RenderMethod::None, 1), Some(1), None, false).unwrap();
-    let mean = |r: &pnsolver::cli::render::RenderRun| r.report.mean_radiance;
+    let mean = |r: &pn_drivers::render::RenderRun| r.report.mean_radiance;
     let ss = mean(&none);
     assert!(ss > 0.0);
     let mut ms = Vec::new();

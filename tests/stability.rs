@@ -12,11 +12,11 @@
 //!   and a status saying why (never a NaN, a hang or a panic);
 //! * `Refused(word)`: an error whose message contains `word`.
 
+use pn_kernels::{pn_kernel, Dim, Staggering};
 use pn_runtime::field::Field;
 use pn_runtime::pipeline::{solve_problem, Solution};
 use pn_runtime::problem::{Boundary, Grid, Phase, Problem, Scattering, SourceTerm};
 use pn_runtime::solver::{SolveStatus, SolverKind, SolverOptions};
-use pnsolver::stencils::{pn_kernel, Dim, Layout};
 
 /// What a case must do.
 #[derive(Clone, Copy, Debug)]
@@ -148,7 +148,7 @@ fn balance_bound(p: &Problem, sol: &Solution) -> f64 {
 /// Runs one case and checks its expectation; returns a one-line summary.
 fn run(c: &Case) -> String {
     let p = problem(c);
-    let kernel = pn_kernel(c.order, c.dim, Layout::Staggered)
+    let kernel = pn_kernel(c.order, c.dim, Staggering::Staggered)
         .unwrap_or_else(|e| panic!("{}: no P_{} stencil: {e:#}", c.name, c.order));
     let opts = SolverOptions {
         tol: 1e-10,
@@ -423,7 +423,7 @@ fn memory_estimate_matches_the_assembled_system() {
         c.dim = dim;
         c.res = res;
         let p = problem(&c);
-        let k = pn_kernel(order, dim, Layout::Staggered).unwrap();
+        let k = pn_kernel(order, dim, Staggering::Staggered).unwrap();
         let est = pn_runtime::memory_estimate::estimate(&p.grid, k.kernel.as_ref());
         let opts = SolverOptions {
             progress: false,
@@ -459,7 +459,7 @@ fn memory_estimate_per_solver() {
     c.dim = Dim::Three;
     c.res = [6, 5, 4];
     let p = problem(&c);
-    let k = pn_kernel(3, Dim::Three, Layout::Staggered).unwrap();
+    let k = pn_kernel(3, Dim::Three, Staggering::Staggered).unwrap();
     let full = estimate(&p.grid, k.kernel.as_ref());
     let parity = estimate_for_solver(&p.grid, k.kernel.as_ref(), SolverKind::ParityCg);
     let mf = estimate_for_solver(&p.grid, k.kernel.as_ref(), SolverKind::CgnrMf);
@@ -470,7 +470,7 @@ fn memory_estimate_per_solver() {
         "{parity} {mf} {full}"
     );
     assert!(parity.bytes >= parity.nonzeros * 16, "{parity}");
-    let cda = pnsolver::stencils::cda_kernel(Dim::Three).unwrap();
+    let cda = pn_kernels::cda_kernel(Dim::Three).unwrap();
     assert_eq!(
         estimate_for_solver(&p.grid, cda.kernel.as_ref(), SolverKind::ParityCg),
         estimate(&p.grid, cda.kernel.as_ref())
@@ -484,7 +484,7 @@ fn memory_estimate_per_solver() {
 fn source_scale_extremes() {
     let c = base("source scale");
     let p1 = problem(&c);
-    let k = pn_kernel(1, Dim::Two, Layout::Staggered).unwrap();
+    let k = pn_kernel(1, Dim::Two, Staggering::Staggered).unwrap();
     let opts = SolverOptions {
         progress: false,
         ..Default::default()

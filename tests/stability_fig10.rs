@@ -8,11 +8,11 @@
 //! (DESIGN.md §5); raising σ_t to the threshold regularises it, and the smaller the
 //! threshold the worse the conditioning, so the iteration count grows as it shrinks.
 
+use pn_kernels::{pn_kernel, Dim, Staggering};
 use pn_runtime::field::Field;
 use pn_runtime::pipeline::solve_problem;
 use pn_runtime::problem::{Boundary, Grid, Phase, Problem, Scattering, SourceTerm};
 use pn_runtime::solver::{SolverKind, SolverOptions};
-use pnsolver::stencils::{pn_kernel, Dim, Layout};
 
 fn cloud(threshold: Option<f64>, boundary: Boundary) -> Problem {
     let r2 = |p: [f64; 3]| (p[0] - 0.5).powi(2) + (p[1] - 0.5).powi(2);
@@ -56,7 +56,7 @@ fn iterations_vs_threshold() {
         .into_iter()
         .flat_map(|o| [(o, Boundary::Dirichlet), (o, Boundary::Neumann)])
     {
-        let k = pn_kernel(order, Dim::Two, Layout::Staggered).unwrap();
+        let k = pn_kernel(order, Dim::Two, Staggering::Staggered).unwrap();
         println!(
             "P_{order} {}: threshold, iterations, status, relative residual",
             bc.name()

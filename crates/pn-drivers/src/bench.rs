@@ -1,0 +1,621 @@
+//! `pn bench`: a fixed suite of problems solved in one process, so that every speed-up is a
+//! ratio measured side by side. Writes `bench.csv` and `bench.md`.
+//!
+//! Errors are measured against references nobody on the team wrote:
+//! * checkerboard: StaRMAP's steady states (`max|ours − ref| / max(ref)`, P_1 and P_5);
+//! * point source: the semi-analytic P_N solution (P_N rows), the CDA Green's function
+//!   (CDA) and Grosjean's transport approximation (FLD), as the largest relative deviation of
+//!   the normalised fluence 4πφ/σ_t² at the cells nearest τ = 1, 2, 4 along +x.
+
+use anyhow::Context;
+use clap::Args;
+use pn_kernels::{cda_kernel, pn_kernel, Dim, Staggering};
+use pn_runtime::fld::{solve_fld, FldGrid, FldParams, FldProblem, Limiter};
+use pn_runtime::pipeline::{solve_problem, Solution};
+use pn_runtime::reference::{cda_point_source, grosjean, pn_point_source};
+use pn_runtime::scenes::{builtin, BuiltinOptions, PointSourceParams};
+use pn_runtime::solver::{SolverKind, SolverOptions};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Arguments of `pn bench`.
+#[derive(Args, Debug)]
+pub struct BenchArgs {
+    /// A subset that runs in about a minute (checkerboard P_1/P_3, point source at 40³).
+    #[arg(long)]
+    pub quick: bool,
+    /// Output directory for bench.csv and bench.md.
+    #[arg(long, default_value = "out/bench")]
+    pub out: PathBuf,
+    /// Folder with the reference data (`checkerboard/starmap_p{1,5}_n71.csv`).
+    #[arg(long, default_value = "tests/data")]
+    pub reference: PathBuf,
+    /// Point-source resolution (default 80, the paper's; 40 with --quick).
+    #[arg(long)]
+    pub pointsource_res: Option<usize>,
+    /// Skip the baseline CGNR runs on problems with more unknowns than this.
+    #[arg(long, default_value_t = 3_000_000)]
+    pub cgnr_max_unknowns: usize,
+}
+
+/// One row of bench.csv.
+pub(super) struct Row {
+    problem: String,
+    method: String,
+    solver: String,
+    order: usize,
+    resolution: String,
+    unknowns: usize,
+    iterations: usize,
+    seconds_assemble: f64,
+    seconds_solve: f64,
+    peak_memory_bytes: u64,
+    error: Option<f64>,
+    reference: &'static str,
+    converged: bool,
+    /// Products with `A` or their equivalent ([`pn_runtime::solver::SolveStats::operator_applications`]).
+    operator_applications: usize,
+}
+
+pub(super) const CSV_HEADER: &str = "problem,method,solver,order,resolution,unknowns,iterations,seconds_assemble,seconds_solve,peak_memory_bytes,error,reference,converged,operator_applications";
+
+impl Row {
+    pub(super) fn csv(&self) -> String {
+        format!(
+            "{},{},{},{},{},{},{},{:.6},{:.6},{},{},{},{},{}",
+            self.problem,
+            self.method,
+            self.solver,
+            self.order,
+            self.resolution,
+            self.unknowns,
+            self.iterations,
+            self.seconds_assemble,
+            self.seconds_solve,
+            self.peak_memory_bytes,
+            self.error.map_or("".into(), |e| format!("{e:.3e}")),
+            self.reference,
+            self.converged,
+            self.operator_applications
+        )
+    }
+}
+
+/// Resets the kernel's peak-RSS counter so that each problem's peak is its own
+/// (`/proc/self/clear_refs`, Linux ≥ 4.0); returns false where that is not possible.
+pub(super) fn reset_peak_memory() -> bool {
+    std::fs::write("/proc/self/clear_refs", "5").is_ok()
+}
+
+fn peak_memory() -> u64 {
+    pn_runtime::memory::peak_memory_bytes().unwrap_or(0)
+}
+
+/// Reads a StaRMAP reference CSV (rows = x index, columns = y index).
+fn read_reference(path: &Path) -> anyhow::Result<Vec<f64>> {
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+    let mut v = Vec::new();
+    for line in text.lines().filter(|l| !l.trim().is_empty()) {
+        for cell in line.split(',') {
+            v.push(
+                cell.trim()
+                    .parse::<f64>()
+                    .with_context(|| format!("bad number in {}", path.display()))?,
+            );
+        }
+    }
+    Ok(v)
+}
+
+/// `max|a − b| / max|b|`.
+fn max_rel_diff(a: &[f64], b: &[f64]) -> Option<f64> {
+    if a.len() != b.len() || b.is_empty() {
+        return None;
+    }
+    let scale = b.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    let diff = a
+        .iter()
+        .zip(b)
+        .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
+    Some(diff / scale)
+}
+
+/// Largest relative deviation of `values(k)` (normalised fluence at k cells along +x from
+/// the source) from `exact(τ_k)` at the cells nearest τ = 1, 2, 4.
+pub(super) fn profile_error(
+    tau_per_cell: f64,
+    max_k: usize,
+    values: impl Fn(usize) -> f64,
+    exact: impl Fn(f64) -> f64,
+) -> Option<f64> {
+    let mut worst: Option<f64> = None;
+    for tau in [1.0, 2.0, 4.0] {
+        let k = (tau / tau_per_cell).round() as usize;
+        if k == 0 || k > max_k {
+            continue;
+        }
+        let t = k as f64 * tau_per_cell;
+        let e = (values(k) / exact(t) - 1.0).abs();
+        worst = Some(worst.map_or(e, |w: f64| w.max(e)));
+    }
+    worst
+}
+
+fn run_pipeline(
+    scene_name: &str,
+    opts: &BuiltinOptions,
+    method: &str,
+    order: usize,
+    solver: SolverKind,
+    tol: f64,
+) -> anyhow::Result<(Solution, String)> {
+    let scene = builtin(scene_name, opts)?;
+    let dim = scene.problem.grid.dim;
+    let choice = if method == "cda" {
+        cda_kernel(dim)?
+    } else {
+        pn_kernel(order, dim, Staggering::Staggered)?
+    };
+    let sopts = SolverOptions {
+        tol,
+        progress: false,
+        ..Default::default()
+    };
+    let sol = solve_problem(&scene.problem, choice.kernel.as_ref(), solver, &sopts)?;
+    let g = &scene.problem.grid;
+    let res = g.res[..g.dim.axes()]
+        .iter()
+        .map(|n| n.to_string())
+        .collect::<Vec<_>>()
+        .join("x");
+    Ok((sol, res))
+}
+
+pub(super) fn row_from(
+    problem: &str,
+    method: &str,
+    order: usize,
+    res: String,
+    sol: &Solution,
+    error: Option<f64>,
+    reference: &'static str,
+) -> Row {
+    Row {
+        problem: problem.into(),
+        method: method.into(),
+        solver: sol.stats.solver.clone(),
+        order,
+        resolution: res,
+        unknowns: sol.unknowns,
+        iterations: sol.stats.iterations,
+        seconds_assemble: sol.seconds_assembly,
+        seconds_solve: sol.seconds_solve,
+        peak_memory_bytes: peak_memory(),
+        error,
+        reference,
+        converged: sol.stats.converged(),
+        operator_applications: sol.stats.operator_applications,
+    }
+}
+
+/// The least-squares solvers and the matrix-free baseline, run next to cgnr and parity-cg
+/// (and skipped with cgnr on problems above `--cgnr-max-unknowns`).
+const LS_SOLVERS: [SolverKind; 3] = [SolverKind::Lsqr, SolverKind::Lsmr, SolverKind::CgnrMf];
+
+fn checkerboard_rows(args: &BenchArgs, rows: &mut Vec<Row>) -> anyhow::Result<()> {
+    let orders: &[usize] = if args.quick { &[1, 3] } else { &[1, 3, 5] };
+    let opts = BuiltinOptions::default();
+    for &order in orders {
+        let reference = match order {
+            1 | 5 => read_reference(
+                &args
+                    .reference
+                    .join(format!("checkerboard/starmap_p{order}_n71.csv")),
+            )
+            .ok(),
+            _ => None,
+        };
+        for solver in [
+            SolverKind::Cgnr,
+            SolverKind::ParityIlu,
+            SolverKind::ParityMg,
+        ]
+        .into_iter()
+        .chain(LS_SOLVERS)
+        {
+            reset_peak_memory();
+            let (sol, res) = run_pipeline("checkerboard", &opts, "pn", order, solver, 1e-10)?;
+            let err = reference.as_ref().and_then(|r| max_rel_diff(&sol.l00(), r));
+            let row = row_from(
+                "checkerboard",
+                "pn",
+                order,
+                res,
+                &sol,
+                err,
+                if err.is_some() { "starmap" } else { "none" },
+            );
+            eprintln!("bench: {}", row.csv());
+            rows.push(row);
+        }
+    }
+    Ok(())
+}
+
+fn pointsource_rows(args: &BenchArgs, rows: &mut Vec<Row>) -> anyhow::Result<()> {
+    let n = args
+        .pointsource_res
+        .unwrap_or(if args.quick { 40 } else { 80 });
+    anyhow::ensure!(n >= 8, "--pointsource-res must be at least 8");
+    let params = PointSourceParams::default();
+    let opts = BuiltinOptions {
+        dim: Some(Dim::Three),
+        res: Some(vec![n]),
+        pointsource: params,
+    };
+    let h = 2.0 * params.half_width / n as f64;
+    let tau_per_cell = params.sigma_t * h;
+    let c = n / 2;
+    let max_k = n - 1 - c;
+    let norm = 4.0 * std::f64::consts::PI / (params.sigma_t * params.sigma_t);
+    // L_0^0 of the cell source (power √(4π)) is the unit-power Green's function: the
+    // normalised fluence is 4π L_0^0 / σ_t² (reference/pointsource/README.md).
+    let along_x = |l00: &[f64], k: usize| l00[((c + k) * n + c) * n + c] * norm;
+    let orders: &[usize] = if args.quick { &[1, 3] } else { &[1, 3, 5] };
+    for &order in orders {
+        let modes = pn_point_source(order, params.albedo, params.g)?;
+        for solver in [
+            SolverKind::Cgnr,
+            SolverKind::ParityIlu,
+            SolverKind::ParityMg,
+        ]
+        .into_iter()
+        .chain(LS_SOLVERS)
+        {
+            let unknowns_estimate = (order + 1) * (order + 1) * (n + 1).pow(3);
+            let baseline_like = solver == SolverKind::Cgnr || LS_SOLVERS.contains(&solver);
+            if baseline_like && unknowns_estimate > args.cgnr_max_unknowns {
+                eprintln!("bench: skipping {} on pointsource P_{order} {n}³ (~{unknowns_estimate} unknowns > --cgnr-max-unknowns)", solver.name());
+                continue;
+            }
+            reset_peak_memory();
+            let (sol, res) = run_pipeline("pointsource", &opts, "pn", order, solver, 1e-6)?;
+            let l00 = sol.l00();
+            let err = profile_error(
+                tau_per_cell,
+                max_k,
+                |k| along_x(&l00, k),
+                |t| modes.fluence(t),
+            );
+            let row = row_from("pointsource", "pn", order, res, &sol, err, "pn_exact");
+            eprintln!("bench: {}", row.csv());
+            rows.push(row);
+        }
+    }
+    // CDA through the same pipeline (input PDE): the cgnr baseline and multigrid-CG
+    // (`parity-mg` solves this scalar system with MG-preconditioned CG on A itself).
+    for solver in [SolverKind::Cgnr, SolverKind::ParityMg] {
+        if solver == SolverKind::Cgnr && (n + 1).pow(3) > args.cgnr_max_unknowns * 4 {
+            continue;
+        }
+        reset_peak_memory();
+        let (sol, res) = run_pipeline("pointsource", &opts, "cda", 0, solver, 1e-6)?;
+        let l00 = sol.l00();
+        let err = profile_error(
+            tau_per_cell,
+            max_k,
+            |k| along_x(&l00, k),
+            |t| cda_point_source(t, params.albedo, params.g),
+        );
+        let row = row_from("pointsource", "cda", 0, res, &sol, err, "cda_exact");
+        eprintln!("bench: {}", row.csv());
+        rows.push(row);
+    }
+    // FLD (nonlinear Gauss–Seidel) on the same cells; φ is the fluence of a unit-power source.
+    reset_peak_memory();
+    let problem = fld_point_source(n, &params)?;
+    let cells = problem.grid.len();
+    let fparams = FldParams::for_grid(Limiter::LevermorePomraning, &problem.grid);
+    let t0 = Instant::now();
+    let fsol = solve_fld(&problem, &fparams)?;
+    let seconds = t0.elapsed().as_secs_f64();
+    let phi = &fsol.phi;
+    let err = profile_error(
+        tau_per_cell,
+        max_k,
+        |k| phi[problem.grid.index(c + k, c, c)] * norm,
+        |t| grosjean(t, params.albedo),
+    );
+    let row = Row {
+        problem: "pointsource".into(),
+        method: "fld-lp".into(),
+        solver: "gauss-seidel".into(),
+        order: 0,
+        resolution: format!("{n}x{n}x{n}"),
+        unknowns: cells,
+        iterations: fsol.iterations,
+        seconds_assemble: 0.0,
+        seconds_solve: seconds,
+        peak_memory_bytes: peak_memory(),
+        error: err,
+        reference: "grosjean",
+        converged: fsol.converged,
+        operator_applications: 0,
+    };
+    eprintln!("bench: {}", row.csv());
+    rows.push(row);
+    Ok(())
+}
+
+/// The point source of `params` on `n³` cells for FLD: a unit-power source in cell
+/// (n/2, n/2, n/2), like the `pointsource` scene.
+pub(super) fn fld_point_source(n: usize, params: &PointSourceParams) -> anyhow::Result<FldProblem> {
+    let grid = FldGrid::cube(n, 2.0 * params.half_width)?;
+    let h = 2.0 * params.half_width / n as f64;
+    let cells = grid.len();
+    let c = n / 2;
+    let mut source = vec![0.0; cells];
+    source[grid.index(c, c, c)] = 1.0 / (h * h * h);
+    Ok(FldProblem {
+        grid,
+        sigma_t: vec![params.sigma_t; cells],
+        sigma_a: vec![params.sigma_t * (1.0 - params.albedo); cells],
+        source,
+    })
+}
+
+/// Markdown table plus the side-by-side speed-ups of parity-cg over cgnr.
+fn markdown(rows: &[Row], quick: bool) -> String {
+    let mut md = String::new();
+    let _ = writeln!(md, "# pn bench{}\n", if quick { " --quick" } else { "" });
+    let _ = writeln!(md, "| problem | method | solver | N | resolution | unknowns | iterations | assemble s | solve s | peak MB | error | vs |");
+    let _ = writeln!(md, "|---|---|---|---|---|---|---|---|---|---|---|---|");
+    for r in rows {
+        let _ = writeln!(
+            md,
+            "| {} | {} | {} | {} | {} | {} | {}{} | {:.3} | {:.3} | {:.0} | {} | {} |",
+            r.problem,
+            r.method,
+            r.solver,
+            r.order,
+            r.resolution,
+            r.unknowns,
+            r.iterations,
+            if r.converged { "" } else { " (not converged)" },
+            r.seconds_assemble,
+            r.seconds_solve,
+            r.peak_memory_bytes as f64 / 1e6,
+            r.error.map_or("–".into(), |e| format!("{e:.2e}")),
+            r.reference
+        );
+    }
+    let _ = writeln!(md, "\n## parity-cg vs cgnr (same process)\n");
+    let _ = writeln!(
+        md,
+        "| problem | N | resolution | cgnr s | parity-cg s | time ratio |"
+    );
+    let _ = writeln!(md, "|---|---|---|---|---|---|");
+    for a in rows
+        .iter()
+        .filter(|r| r.solver == "cgnr" && r.method == "pn")
+    {
+        if let Some(b) = same_problem(rows, a, "parity-cg") {
+            let _ = writeln!(
+                md,
+                "| {} | {} | {} | {:.3} | {:.3} | {:.1}× |",
+                a.problem,
+                a.order,
+                a.resolution,
+                a.seconds_solve,
+                b.seconds_solve,
+                a.seconds_solve / b.seconds_solve.max(1e-9)
+            );
+        }
+    }
+    md
+}
+
+/// The row of `solver` on the same problem, method, order and resolution as `like`.
+fn same_problem<'a>(rows: &'a [Row], like: &Row, solver: &str) -> Option<&'a Row> {
+    rows.iter().find(|b| {
+        b.solver == solver
+            && b.method == like.method
+            && b.problem == like.problem
+            && b.order == like.order
+            && b.resolution == like.resolution
+    })
+}
+
+/// Work in products with `A` (issue 8 asks parity-cg for ≥ 20× fewer than cgnr to the same
+/// tolerance): cgnr counts A and Aᵀ, the parity solvers every application of the reduced
+/// operator (multigrid cycle and setup included), which touches A's off-diagonal entries once.
+fn work_comparison(rows: &[Row]) -> String {
+    let mut md =
+        String::from("\n## Work: products with A to the same tolerance (same process)\n\n");
+    md.push_str(
+        "cgnr: every product with A and Aᵀ; parity: every application of S = D_e − B D_o⁻¹ C \
+                 (Krylov, multigrid smoothing and residuals on the finest level, setup, probes) \
+                 plus the final residual checks. ILU(0)'s triangular solves are not counted.\n\n",
+    );
+    md.push_str("| problem | N | resolution | cgnr | parity-cg (ILU/Jacobi) | parity-mg | cgnr / parity-cg | cgnr / parity-mg |\n");
+    md.push_str("|---|---|---|---|---|---|---|---|\n");
+    for c in rows
+        .iter()
+        .filter(|r| r.solver == "cgnr" && r.method == "pn")
+    {
+        let find = |solver: &str| same_problem(rows, c, solver);
+        let apps =
+            |r: Option<&Row>| r.map_or("–".to_string(), |r| r.operator_applications.to_string());
+        let ratio = |r: Option<&Row>| {
+            r.map_or("–".to_string(), |r| {
+                format!(
+                    "{:.1}×",
+                    c.operator_applications as f64 / r.operator_applications.max(1) as f64
+                )
+            })
+        };
+        let (p, m) = (find("parity-cg"), find("parity-mg"));
+        let _ = writeln!(
+            md,
+            "| {} | {} | {} | {} | {} | {} | {} | {} |",
+            c.problem,
+            c.order,
+            c.resolution,
+            c.operator_applications,
+            apps(p),
+            apps(m),
+            ratio(p),
+            ratio(m)
+        );
+    }
+    md
+}
+
+/// parity-mg (multigrid-preconditioned) against parity-cg (ILU(0)/Jacobi) and cgnr on the
+/// same problems, same process: iterations and assembly + solve seconds.
+fn mg_comparison(rows: &[Row]) -> String {
+    let mut md = String::from("\n## parity-mg vs parity-cg and cgnr (same process)\n\n");
+    md.push_str("| problem | N | resolution | mg it | mg s | parity-cg it | parity-cg s | cgnr it | cgnr s | mg speed-up vs parity-cg | vs cgnr |\n");
+    md.push_str("|---|---|---|---|---|---|---|---|---|---|---|\n");
+    let total = |r: &Row| r.seconds_assemble + r.seconds_solve;
+    for m in rows
+        .iter()
+        .filter(|r| r.solver == "parity-mg" && r.method == "pn")
+    {
+        let find = |solver: &str| same_problem(rows, m, solver);
+        let cell = |r: Option<&Row>| {
+            r.map_or("–|–".to_string(), |r| {
+                format!("{}|{:.3}", r.iterations, total(r))
+            })
+        };
+        let ratio = |r: Option<&Row>| {
+            r.map_or("–".to_string(), |r| {
+                format!("{:.1}×", total(r) / total(m).max(1e-9))
+            })
+        };
+        let (p, c) = (find("parity-cg"), find("cgnr"));
+        if p.is_none() && c.is_none() {
+            continue;
+        }
+        let _ = writeln!(
+            md,
+            "| {} | {} | {} | {} | {:.3} | {} | {} | {} | {} |",
+            m.problem,
+            m.order,
+            m.resolution,
+            m.iterations,
+            total(m),
+            cell(p),
+            cell(c),
+            ratio(p),
+            ratio(c)
+        );
+    }
+    md
+}
+
+/// Side-by-side tables of the iterative solvers (same process): iterations and seconds of
+/// lsqr, lsmr and cgnr against parity-cg, and matrix-free (`cgnr-mf`) against assembled
+/// (`cgnr`) CGNR in solve time, setup time and peak memory.
+fn solver_comparison(rows: &[Row]) -> String {
+    let mut md = String::new();
+    let find = |a: &Row, solver: &str| same_problem(rows, a, solver);
+    let _ = writeln!(
+        md,
+        "\n## Solvers: iterations and solve seconds (same process)\n"
+    );
+    let _ = writeln!(
+        md,
+        "| problem | N | resolution | parity-cg | cgnr | cgnr-mf | lsqr | lsmr |"
+    );
+    let _ = writeln!(md, "|---|---|---|---|---|---|---|---|");
+    let cell = |r: Option<&Row>| {
+        r.map_or("–".to_string(), |r| {
+            format!(
+                "{} it, {:.3} s{}",
+                r.iterations,
+                r.seconds_solve,
+                if r.converged { "" } else { " (nc)" }
+            )
+        })
+    };
+    for a in rows
+        .iter()
+        .filter(|r| r.solver == "parity-cg" && r.method == "pn" && find(r, "cgnr").is_some())
+    {
+        let _ = writeln!(
+            md,
+            "| {} | {} | {} | {} | {} | {} | {} | {} |",
+            a.problem,
+            a.order,
+            a.resolution,
+            cell(Some(a)),
+            cell(find(a, "cgnr")),
+            cell(find(a, "cgnr-mf")),
+            cell(find(a, "lsqr")),
+            cell(find(a, "lsmr")),
+        );
+    }
+    let _ = writeln!(md, "\n## Matrix-free vs assembled CGNR (same process)\n");
+    let _ = writeln!(
+        md,
+        "Setup is assembly (CSR) or the weight tables (matrix-free); peak memory is the \
+         process's VmHWM, reset before each problem.\n"
+    );
+    let _ = writeln!(
+        md,
+        "| problem | N | resolution | setup s (asm / mf) | solve s (asm / mf) | solve ratio mf/asm | peak MB (asm / mf) | memory ratio asm/mf |"
+    );
+    let _ = writeln!(md, "|---|---|---|---|---|---|---|---|");
+    for a in rows
+        .iter()
+        .filter(|r| r.solver == "cgnr" && r.method == "pn")
+    {
+        if let Some(b) = find(a, "cgnr-mf") {
+            let _ = writeln!(
+                md,
+                "| {} | {} | {} | {:.3} / {:.3} | {:.3} / {:.3} | {:.2} | {:.0} / {:.0} | {:.2} |",
+                a.problem,
+                a.order,
+                a.resolution,
+                a.seconds_assemble,
+                b.seconds_assemble,
+                a.seconds_solve,
+                b.seconds_solve,
+                b.seconds_solve / a.seconds_solve.max(1e-9),
+                a.peak_memory_bytes as f64 / 1e6,
+                b.peak_memory_bytes as f64 / 1e6,
+                a.peak_memory_bytes as f64 / (b.peak_memory_bytes as f64).max(1.0),
+            );
+        }
+    }
+    md
+}
+
+/// Runs `pn bench`.
+pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
+    let mut rows = Vec::new();
+    checkerboard_rows(args, &mut rows)?;
+    pointsource_rows(args, &mut rows)?;
+    let model_md = super::bench_model::model_rows(args.quick, &mut rows)?;
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("creating {}", args.out.display()))?;
+    let mut csv = String::from(CSV_HEADER);
+    csv.push('\n');
+    for r in &rows {
+        csv.push_str(&r.csv());
+        csv.push('\n');
+    }
+    std::fs::write(args.out.join("bench.csv"), csv)?;
+    let mut md = markdown(&rows, args.quick);
+    md.push_str(&solver_comparison(&rows));
+    md.push_str(&mg_comparison(&rows));
+    md.push_str(&work_comparison(&rows));
+    md.push_str(&model_md);
+    std::fs::write(args.out.join("bench.md"), &md)?;
+    println!("{md}");
+    eprintln!("wrote {}/bench.csv and bench.md", args.out.display());
+    Ok(())
+}

@@ -1,0 +1,316 @@
+//! `pn solve --error-estimate` and `--sampling` (issue 10), plus the per-level solve shared
+//! with `pn converge`.
+//!
+//! The estimate solves the same scene (same sampling, same solver settings) at half the
+//! resolution, restricts the fine fluence to that grid and applies Richardson extrapolation
+//! (`pn_runtime::convergence::richardson`): `u_fine − u ≈ (u_fine − u_coarse)/(2^p − 1)`.
+//! The order p is observed from a third solve at a quarter of the resolution when every
+//! axis is divisible by 4 and the observed value is plausible (0.5 < p < 4); otherwise the
+//! design order p = 2 (DESIGN.md §3: second-order staggered differences) is assumed and the
+//! report says so.
+
+use super::solve::{scene_from_args, SolveArgs, SolveFlags};
+use anyhow::{ensure, Context, Result};
+use pn_kernels::{cda_kernel, pn_kernel, KernelChoice, Staggering};
+use pn_runtime::context::apply_sampling;
+use pn_runtime::convergence::{l2_diff, observed_order, rel_l2_diff, restrict, richardson};
+use pn_runtime::field::Sampling;
+use pn_runtime::output::cell_shape;
+use pn_runtime::output::png::{write_png, Slice};
+use pn_runtime::pipeline::{solve_problem, Solution};
+use pn_runtime::problem::{Grid, Problem};
+use pn_runtime::scenes::Scene;
+use pn_runtime::solver::SolverOptions;
+use std::path::Path;
+use std::time::Instant;
+
+/// The problem to assemble: the scene's problem with `--sampling` applied for its grid.
+pub fn sampled_problem(problem: &Problem, sampling: Sampling) -> Problem {
+    apply_sampling(problem, sampling)
+}
+
+/// The stencil and P_N order the flags select (as `pn solve` does).
+pub fn kernel_for(a: &SolveFlags, scene: &Scene) -> Result<(KernelChoice, usize)> {
+    ensure!(
+        a.method == "pn" || a.method == "cda",
+        "--error-estimate and pn converge support --method pn and cda, not {}",
+        a.method
+    );
+    let dim = scene.problem.grid.dim;
+    let layout = if a.collocated {
+        Staggering::Collocated
+    } else {
+        Staggering::Staggered
+    };
+    if a.method == "cda" {
+        ensure!(!a.collocated, "--collocated applies to --method pn only");
+        ensure!(a.order.is_none(), "--order applies to --method pn only");
+        Ok((cda_kernel(dim)?, 0))
+    } else {
+        let order = a.order.unwrap_or(scene.default_order);
+        Ok((pn_kernel(order, dim, layout)?, order))
+    }
+}
+
+/// Refuses a problem whose estimated memory for `choice` exceeds `--max-memory` (issue 9),
+/// then sets the automatic σ_t threshold where part of the domain is vacuum. Returns that
+/// threshold, if one was set.
+pub fn check_memory_and_set_sigma_t_min(
+    a: &SolveFlags,
+    scene: &mut Scene,
+    choice: &KernelChoice,
+) -> Result<Option<f64>> {
+    let estimate = pn_runtime::memory_estimate::estimate_for_solver(
+        &scene.problem.grid,
+        choice.kernel.as_ref(),
+        a.solver,
+    );
+    pn_runtime::memory_estimate::check_limit(
+        &estimate,
+        a.max_memory
+            .unwrap_or_else(pn_runtime::memory_estimate::default_limit_bytes),
+    )?;
+    let auto = scene.problem.auto_sigma_t_min();
+    if let Some(t) = auto {
+        scene.problem.sigma_t_min = Some(t);
+    }
+    Ok(auto)
+}
+
+/// One solved resolution.
+pub struct LevelSolve {
+    /// The scene at this resolution.
+    pub scene: Scene,
+    /// The problem as assembled (sampling applied).
+    pub problem: Problem,
+    /// The solution.
+    pub sol: Solution,
+    /// Assembly + solve seconds.
+    pub seconds: f64,
+}
+
+/// Builds the scene of `args` at `res` (cells per axis, one value or one per axis) and
+/// solves it with the flags' method, order, sampling and solver settings. A solve that does
+/// not reach the tolerance is an error: a study of unconverged solutions measures the solver,
+/// not the discretization.
+pub fn solve_at(args: &SolveArgs, res: Vec<usize>) -> Result<LevelSolve> {
+    let a = &*args.flags;
+    let level_args = SolveArgs {
+        scene: args.scene.clone(),
+        flags: Box::new(SolveFlags {
+            res: Some(res),
+            ..(*args.flags).clone()
+        }),
+    };
+    let mut scene = scene_from_args(&level_args)?;
+    let (choice, _) = kernel_for(a, &scene)?;
+    check_memory_and_set_sigma_t_min(a, &mut scene, &choice)?;
+    let problem = sampled_problem(&scene.problem, a.sampling);
+    let opts = SolverOptions {
+        tol: a.tol,
+        max_iter: a.max_iter,
+        ..Default::default()
+    };
+    let t0 = Instant::now();
+    let kernel = choice.kernel.as_ref();
+    let sol = pn_runtime::threads::with_threads(a.threads, || {
+        solve_problem(&problem, kernel, a.solver, &opts)
+    })??;
+    let seconds = t0.elapsed().as_secs_f64();
+    let g = &problem.grid;
+    ensure!(
+        sol.stats.converged(),
+        "the solve at {:?} did not converge (relative residual {:.3e} after {} iterations, \
+         tolerance {:.1e}); raise --max-iter or try --solver parity-cg",
+        &g.res[..g.dim.axes()],
+        sol.stats.relative_residual,
+        sol.stats.iterations,
+        a.tol
+    );
+    Ok(LevelSolve {
+        scene,
+        problem,
+        sol,
+        seconds,
+    })
+}
+
+/// Fails early (before the fine solve) when `--error-estimate` cannot work on this grid.
+pub fn check_args(args: &SolveArgs, grid: &Grid) -> Result<()> {
+    if !args.flags.error_estimate {
+        return Ok(());
+    }
+    let axes = grid.dim.axes();
+    for d in 0..axes {
+        ensure!(
+            grid.res[d].is_multiple_of(2) && grid.res[d] >= 2,
+            "--error-estimate solves again at half the resolution, so every axis needs an even \
+             number of cells; got {} on axis {d} (e.g. use --res {})",
+            grid.res[d],
+            grid.res[d] + 1
+        );
+    }
+    Ok(())
+}
+
+/// The estimate written to `report.json` under `"error_estimate"`.
+#[derive(serde::Serialize)]
+struct EstimateReport {
+    /// What is estimated.
+    quantity: &'static str,
+    /// Resolution of the extra (coarse) solve, where the per-cell estimate lives.
+    coarse_resolution: [usize; 3],
+    /// Richardson estimate (order, relative L2, max, ...).
+    #[serde(flatten)]
+    estimate: pn_runtime::convergence::RichardsonEstimate,
+    /// The observed order from three levels, if a quarter-resolution solve was possible.
+    observed_order: Option<f64>,
+    /// Relative L2 differences ‖u_half − u_fine‖/‖u_fine‖ (on the half grid) and
+    /// ‖u_quarter − u_half‖/‖u_half‖ (on the quarter grid, when solved).
+    level_differences: Vec<f64>,
+    /// Seconds of the extra solves (assembly + solve).
+    extra_seconds: f64,
+    /// Extra seconds relative to the fine solve.
+    extra_cost_fraction: f64,
+}
+
+/// After a fine solve: records the sampling mode in `report.json` when it is not the default
+/// and, with `--error-estimate`, runs the coarse solve(s) and writes `error.npy`,
+/// `error.png` and the `"error_estimate"` entry. Leaves the outputs untouched otherwise.
+pub fn after_solve(args: &SolveArgs, problem: &Problem, sol: &Solution, out: &Path) -> Result<()> {
+    let a = &*args.flags;
+    if !a.error_estimate && a.sampling == Sampling::Exact {
+        return Ok(());
+    }
+    let mut extra = serde_json::Map::new();
+    let axes = problem.grid.dim.axes();
+    extra.insert(
+        "sampling".into(),
+        serde_json::Value::String(a.sampling.resolved(axes).name()),
+    );
+    if a.error_estimate {
+        if args.scene == "pointsource" {
+            eprintln!(
+                "note: the pointsource scene centres its source on cell n/2, i.e. at w + w/n, \
+                 which moves by h/2 between n and n/2 cells; the estimate includes that shift"
+            );
+        }
+        let est = estimate(args, problem, sol, out)?;
+        eprintln!(
+            "error estimate (Richardson, p = {:.2}, {}): relative L2 {:.3e}, max {:.3e} \
+             ({:.3e} of max L_0^0); extra cost {:.3} s -> {}",
+            est.estimate.order,
+            est.estimate.order_source,
+            est.estimate.rel_l2,
+            est.estimate.max_abs,
+            est.estimate.rel_max,
+            est.extra_seconds,
+            out.join("error.npy").display()
+        );
+        extra.insert("error_estimate".into(), serde_json::to_value(&est)?);
+    }
+    let path = out.join("report.json");
+    let text =
+        std::fs::read_to_string(&path).with_context(|| format!("reading {}", path.display()))?;
+    let mut json: serde_json::Value = serde_json::from_str(&text)?;
+    if let Some(obj) = json.as_object_mut() {
+        obj.extend(extra);
+    }
+    std::fs::write(&path, serde_json::to_string_pretty(&json)? + "\n")
+        .with_context(|| format!("writing {}", path.display()))?;
+    Ok(())
+}
+
+fn estimate(
+    args: &SolveArgs,
+    problem: &Problem,
+    sol: &Solution,
+    out: &Path,
+) -> Result<EstimateReport> {
+    let g = &problem.grid;
+    let axes = g.dim.axes();
+    let half: Vec<usize> = g.res[..axes].iter().map(|n| n / 2).collect();
+    let coarse = solve_at(args, half)?;
+    let mut extra_seconds = coarse.seconds;
+    let fine_seconds = sol.seconds_assembly + sol.seconds_solve;
+    let cg = coarse.problem.grid.clone();
+    let u_fine = restrict(&sol.l00(), g.res, cg.res)?;
+    let u_coarse = coarse.sol.l00();
+    let d12 = rel_l2_diff(&u_coarse, &u_fine);
+    let mut level_differences = vec![d12];
+    let mut observed = None;
+    if g.res[..axes].iter().all(|n| n.is_multiple_of(4)) {
+        let quarter: Vec<usize> = g.res[..axes].iter().map(|n| n / 4).collect();
+        let q = solve_at(args, quarter)?;
+        extra_seconds += q.seconds;
+        let qres = q.problem.grid.res;
+        let f_q = restrict(&sol.l00(), g.res, qres)?;
+        let c_q = restrict(&u_coarse, cg.res, qres)?;
+        let u_q = q.sol.l00();
+        // The order from absolute norms (relative ones would be normalised by different
+        // levels); the reported difference is relative to the finer level, like d12.
+        let (a, b) = (l2_diff(&c_q, &u_q), l2_diff(&f_q, &c_q));
+        level_differences.push(rel_l2_diff(&u_q, &c_q));
+        observed = observed_order([4.0, 2.0, 1.0], a, b);
+    }
+    let (p, source) = match observed {
+        Some(p) if p > 0.5 && p < 4.0 => (p, "observed (three levels: n, n/2, n/4)".to_string()),
+        Some(p) => (
+            2.0,
+            format!("assumed 2 (the observed order {p:.2} from n, n/2, n/4 is implausible)"),
+        ),
+        None if level_differences.len() > 1 => (
+            2.0,
+            "assumed 2 (not measurable from n, n/2, n/4: differences do not decrease)".into(),
+        ),
+        None => (
+            2.0,
+            "assumed 2 (the design order; the resolution is not divisible by 4, so no \
+             third level)"
+                .into(),
+        ),
+    };
+    let est = richardson(&u_fine, &u_coarse, 2.0, p, &source);
+    write_error_files(
+        out,
+        &cg,
+        &est.per_cell,
+        &format!("{} |error| estimate, p = {p:.2}", args.scene),
+    )?;
+    Ok(EstimateReport {
+        quantity: "L_0^0 (fluence.npy) of the fine solution, on the half-resolution grid",
+        coarse_resolution: cg.res,
+        estimate: est,
+        observed_order: observed,
+        level_differences,
+        extra_seconds,
+        extra_cost_fraction: if fine_seconds > 0.0 {
+            extra_seconds / fine_seconds
+        } else {
+            0.0
+        },
+    })
+}
+
+/// `error.npy` (signed estimate per coarse cell) and `error.png` (|estimate|, log scale;
+/// 3D: the middle z slice).
+fn write_error_files(out: &Path, grid: &Grid, per_cell: &[f64], title: &str) -> Result<()> {
+    pn_runtime::npy::write_npy(&out.join("error.npy"), &cell_shape(grid), per_cell)?;
+    let [nx, ny, nz] = grid.res;
+    let k = nz / 2;
+    let vals: Vec<f64> = (0..nx)
+        .flat_map(|i| (0..ny).map(move |j| (i, j)))
+        .map(|(i, j)| per_cell[(i * ny + j) * nz + k].abs())
+        .collect();
+    write_png(
+        &out.join("error.png"),
+        &Slice {
+            nx,
+            ny,
+            values: &vals,
+            min: [grid.min[0], grid.min[1]],
+            max: [grid.max[0], grid.max[1]],
+            title: title.into(),
+        },
+    )
+}

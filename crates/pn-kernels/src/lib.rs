@@ -1,0 +1,122 @@
+//! `pn-kernels` — the compiled stencils and the choice between compiled and interpreted.
+//!
+//! `build.rs` calls [`pn_codegen::codegen::Builder`] to generate one module per stencil into
+//! `OUT_DIR` ([`compiled`]) for the P_N orders in `PN_ORDERS` (default 1–5; 2D and 3D,
+//! staggered and collocated) plus CDA and diffusion (D as a field). [`pn_kernel`],
+//! [`cda_kernel`] and [`diffusion_kernel`] return the compiled stencil when it exists and
+//! otherwise derive the same IR and interpret it, with a one-line note.
+//!
+//! ```
+//! use pn_kernels::{pn_kernel, Dim, Staggering};
+//!
+//! let p1 = pn_kernel(1, Dim::Three, Staggering::Staggered).unwrap();
+//! assert!(p1.compiled);
+//! assert_eq!(p1.kernel.moments().len(), 4); // (N+1)² moments
+//! ```
+
+use std::sync::Arc;
+
+/// Stencils generated at build time by `build.rs`: one module per stencil (e.g.
+/// `p3_3d_staggered::Kernel`), `KERNELS` and `find(name)`.
+#[allow(missing_docs)]
+pub mod compiled {
+    include!(concat!(env!("OUT_DIR"), "/stencils.rs"));
+}
+
+use anyhow::Context;
+use pn_codegen::discretize;
+pub use pn_stencil::Dim;
+use pn_stencil::InterpretedKernel;
+pub use pn_stencil::Staggering;
+use pn_stencil::{FieldContext, MomentPlacement, StencilIr, StencilKernel, TermPattern};
+
+/// Highest P_N order accepted at run time (that of the derivation).
+pub const MAX_ORDER: usize = pn_stencil::MAX_ORDER;
+
+/// A stencil ready for assembly.
+#[derive(Clone)]
+pub struct KernelChoice {
+    /// The stencil.
+    pub kernel: Arc<dyn StencilKernel>,
+    /// Whether it is generated code (`false`: interpreted IR).
+    pub compiled: bool,
+}
+
+impl std::fmt::Debug for KernelChoice {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("KernelChoice")
+            .field("kernel", &self.kernel.name())
+            .field("compiled", &self.compiled)
+            .finish()
+    }
+}
+
+/// A compiled stencil behind an `Arc`.
+struct Compiled(&'static dyn StencilKernel);
+
+impl StencilKernel for Compiled {
+    fn name(&self) -> &str {
+        self.0.name()
+    }
+    fn dim(&self) -> Dim {
+        self.0.dim()
+    }
+    fn moments(&self) -> &[MomentPlacement] {
+        self.0.moments()
+    }
+    fn pattern(&self, row: usize) -> &[TermPattern] {
+        self.0.pattern(row)
+    }
+    fn eval_row(&self, row: usize, ctx: &dyn FieldContext, weights: &mut [f64]) -> f64 {
+        self.0.eval_row(row, ctx, weights)
+    }
+}
+
+/// The compiled stencil `name`, else `build()` interpreted with a one-line notice.
+fn choose(
+    name: &str,
+    build: impl FnOnce() -> anyhow::Result<StencilIr>,
+) -> anyhow::Result<KernelChoice> {
+    if let Some(k) = compiled::find(name) {
+        return Ok(KernelChoice {
+            kernel: Arc::new(Compiled(k)),
+            compiled: true,
+        });
+    }
+    let ir = build()?;
+    eprintln!(
+        "note: stencil {name} was not compiled in (see PN_ORDERS); interpreting it at run time"
+    );
+    Ok(KernelChoice {
+        kernel: Arc::new(InterpretedKernel::new(ir)),
+        compiled: false,
+    })
+}
+
+/// The P_N stencil of `order` in `dim` with `layout`.
+pub fn pn_kernel(order: usize, dim: Dim, layout: Staggering) -> anyhow::Result<KernelChoice> {
+    anyhow::ensure!(
+        (1..=MAX_ORDER).contains(&order),
+        "P_N order {order} is outside 1..={MAX_ORDER}"
+    );
+    choose(&discretize::pn_name(order, dim, layout), || {
+        discretize::pn_ir_for_order(order, dim, layout)
+            .with_context(|| format!("building the P_{order} stencil"))
+    })
+}
+
+/// Classical diffusion `−∇·(1/(3σ_tr) ∇L_0^0) + σ_a L_0^0 = Q_0^0` with
+/// `σ_tr = σ_t − σ_s λ_1p_1` evaluated at the half positions.
+pub fn cda_kernel(dim: Dim) -> anyhow::Result<KernelChoice> {
+    choose(&format!("cda_{}d", dim.axes()), || {
+        discretize::cda_ir(dim).context("building the CDA stencil")
+    })
+}
+
+/// `−∇·(D ∇L_0^0) + σ_a L_0^0 = Q_0^0` with D the field `FieldRef::Diffusion` (for
+/// Picard steps of flux-limited diffusion).
+pub fn diffusion_kernel(dim: Dim) -> anyhow::Result<KernelChoice> {
+    choose(&format!("diffusion_{}d", dim.axes()), || {
+        discretize::diffusion_ir(dim).context("building the diffusion stencil")
+    })
+}

@@ -1,0 +1,116 @@
+//! Compiled (build.rs) versus interpreted stencils and the run-time fallback.
+
+use pn_codegen::discretize::{cda_ir, diffusion_ir, pn_ir_for_order, pn_name};
+use pn_kernels::compiled;
+use pn_kernels::{cda_kernel, diffusion_kernel, pn_kernel, Dim, Staggering};
+use pn_stencil::InterpretedKernel;
+use pn_stencil::{FieldContext, FieldRef, HalfOffset, StencilIr, StencilKernel};
+
+/// Deterministic pseudo-random field values per (field, offset, seed) in [0.5, 1.5).
+struct RandomFields(u64);
+
+impl FieldContext for RandomFields {
+    fn field(&self, field: &FieldRef, offset: HalfOffset) -> f64 {
+        let mut h = self.0 ^ 0x9E37_79B9_7F4A_7C15;
+        for b in format!("{field:?}{offset:?}").bytes() {
+            h = (h ^ u64::from(b)).wrapping_mul(0x100_0000_01B3);
+            h ^= h >> 29;
+        }
+        0.5 + (h >> 11) as f64 / (1u64 << 53) as f64
+    }
+    fn inv_h(&self, axis: usize) -> f64 {
+        [7.0, 11.0, 13.0][axis] * (1.0 + self.0 as f64 * 0.1)
+    }
+}
+
+/// Same placement, same patterns, and weights/rhs equal up to rounding (the generated
+/// code divides where the interpreter multiplies by a reciprocal: relative 1e-13).
+fn assert_same_kernel(compiled: &dyn StencilKernel, interpreted: &dyn StencilKernel) {
+    let name = compiled.name();
+    assert_eq!(name, interpreted.name());
+    assert_eq!(compiled.dim(), interpreted.dim(), "{name}");
+    assert_eq!(compiled.moments(), interpreted.moments(), "{name}");
+    for r in 0..compiled.moments().len() {
+        assert_eq!(
+            compiled.pattern(r),
+            interpreted.pattern(r),
+            "{name} row {r}"
+        );
+        let n = compiled.pattern(r).len();
+        for seed in 0..3 {
+            let ctx = RandomFields(seed);
+            let (mut a, mut b) = (vec![0.0; n], vec![0.0; n]);
+            let ra = compiled.eval_row(r, &ctx, &mut a);
+            let rb = interpreted.eval_row(r, &ctx, &mut b);
+            for (k, (x, y)) in a.iter().zip(&b).enumerate() {
+                assert!(
+                    (x - y).abs() <= 1e-13 * (x.abs() + y.abs() + 1e-300),
+                    "{name} row {r} term {k}: compiled {x} vs interpreted {y}"
+                );
+            }
+            assert!(
+                (ra - rb).abs() <= 1e-13 * (ra.abs() + rb.abs() + 1e-300),
+                "{name} rhs"
+            );
+        }
+    }
+}
+
+#[test]
+fn compiled_and_interpreted_stencils_agree() {
+    let mut checked = Vec::new();
+    let mut irs: Vec<StencilIr> = Vec::new();
+    for dim in [Dim::Two, Dim::Three] {
+        irs.push(cda_ir(dim).unwrap());
+        irs.push(diffusion_ir(dim).unwrap());
+    }
+    for order in 1..=15 {
+        for dim in [Dim::Two, Dim::Three] {
+            for layout in [Staggering::Staggered, Staggering::Collocated] {
+                if compiled::find(&pn_name(order, dim, layout)).is_some() {
+                    irs.push(pn_ir_for_order(order, dim, layout).unwrap());
+                }
+            }
+        }
+    }
+    for ir in irs {
+        let k = compiled::find(&ir.name).unwrap_or_else(|| panic!("{} not compiled", ir.name));
+        assert_same_kernel(k, &InterpretedKernel::new(ir.clone()));
+        checked.push(ir.name);
+    }
+    // Every compiled kernel was compared.
+    for k in compiled::KERNELS.iter() {
+        assert!(
+            checked.iter().any(|n| n == k.name()),
+            "{} unchecked",
+            k.name()
+        );
+    }
+    // The default build (PN_ORDERS unset) compiles P_1..P_5 in 2D/3D, both layouts.
+    if std::env::var_os("PN_ORDERS").is_none() {
+        assert_eq!(compiled::KERNELS.len(), 5 * 2 * 2 + 4);
+    }
+}
+
+#[test]
+fn kernels_come_compiled_or_interpreted() {
+    let k = cda_kernel(Dim::Three).unwrap();
+    assert!(k.compiled);
+    assert_eq!(k.kernel.name(), "cda_3d");
+    let k = diffusion_kernel(Dim::Two).unwrap();
+    assert!(k.compiled);
+    assert_eq!(k.kernel.moments().len(), 1);
+    // An order that is not compiled falls back to the interpreter.
+    let order = (1..=8)
+        .find(|&n| compiled::find(&pn_name(n, Dim::Two, Staggering::Staggered)).is_none())
+        .expect("some order up to 8 is not compiled");
+    let k = pn_kernel(order, Dim::Two, Staggering::Staggered).unwrap();
+    assert!(!k.compiled);
+    assert_eq!(k.kernel.moments().len(), (order + 1) * (order + 2) / 2);
+    if let Some(c) = compiled::find(&pn_name(1, Dim::Three, Staggering::Staggered)) {
+        let k = pn_kernel(1, Dim::Three, Staggering::Staggered).unwrap();
+        assert!(k.compiled);
+        assert_same_kernel(c, k.kernel.as_ref());
+    }
+    assert!(pn_kernel(0, Dim::Three, Staggering::Staggered).is_err());
+}

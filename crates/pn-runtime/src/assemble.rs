@@ -1,0 +1,162 @@
+//! Assembly of `A u = Q` from a stencil kernel: one row per (moment, position), in parallel.
+//!
+//! Each row evaluates the kernel's weights with a [`RowContext`] at the row's absolute
+//! position, maps every term's offset to a storage index through the boundary closure
+//! ([`Layout::resolve`]), merges duplicate columns (Neumann clamping can map two references
+//! to the same unknown) and drops exact zeros off the diagonal.
+
+use crate::context::RowContext;
+use crate::layout::Layout;
+use crate::problem::Problem;
+use anyhow::Context;
+use pn_stencil::StencilKernel;
+use rayon::prelude::*;
+use sprs::CsMat;
+
+/// The assembled linear system.
+pub struct System {
+    /// Square sparse matrix in CSR form.
+    pub matrix: CsMat<f64>,
+    /// Right-hand side.
+    pub rhs: Vec<f64>,
+}
+
+/// Rows per parallel work item.
+pub(crate) const CHUNK: usize = 2048;
+
+/// Consecutive assembled rows: entries per row, then the rows' columns and values
+/// (columns sorted and unique within a row) and right-hand sides.
+pub(crate) struct Chunk {
+    pub(crate) row_nnz: Vec<usize>,
+    pub(crate) cols: Vec<usize>,
+    pub(crate) vals: Vec<f64>,
+    pub(crate) rhs: Vec<f64>,
+}
+
+/// Checks that the kernel fits the problem and the layout (dimension, parity of offsets).
+pub fn check_kernel(
+    problem: &Problem,
+    kernel: &dyn StencilKernel,
+    layout: &Layout,
+) -> anyhow::Result<()> {
+    anyhow::ensure!(
+        kernel.dim() == problem.grid.dim,
+        "stencil {} is {:?} but the problem is {:?}",
+        kernel.name(),
+        kernel.dim(),
+        problem.grid.dim
+    );
+    for row in 0..kernel.moments().len() {
+        for t in kernel.pattern(row) {
+            anyhow::ensure!(
+                t.moment < kernel.moments().len(),
+                "stencil row {row} references moment {}",
+                t.moment
+            );
+            layout.check_parity(row, t.moment, t.offset)?;
+        }
+    }
+    Ok(())
+}
+
+/// Assembles the system of `kernel` for `problem` on `layout`.
+pub fn assemble(
+    problem: &Problem,
+    kernel: &dyn StencilKernel,
+    layout: &Layout,
+) -> anyhow::Result<System> {
+    check_kernel(problem, kernel, layout)?;
+    let n = layout.len();
+    let n_chunks = n.div_ceil(CHUNK);
+    let chunks: Vec<Chunk> = (0..n_chunks)
+        .into_par_iter()
+        .map(|c| assemble_chunk(problem, kernel, layout, c * CHUNK..((c + 1) * CHUNK).min(n)))
+        .collect::<anyhow::Result<_>>()?;
+
+    let nnz: usize = chunks.iter().map(|c| c.cols.len()).sum();
+    let mut indptr = Vec::with_capacity(n + 1);
+    let mut indices = Vec::with_capacity(nnz);
+    let mut data = Vec::with_capacity(nnz);
+    let mut rhs = Vec::with_capacity(n);
+    indptr.push(0usize);
+    for c in chunks {
+        for k in c.row_nnz {
+            indptr.push(indptr.last().unwrap() + k);
+        }
+        indices.extend(c.cols);
+        data.extend(c.vals);
+        rhs.extend(c.rhs);
+    }
+    let matrix = CsMat::try_new((n, n), indptr, indices, data)
+        .map_err(|e| anyhow::anyhow!("internal error building the CSR matrix: {}", e.3))?;
+    Ok(System { matrix, rhs })
+}
+
+/// Assembles the rows `rows` (storage indices) into a [`Chunk`].
+pub(crate) fn assemble_chunk(
+    problem: &Problem,
+    kernel: &dyn StencilKernel,
+    layout: &Layout,
+    rows: std::ops::Range<usize>,
+) -> anyhow::Result<Chunk> {
+    let len = rows.len();
+    let mut out = Chunk {
+        row_nnz: Vec::with_capacity(len),
+        cols: Vec::with_capacity(len * 8),
+        vals: Vec::with_capacity(len * 8),
+        rhs: Vec::with_capacity(len),
+    };
+    let mut weights = Vec::new();
+    let mut entries: Vec<(usize, f64)> = Vec::new();
+    let mut ctx = RowContext::new(problem, [0; 3]);
+    for g in rows {
+        let (q, idx) = layout.locate(g);
+        let pos = layout.half_coord(q, idx);
+        ctx.set_row(pos);
+        let pattern = kernel.pattern(q);
+        weights.clear();
+        weights.resize(pattern.len(), 0.0);
+        let rhs = kernel.eval_row(q, &ctx, &mut weights);
+        if let Some(err) = ctx.take_error() {
+            return Err(err).context("invalid scene coefficients");
+        }
+        anyhow::ensure!(
+            rhs.is_finite() && weights.iter().all(|w| w.is_finite()),
+            "non-finite stencil weight in row of moment ({},{}) at {:?}",
+            layout.moments[q].l,
+            layout.moments[q].m,
+            ctx.point([0; 3])
+        );
+        entries.clear();
+        for (t, &w) in pattern.iter().zip(&weights) {
+            let half = [0, 1, 2].map(|d| pos[d] + t.offset[d] as i64);
+            if let Some(col) = layout.resolve(t.moment, half, problem.boundary) {
+                entries.push((col, w));
+            }
+        }
+        entries.sort_unstable_by_key(|e| e.0);
+        let start = out.cols.len();
+        for &(col, w) in &entries {
+            if out.cols.len() > start && *out.cols.last().unwrap() == col {
+                *out.vals.last_mut().unwrap() += w;
+            } else {
+                out.cols.push(col);
+                out.vals.push(w);
+            }
+        }
+        // Drop exact zeros (e.g. a difference whose two ends were clamped to one unknown).
+        let mut k = start;
+        for j in start..out.cols.len() {
+            if out.vals[j] != 0.0 || out.cols[j] == g {
+                out.cols[k] = out.cols[j];
+                out.vals[k] = out.vals[j];
+                k += 1;
+            }
+        }
+        out.cols.truncate(k);
+        out.vals.truncate(k);
+        out.row_nnz.push(k - start);
+        out.rhs.push(rhs);
+    }
+    Ok(out)
+}

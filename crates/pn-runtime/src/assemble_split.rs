@@ -1,0 +1,275 @@
+//! Assembly straight into the parity blocks `A = [[D_e, B], [C, D_o]]` (DESIGN.md §5),
+//! without ever holding `A` itself.
+//!
+//! The parity solvers only need `D_e`, `D_o`, `B` and `C̃ = D_o⁻¹ C`
+//! ([`crate::solver::parity::split::Split`]); building them from an assembled `A` holds both
+//! at once, about twice the matrix (on the 80³ P_5 point source 3.8 GB each). Here the rows
+//! are assembled block by block ([`crate::assemble::assemble_chunk`], the same row code as
+//! [`crate::assemble::assemble`]) and each block is split and appended before the next is
+//! assembled, so the peak is the blocks plus one block of rows. The capacity of `B` and
+//! `C̃` is reserved up front from the stencil pattern (an upper bound: boundary closure only
+//! removes entries), so they are never reallocated; each block of rows is copied into them in
+//! parallel.
+
+use crate::assemble::{assemble_chunk, check_kernel, Chunk, CHUNK};
+use crate::layout::Layout;
+use crate::problem::Problem;
+use crate::solver::parity::even_mask;
+use crate::solver::parity::split::{classes, BlockMat, Classes, ParityError, Split};
+use pn_stencil::StencilKernel;
+use rayon::prelude::*;
+
+/// Rows assembled before they are split and appended (about 3.4 M entries, ~100 MB of
+/// transient buffers, for P_5 in 3D; 128 parallel chunks).
+const ROWS_PER_BLOCK: usize = 1 << 18;
+
+/// The system in parity-block form.
+pub struct SplitSystem {
+    /// The blocks of `A`.
+    pub split: Split,
+    /// Right-hand side in storage order.
+    pub rhs: Vec<f64>,
+    /// Largest magnitude of an entry of `A`.
+    pub max_entry: f64,
+}
+
+/// Whether every term of `kernel` couples a row to the other parity (by `l`), apart from
+/// the centred term of the row's own moment: the structure parity elimination needs. CDA
+/// (one moment) and collocated or user stencils may not have it.
+pub fn has_parity_structure(kernel: &dyn StencilKernel) -> bool {
+    let moments = kernel.moments();
+    (0..moments.len()).all(|q| {
+        kernel.pattern(q).iter().all(|t| {
+            (t.moment == q && t.offset == [0, 0, 0])
+                || moments
+                    .get(t.moment)
+                    .is_some_and(|p| p.l % 2 != moments[q].l % 2)
+        })
+    })
+}
+
+/// One assembled chunk of rows, split.
+struct SplitChunk {
+    d_e: Vec<f64>,
+    d_o: Vec<f64>,
+    b_row_nnz: Vec<usize>,
+    b_cols: Vec<u32>,
+    b_vals: Vec<f64>,
+    c_row_nnz: Vec<usize>,
+    c_cols: Vec<u32>,
+    c_vals: Vec<f64>,
+    rhs: Vec<f64>,
+    /// Stored diagonal entries (rows with a centred term of their own moment).
+    diag_entries: usize,
+    max_entry: f64,
+}
+
+/// Assembles `kernel` for `problem` on `layout` into parity blocks. The outer error is bad
+/// input (as [`crate::assemble::assemble`]); the inner one says that the system lacks the
+/// parity structure (a same-parity coupling, or a zero odd diagonal where σ_t = 0), in
+/// which case the caller assembles `A` and takes another solver.
+pub fn assemble_split(
+    problem: &Problem,
+    kernel: &dyn StencilKernel,
+    layout: &Layout,
+) -> anyhow::Result<Result<SplitSystem, ParityError>> {
+    check_kernel(problem, kernel, layout)?;
+    let n = layout.len();
+    let even = even_mask(layout);
+    let Classes {
+        local,
+        even: ev,
+        odd: od,
+    } = match classes(&even) {
+        Ok(c) => c,
+        Err(e) => return Ok(Err(e)),
+    };
+    // Upper bounds of the off-diagonal entries of each block, from the pattern.
+    let (mut b_cap, mut c_cap) = (0usize, 0usize);
+    for (q, mp) in layout.moments.iter().enumerate() {
+        let rows = layout.offsets[q + 1] - layout.offsets[q];
+        let off = kernel
+            .pattern(q)
+            .iter()
+            .filter(|t| !(t.moment == q && t.offset == [0, 0, 0]))
+            .count();
+        *(if mp.l % 2 == 0 {
+            &mut b_cap
+        } else {
+            &mut c_cap
+        }) += rows * off;
+    }
+    let mut d_e = Vec::with_capacity(ev.len());
+    let mut d_o = Vec::with_capacity(od.len());
+    let mut b_ptr = Vec::with_capacity(ev.len() + 1);
+    let mut c_ptr = Vec::with_capacity(od.len() + 1);
+    b_ptr.push(0usize);
+    c_ptr.push(0usize);
+    // Zero-initialised at the bound: the allocator maps zero pages lazily, so the pages are
+    // first touched by the parallel copies below, and the unused tail never is.
+    let (mut b_idx, mut b_val) = (vec![0u32; b_cap], vec![0.0f64; b_cap]);
+    let (mut c_idx, mut c_val) = (vec![0u32; c_cap], vec![0.0f64; c_cap]);
+    let (mut b_len, mut c_len) = (0usize, 0usize);
+    let mut rhs = Vec::with_capacity(n);
+    let (mut max_entry, mut diag_entries) = (0.0f64, 0usize);
+    let (mut seconds_rows, mut seconds_append) = (0.0, 0.0);
+    for start in (0..n).step_by(ROWS_PER_BLOCK) {
+        let t0 = std::time::Instant::now();
+        let end = (start + ROWS_PER_BLOCK).min(n);
+        let chunks: Vec<Result<SplitChunk, ParityError>> = (start..end)
+            .step_by(CHUNK)
+            .collect::<Vec<_>>()
+            .into_par_iter()
+            .map(|r0| {
+                let rows = r0..(r0 + CHUNK).min(end);
+                let chunk = assemble_chunk(problem, kernel, layout, rows.clone())?;
+                Ok(split_chunk(&chunk, rows.start, &even, &local))
+            })
+            .collect::<anyhow::Result<_>>()?;
+        let t1 = std::time::Instant::now();
+        seconds_rows += (t1 - t0).as_secs_f64();
+        let chunks = match chunks.into_iter().collect::<Result<Vec<_>, _>>() {
+            Ok(c) => c,
+            Err(e) => return Ok(Err(e)),
+        };
+        // Each chunk's entries go to their own disjoint ranges of the blocks, in parallel.
+        let mut copies = Vec::with_capacity(chunks.len());
+        {
+            let (mut bi, mut bv) = (&mut b_idx[b_len..], &mut b_val[b_len..]);
+            let (mut ci, mut cv) = (&mut c_idx[c_len..], &mut c_val[c_len..]);
+            for chunk in &chunks {
+                let (nb, nc) = (chunk.b_cols.len(), chunk.c_cols.len());
+                anyhow::ensure!(
+                    nb <= bi.len() && nc <= ci.len(),
+                    "internal error: the parity blocks outgrew the stencil-pattern bound"
+                );
+                let (bi_head, bi_tail) = std::mem::take(&mut bi).split_at_mut(nb);
+                let (bv_head, bv_tail) = std::mem::take(&mut bv).split_at_mut(nb);
+                let (ci_head, ci_tail) = std::mem::take(&mut ci).split_at_mut(nc);
+                let (cv_head, cv_tail) = std::mem::take(&mut cv).split_at_mut(nc);
+                copies.push((chunk, bi_head, bv_head, ci_head, cv_head));
+                (bi, bv, ci, cv) = (bi_tail, bv_tail, ci_tail, cv_tail);
+                b_len += nb;
+                c_len += nc;
+            }
+        }
+        copies.into_par_iter().for_each(|(chunk, bi, bv, ci, cv)| {
+            bi.copy_from_slice(&chunk.b_cols);
+            bv.copy_from_slice(&chunk.b_vals);
+            ci.copy_from_slice(&chunk.c_cols);
+            cv.copy_from_slice(&chunk.c_vals);
+        });
+        for chunk in &chunks {
+            max_entry = max_entry.max(chunk.max_entry);
+            diag_entries += chunk.diag_entries;
+            extend_indptr(&mut b_ptr, &chunk.b_row_nnz);
+            extend_indptr(&mut c_ptr, &chunk.c_row_nnz);
+            d_e.extend_from_slice(&chunk.d_e);
+            d_o.extend_from_slice(&chunk.d_o);
+            rhs.extend_from_slice(&chunk.rhs);
+        }
+        seconds_append += t1.elapsed().as_secs_f64();
+    }
+    if crate::solver::parity::profile_enabled() {
+        eprintln!(
+            "profile assemble-split: rows {seconds_rows:.3} s (parallel), append {seconds_append:.3} s"
+        );
+    }
+    // Shrinking the length keeps the allocation (no copy); its untouched tail costs no memory.
+    b_idx.truncate(b_len);
+    b_val.truncate(b_len);
+    c_idx.truncate(c_len);
+    c_val.truncate(c_len);
+    let nnz_a = b_len + c_len + diag_entries;
+    let b = BlockMat::try_new((ev.len(), od.len()), b_ptr, b_idx, b_val)
+        .map_err(|e| anyhow::anyhow!("internal error building the B block: {}", e.3))?;
+    let c_scaled = BlockMat::try_new((od.len(), ev.len()), c_ptr, c_idx, c_val)
+        .map_err(|e| anyhow::anyhow!("internal error building the C block: {}", e.3))?;
+    Ok(Ok(SplitSystem {
+        split: Split {
+            even: ev,
+            odd: od,
+            d_e,
+            d_o,
+            b,
+            c_scaled,
+            nnz_a,
+        },
+        rhs,
+        max_entry,
+    }))
+}
+
+/// Appends row lengths to a CSR row pointer.
+fn extend_indptr(ptr: &mut Vec<usize>, row_nnz: &[usize]) {
+    let mut last = ptr.last().copied().unwrap_or(0);
+    ptr.extend(row_nnz.iter().map(|k| {
+        last += k;
+        last
+    }));
+}
+
+/// Splits the assembled rows `first..` of `chunk` by parity, as
+/// [`crate::solver::parity::split::split`] does for a whole matrix (same checks, same
+/// scaling `C̃ = D_o⁻¹ C`).
+fn split_chunk(
+    chunk: &Chunk,
+    first: usize,
+    even: &[bool],
+    local: &[u32],
+) -> Result<SplitChunk, ParityError> {
+    let mut out = SplitChunk {
+        d_e: Vec::new(),
+        d_o: Vec::new(),
+        b_row_nnz: Vec::new(),
+        b_cols: Vec::new(),
+        b_vals: Vec::new(),
+        c_row_nnz: Vec::new(),
+        c_cols: Vec::new(),
+        c_vals: Vec::new(),
+        rhs: chunk.rhs.clone(),
+        diag_entries: 0,
+        max_entry: 0.0,
+    };
+    let mut p = 0usize;
+    for (k, &len) in chunk.row_nnz.iter().enumerate() {
+        let row = first + k;
+        let (cols, vals) = (&chunk.cols[p..p + len], &chunk.vals[p..p + len]);
+        p += len;
+        let row_even = even[row];
+        let mut diag = 0.0;
+        for (&col, &v) in cols.iter().zip(vals) {
+            out.max_entry = out.max_entry.max(v.abs());
+            if col == row {
+                diag = v;
+                out.diag_entries += 1;
+            } else if even[col] == row_even {
+                return Err(ParityError::SameParityCoupling {
+                    row,
+                    col,
+                    parity: if row_even { "even" } else { "odd" },
+                    value: v,
+                });
+            }
+        }
+        if !row_even && (diag == 0.0 || !diag.is_finite()) {
+            return Err(ParityError::SingularOddDiagonal { row, value: diag });
+        }
+        let (row_nnz, out_cols, out_vals) = if row_even {
+            out.d_e.push(diag);
+            (&mut out.b_row_nnz, &mut out.b_cols, &mut out.b_vals)
+        } else {
+            out.d_o.push(diag);
+            (&mut out.c_row_nnz, &mut out.c_cols, &mut out.c_vals)
+        };
+        let before = out_cols.len();
+        for (&col, &v) in cols.iter().zip(vals) {
+            if col != row {
+                out_cols.push(local[col]);
+                out_vals.push(if row_even { v } else { v / diag });
+            }
+        }
+        row_nnz.push(out_cols.len() - before);
+    }
+    Ok(out)
+}

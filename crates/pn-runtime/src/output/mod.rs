@@ -1,0 +1,98 @@
+//! Result files: `fluence.npy`, `moments.npy`, `fluence.png` and `report.json`.
+//!
+//! Everything is written into a temporary directory next to the target and only then
+//! moved into place, so an error never leaves half-written files in the output directory.
+
+pub mod png;
+pub mod report;
+
+use crate::npy::write_npy;
+use crate::pipeline::Solution;
+use crate::problem::Grid;
+use anyhow::Context;
+use pn_stencil::Dim;
+use report::Report;
+use std::path::{Path, PathBuf};
+
+/// Names of the files [`write_outputs`] produces.
+pub const OUTPUT_FILES: [&str; 4] = ["fluence.npy", "moments.npy", "fluence.png", "report.json"];
+
+/// Removes the temporary directory unless it was consumed.
+struct TempDir(PathBuf);
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+/// Shape of a per-cell array: `(nx, ny)` in 2D, `(nx, ny, nz)` in 3D.
+pub fn cell_shape(grid: &Grid) -> Vec<usize> {
+    match grid.dim {
+        Dim::Two => vec![grid.res[0], grid.res[1]],
+        Dim::Three => grid.res.to_vec(),
+    }
+}
+
+/// Writes all result files of `sol` into `dir` (created if needed).
+pub fn write_outputs(
+    dir: &Path,
+    grid: &Grid,
+    sol: &Solution,
+    report: &Report,
+) -> anyhow::Result<()> {
+    let parent = match dir.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    std::fs::create_dir_all(&parent)
+        .with_context(|| format!("cannot create {}", parent.display()))?;
+    let leaf = dir.file_name().and_then(|n| n.to_str()).unwrap_or("out");
+    let tmp = TempDir(parent.join(format!(".{leaf}.tmp-{}", std::process::id())));
+    let _ = std::fs::remove_dir_all(&tmp.0);
+    std::fs::create_dir(&tmp.0).with_context(|| format!("cannot create {}", tmp.0.display()))?;
+
+    let shape = cell_shape(grid);
+    let l00 = sol.l00();
+    write_npy(&tmp.0.join("fluence.npy"), &shape, &l00)?;
+    let mut mshape = shape.clone();
+    mshape.push(sol.moments.per_cell);
+    write_npy(&tmp.0.join("moments.npy"), &mshape, &sol.moments.data)?;
+
+    // 3D: the z-slice through the middle.
+    let [nx, ny, nz] = grid.res;
+    let k = nz / 2;
+    let slice_vals: Vec<f64> = (0..nx)
+        .flat_map(|i| (0..ny).map(move |j| (i, j)))
+        .map(|(i, j)| l00[(i * ny + j) * nz + k])
+        .collect();
+    let title = match grid.dim {
+        Dim::Two => format!("{}: log10 L_0^0", report.scene),
+        Dim::Three => format!(
+            "{}: log10 L_0^0, z = {:.4}",
+            report.scene,
+            grid.coord(2, 2 * k as i64 + 1)
+        ),
+    };
+    png::write_png(
+        &tmp.0.join("fluence.png"),
+        &png::Slice {
+            nx,
+            ny,
+            values: &slice_vals,
+            min: [grid.min[0], grid.min[1]],
+            max: [grid.max[0], grid.max[1]],
+            title,
+        },
+    )?;
+    let json = serde_json::to_string_pretty(report)?;
+    std::fs::write(tmp.0.join("report.json"), json + "\n")?;
+
+    std::fs::create_dir_all(dir)
+        .with_context(|| format!("cannot create output directory {}", dir.display()))?;
+    for name in OUTPUT_FILES {
+        std::fs::rename(tmp.0.join(name), dir.join(name))
+            .with_context(|| format!("cannot move {name} into {}", dir.display()))?;
+    }
+    Ok(())
+}

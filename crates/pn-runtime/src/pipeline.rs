@@ -1,0 +1,225 @@
+//! From a problem and a stencil kernel to a solution at cell centres:
+//! layout → assembly → solve → un-stagger → energy balance.
+
+use crate::assemble::assemble;
+use crate::assemble_split::{assemble_split, has_parity_structure};
+use crate::energy::{energy_balance, EnergyBalance};
+use crate::layout::Layout;
+use crate::problem::Problem;
+use crate::solver::multigrid::solve::LayoutSolver;
+use crate::solver::{SolveStats, SolverKind, SolverOptions};
+use crate::unstagger::{unstagger, CellMoments};
+use pn_stencil::StencilKernel;
+use std::time::Instant;
+
+/// Everything a solve produced.
+pub struct Solution {
+    /// The unknown layout.
+    pub layout: Layout,
+    /// The staggered solution vector.
+    pub u: Vec<f64>,
+    /// All moments at cell centres.
+    pub moments: CellMoments,
+    /// Solver statistics.
+    pub stats: SolveStats,
+    /// Energy balance (None if the stencil has no centred L_0^0).
+    pub energy: Option<EnergyBalance>,
+    /// Unknowns.
+    pub unknowns: usize,
+    /// Stored non-zeros of A.
+    pub nonzeros: usize,
+    /// Seconds spent assembling.
+    pub seconds_assembly: f64,
+    /// Seconds spent in the solver.
+    pub seconds_solve: f64,
+}
+
+impl Solution {
+    /// L_0^0 at cell centres, x slowest (C order of `(nx, ny, nz)`).
+    pub fn l00(&self) -> Vec<f64> {
+        self.moments.component(0)
+    }
+}
+
+/// Assembles and solves `problem` with `kernel`.
+///
+/// Fails on invalid input (coefficients, kernel/grid mismatch) and when the solver
+/// diverged; a solve that stopped before the tolerance returns `Ok` with a non-converged
+/// status in [`Solution::stats`].
+pub fn solve_problem(
+    problem: &Problem,
+    kernel: &dyn StencilKernel,
+    solver: SolverKind,
+    opts: &SolverOptions,
+) -> anyhow::Result<Solution> {
+    if solver.is_matrix_free() {
+        return crate::matfree::solve::solve_problem_matrix_free(problem, kernel, solver, opts);
+    }
+    problem.validate()?;
+    problem.check_not_singular()?;
+    let layout = Layout::new(&problem.grid, kernel.moments())?;
+    let split_route = match solver.parity_solver_for(&layout) {
+        Some(parity) if has_parity_structure(kernel) => {
+            solve_split_system(problem, kernel, &layout, &parity, opts)?
+        }
+        _ => None,
+    };
+    let solved = match split_route {
+        Some(solved) => solved,
+        None => solve_assembled(problem, kernel, &layout, solver, opts)?,
+    };
+    finish(problem, layout, solved)
+}
+
+/// What a route (assembled, parity blocks, matrix-free) produced, before un-staggering.
+pub(crate) struct Solved {
+    pub(crate) u: Vec<f64>,
+    pub(crate) stats: SolveStats,
+    pub(crate) energy: Option<EnergyBalance>,
+    /// Stored entries of A (or of the operator's weight tables, matrix-free).
+    pub(crate) nonzeros: usize,
+    pub(crate) seconds_assembly: f64,
+    pub(crate) seconds_solve: f64,
+}
+
+/// Assembles `A` and solves with `solver` (every solver; the parity solvers split `A`).
+fn solve_assembled(
+    problem: &Problem,
+    kernel: &dyn StencilKernel,
+    layout: &Layout,
+    solver: SolverKind,
+    opts: &SolverOptions,
+) -> anyhow::Result<Solved> {
+    let t0 = Instant::now();
+    let system = assemble(problem, kernel, layout)?;
+    let seconds_assembly = t0.elapsed().as_secs_f64();
+    check_magnitudes(&system.matrix, &system.rhs)?;
+    let t1 = Instant::now();
+    let (u, stats) = solve_scaled(solver, layout, &system.matrix, &system.rhs, opts);
+    let seconds_solve = t1.elapsed().as_secs_f64();
+    let energy = energy_balance(problem, layout, Some(&system.matrix), &u);
+    Ok(Solved {
+        u,
+        stats,
+        energy,
+        nonzeros: system.matrix.nnz(),
+        seconds_assembly,
+        seconds_solve,
+    })
+}
+
+/// The parity solvers' route: assemble straight into the even/odd blocks
+/// ([`assemble_split`]) so that `A` is never held next to them, and solve from the blocks.
+/// `None` when the system turns out to lack the parity structure (σ_t = 0 somewhere);
+/// the caller then assembles `A` and the solver falls back as usual.
+fn solve_split_system(
+    problem: &Problem,
+    kernel: &dyn StencilKernel,
+    layout: &Layout,
+    parity: &LayoutSolver,
+    opts: &SolverOptions,
+) -> anyhow::Result<Option<Solved>> {
+    let t0 = Instant::now();
+    let system = match assemble_split(problem, kernel, layout)? {
+        Ok(s) => s,
+        Err(_) => return Ok(None),
+    };
+    let seconds_assembly = t0.elapsed().as_secs_f64();
+    check_magnitude_values(system.max_entry, true, &system.rhs)?;
+    let t1 = Instant::now();
+    let (u, stats) = crate::matfree::solve::solve_with_scaled_rhs(&system.rhs, |b| {
+        parity.solve_split(&system.split, b, opts)
+    });
+    let seconds_solve = t1.elapsed().as_secs_f64();
+    let nonzeros = system.split.nnz_a;
+    drop(system);
+    let energy = energy_balance(problem, layout, None, &u);
+    Ok(Some(Solved {
+        u,
+        stats,
+        energy,
+        nonzeros,
+        seconds_assembly,
+        seconds_solve,
+    }))
+}
+
+/// Checks the solver's status, un-staggers and packs the [`Solution`].
+pub(crate) fn finish(
+    problem: &Problem,
+    layout: Layout,
+    solved: Solved,
+) -> anyhow::Result<Solution> {
+    let Solved {
+        u,
+        stats,
+        energy,
+        nonzeros,
+        seconds_assembly,
+        seconds_solve,
+    } = solved;
+    if stats.status == crate::solver::SolveStatus::Diverged {
+        anyhow::bail!(
+            "the {} solver diverged after {} iterations (relative residual {:.3e})",
+            stats.solver,
+            stats.iterations,
+            stats.relative_residual
+        );
+    }
+    let moments = unstagger(&problem.grid, &layout, &u);
+    Ok(Solution {
+        unknowns: layout.len(),
+        nonzeros,
+        layout,
+        u,
+        moments,
+        stats,
+        energy,
+        seconds_assembly,
+        seconds_solve,
+    })
+}
+
+/// Largest matrix or right-hand-side magnitude the solvers accept: CGNR works with squared
+/// norms (‖A p‖², AᵀA's condition number), which overflow f64 (≈ 1.8e308) for entries near
+/// 1e154 already; 1e150 leaves room for sums over the rows.
+pub const MAX_ENTRY_MAGNITUDE: f64 = 1e150;
+
+/// Refuses a system with non-finite entries or entries too large for the solvers, naming
+/// the value (e.g. σ_t = 1e300, or a source of 1e200), instead of a NaN residual later.
+fn check_magnitudes(a: &sprs::CsMat<f64>, b: &[f64]) -> anyhow::Result<()> {
+    let max_a = a.data().iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let finite = a.data().iter().all(|v| v.is_finite());
+    check_magnitude_values(max_a, finite, b)
+}
+
+/// [`check_magnitudes`] given the matrix's largest magnitude and finiteness (for the
+/// parity blocks and the matrix-free operator, which hold no CSR `A`).
+pub(crate) fn check_magnitude_values(max_a: f64, finite_a: bool, b: &[f64]) -> anyhow::Result<()> {
+    let max_b = b.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let finite = finite_a && max_a.is_finite() && b.iter().all(|v| v.is_finite());
+    anyhow::ensure!(
+        finite && max_a <= MAX_ENTRY_MAGNITUDE && max_b <= MAX_ENTRY_MAGNITUDE,
+        "the system has entries up to {max_a:.3e} (matrix) and {max_b:.3e} \
+         (right-hand side){}; the solvers need magnitudes below {MAX_ENTRY_MAGNITUDE:.0e} \
+         (their squares must fit in f64): rescale σ_t, the sources or the domain",
+        if finite { "" } else { ", some not finite" }
+    );
+    Ok(())
+}
+
+/// Solves `a u = b`, first scaling `b` by a power of two when its largest entry is outside
+/// [1e-100, 1e100]: the solvers work with ‖b‖², which underflows to 0 for a source of
+/// 1e-300 (the solver would then return u = 0 as "converged") or overflows for 1e200.
+/// Power-of-two scaling is exact, the relative residual is unchanged, and the absolute
+/// residual and ‖b‖ are scaled back.
+fn solve_scaled(
+    solver: SolverKind,
+    layout: &Layout,
+    a: &sprs::CsMat<f64>,
+    b: &[f64],
+    opts: &SolverOptions,
+) -> (Vec<f64>, SolveStats) {
+    let solver = solver.solver_for(layout);
+    crate::matfree::solve::solve_with_scaled_rhs(b, |b| solver.solve(a, b, opts))
+}

@@ -1,0 +1,418 @@
+//! The problem description: domain, grid, coefficients, phase function, sources and boundary.
+
+use crate::field::{Field, Point};
+use pn_stencil::Dim;
+
+/// An axis-aligned box tiled by `res` cells per axis.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Grid {
+    /// 2D (z-independent, one cell in z) or 3D.
+    pub dim: Dim,
+    /// Lower corner.
+    pub min: Point,
+    /// Upper corner.
+    pub max: Point,
+    /// Cells per axis; `res[2] == 1` in 2D.
+    pub res: [usize; 3],
+}
+
+impl Grid {
+    /// Cell size along `axis`.
+    pub fn h(&self, axis: usize) -> f64 {
+        (self.max[axis] - self.min[axis]) / self.res[axis] as f64
+    }
+
+    /// World coordinate of an absolute half-cell coordinate along `axis`
+    /// (`2i+1` is the centre of cell i, `2s` is face s; see `pn_stencil`).
+    pub fn coord(&self, axis: usize, half: i64) -> f64 {
+        self.min[axis] + 0.5 * half as f64 * self.h(axis)
+    }
+
+    /// Volume (area in 2D, per unit length in z) of one cell.
+    pub fn cell_volume(&self) -> f64 {
+        (0..self.dim.axes()).map(|d| self.h(d)).product()
+    }
+
+    /// Number of cells.
+    pub fn cells(&self) -> usize {
+        self.res.iter().product()
+    }
+
+    /// Checks resolution and extents.
+    pub fn validate(&self) -> anyhow::Result<()> {
+        for d in 0..3 {
+            anyhow::ensure!(
+                self.res[d] > 0,
+                "resolution must be positive on every axis, got {:?}",
+                self.res
+            );
+            anyhow::ensure!(
+                self.min[d].is_finite() && self.max[d].is_finite() && self.max[d] > self.min[d],
+                "domain must have max > min on every axis, got min {:?} max {:?}",
+                self.min,
+                self.max
+            );
+        }
+        if self.dim == Dim::Two {
+            anyhow::ensure!(
+                self.res[2] == 1,
+                "a 2D grid has one cell in z, got {}",
+                self.res[2]
+            );
+        }
+        Ok(())
+    }
+}
+
+/// Phase function (rotationally symmetric, normalised).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Phase {
+    /// p = 1/(4π): λ_0 p_0 = 1, all other bands 0.
+    Isotropic,
+    /// Henyey–Greenstein with parameter g: λ_l p_l = g^l (DESIGN.md §2.1).
+    HenyeyGreenstein(f64),
+}
+
+impl Phase {
+    /// The Funk–Hecke factor λ_l p_l.
+    pub fn moment(&self, l: u32) -> f64 {
+        match self {
+            Phase::Isotropic => {
+                if l == 0 {
+                    1.0
+                } else {
+                    0.0
+                }
+            }
+            Phase::HenyeyGreenstein(g) => g.powi(l as i32),
+        }
+    }
+}
+
+/// How the scattering coefficient is given.
+#[derive(Clone, Debug)]
+pub enum Scattering {
+    /// σ_s directly.
+    SigmaS(Field),
+    /// Single-scattering albedo α, σ_s = α σ_t.
+    Albedo(Field),
+}
+
+/// Boundary closure for stencil references outside the domain (DESIGN.md §3).
+///
+/// With extrapolation the face rows on the domain faces see a zero difference across the
+/// boundary, which makes the boundary reflecting: the net flux through it vanishes and all
+/// emitted power is absorbed (the energy balance reports a zero outflow). Dirichlet zero
+/// treats everything outside as 0, so light leaves the domain (a crude vacuum boundary,
+/// not the Marshak condition); its answer is lower near the boundary and has a positive
+/// outflow.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Boundary {
+    /// Extrapolation / zero gradient: the nearest inside position of the same moment.
+    Neumann,
+    /// Dirichlet zero: the reference is dropped.
+    Dirichlet,
+}
+
+impl std::str::FromStr for Boundary {
+    type Err = anyhow::Error;
+    fn from_str(s: &str) -> anyhow::Result<Self> {
+        match s {
+            "neumann" => Ok(Boundary::Neumann),
+            "dirichlet" => Ok(Boundary::Dirichlet),
+            _ => anyhow::bail!("unknown boundary condition {s:?} (expected neumann or dirichlet)"),
+        }
+    }
+}
+
+impl Boundary {
+    /// Lower-case name.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Boundary::Neumann => "neumann",
+            Boundary::Dirichlet => "dirichlet",
+        }
+    }
+}
+
+/// One source moment Q_l^m.
+#[derive(Clone, Debug)]
+pub struct SourceTerm {
+    /// Band.
+    pub l: u32,
+    /// Order.
+    pub m: i32,
+    /// Its value as a field.
+    pub field: Field,
+}
+
+/// Everything the runtime needs to assemble a system, independent of the method.
+#[derive(Clone, Debug)]
+pub struct Problem {
+    /// Domain and resolution.
+    pub grid: Grid,
+    /// Extinction coefficient σ_t.
+    pub sigma_t: Field,
+    /// Scattering coefficient or albedo.
+    pub scattering: Scattering,
+    /// Phase function.
+    pub phase: Phase,
+    /// Source moments (terms with the same (l, m) add up).
+    pub sources: Vec<SourceTerm>,
+    /// Boundary closure.
+    pub boundary: Boundary,
+    /// σ_t is raised to at least this value (needed where σ_t reaches 0, DESIGN.md §5).
+    pub sigma_t_min: Option<f64>,
+}
+
+/// The automatic σ_t threshold is this fraction of the largest σ_t
+/// (see [`Problem::auto_sigma_t_min`]).
+pub const AUTO_SIGMA_T_MIN_FRACTION: f64 = 1e-3;
+
+/// Coefficients at one point after the σ_t threshold.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Coefficients {
+    /// σ_t (after the threshold).
+    pub sigma_t: f64,
+    /// σ_s.
+    pub sigma_s: f64,
+}
+
+/// Invalid coefficient values found while evaluating fields.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum CoefficientError {
+    /// NaN or infinite.
+    #[error("{name} is not finite ({value}) at ({x:.6}, {y:.6}, {z:.6})")]
+    NotFinite {
+        name: &'static str,
+        value: f64,
+        x: f64,
+        y: f64,
+        z: f64,
+    },
+    /// Negative.
+    #[error("{name} is negative ({value}) at ({x:.6}, {y:.6}, {z:.6})")]
+    Negative {
+        name: &'static str,
+        value: f64,
+        x: f64,
+        y: f64,
+        z: f64,
+    },
+    /// σ_s > σ_t.
+    #[error("σ_s = {sigma_s} exceeds σ_t = {sigma_t} at ({x:.6}, {y:.6}, {z:.6}) (albedo > 1)")]
+    ScatteringExceedsExtinction {
+        sigma_s: f64,
+        sigma_t: f64,
+        x: f64,
+        y: f64,
+        z: f64,
+    },
+    /// σ_t = 0 without a threshold.
+    #[error(
+        "σ_t = 0 at ({x:.6}, {y:.6}, {z:.6}): the system is singular in vacuum; \
+         set a minimum extinction with --sigma-t-min (e.g. --sigma-t-min 1e-3)"
+    )]
+    Vacuum { x: f64, y: f64, z: f64 },
+}
+
+impl Problem {
+    /// σ_t and σ_s at `p`, with the threshold applied and the values checked.
+    pub fn coefficients(&self, p: Point) -> Result<Coefficients, CoefficientError> {
+        let [x, y, z] = p;
+        let raw_t = self.sigma_t.eval(p);
+        check("σ_t", raw_t, p)?;
+        let sigma_s = match &self.scattering {
+            Scattering::SigmaS(f) => {
+                let s = f.eval(p);
+                check("σ_s", s, p)?;
+                s
+            }
+            Scattering::Albedo(f) => {
+                let a = f.eval(p);
+                check("albedo", a, p)?;
+                if a > 1.0 + 1e-12 {
+                    return Err(CoefficientError::ScatteringExceedsExtinction {
+                        sigma_s: a * raw_t,
+                        sigma_t: raw_t,
+                        x,
+                        y,
+                        z,
+                    });
+                }
+                a * raw_t
+            }
+        };
+        // Tolerate rounding in σ_s = σ_t (pure scatterers given as two fields).
+        if sigma_s > raw_t * (1.0 + 1e-12) {
+            return Err(CoefficientError::ScatteringExceedsExtinction {
+                sigma_s,
+                sigma_t: raw_t,
+                x,
+                y,
+                z,
+            });
+        }
+        let sigma_t = match self.sigma_t_min {
+            Some(min) => raw_t.max(min),
+            None => {
+                if raw_t == 0.0 {
+                    return Err(CoefficientError::Vacuum { x, y, z });
+                }
+                raw_t
+            }
+        };
+        Ok(Coefficients { sigma_t, sigma_s })
+    }
+
+    /// Q_l^m at `p` (sum of all source terms with this (l, m)).
+    pub fn source(&self, l: u32, m: i32, p: Point) -> Result<f64, CoefficientError> {
+        let mut q = 0.0;
+        for s in self.sources.iter().filter(|s| s.l == l && s.m == m) {
+            let v = s.field.eval(p);
+            if !v.is_finite() {
+                let [x, y, z] = p;
+                return Err(CoefficientError::NotFinite {
+                    name: "source",
+                    value: v,
+                    x,
+                    y,
+                    z,
+                });
+            }
+            q += v;
+        }
+        Ok(q)
+    }
+
+    /// Highest band with a source term.
+    pub fn max_source_band(&self) -> u32 {
+        self.sources.iter().map(|s| s.l).max().unwrap_or(0)
+    }
+
+    /// Whether any field is voxel data (averaged rather than exact at staggered positions).
+    pub fn uses_voxels(&self) -> bool {
+        let scat = match &self.scattering {
+            Scattering::SigmaS(f) | Scattering::Albedo(f) => f.is_voxel(),
+        };
+        self.sigma_t.is_voxel() || scat || self.sources.iter().any(|s| s.field.is_voxel())
+    }
+
+    /// The automatic σ_t threshold `--sigma-t-min` gets when vacuum is detected
+    /// (DESIGN.md §5: in vacuum A is singular, a threshold is needed and must be reported).
+    ///
+    /// Rule: when no threshold is set and σ_t = 0 at some staggered position (cell centres,
+    /// faces, edges and corners, i.e. every half-cell coordinate) while it is positive
+    /// elsewhere, the threshold is [`AUTO_SIGMA_T_MIN_FRACTION`] × max σ_t. It is `None`
+    /// when a threshold is already set, when there is no vacuum, when σ_t is 0 everywhere
+    /// (no scale to take a fraction of: the user must choose), or when a coefficient is
+    /// invalid (the solve reports that error with its position).
+    ///
+    /// Evaluates σ_t at (2n_x+1)(2n_y+1)(2n_z+1) points: call it after the memory check.
+    pub fn auto_sigma_t_min(&self) -> Option<f64> {
+        if self.sigma_t_min.is_some() {
+            return None;
+        }
+        let g = &self.grid;
+        let axes = g.dim.axes();
+        let count = |d: usize| if d < axes { 2 * g.res[d] as i64 + 1 } else { 1 };
+        let mut max = 0.0f64;
+        let mut vacuum = false;
+        for i in 0..count(0) {
+            for j in 0..count(1) {
+                for k in 0..count(2) {
+                    let half = [i, j, if axes == 3 { k } else { 1 }];
+                    let p = [0, 1, 2].map(|d| g.coord(d, half[d]));
+                    let v = self.sigma_t.eval(p);
+                    if !v.is_finite() || v < 0.0 {
+                        return None;
+                    }
+                    vacuum |= v == 0.0;
+                    max = max.max(v);
+                }
+            }
+        }
+        (vacuum && max > 0.0).then_some(AUTO_SIGMA_T_MIN_FRACTION * max)
+    }
+
+    /// Refuses a closed box without absorption: with the reflecting (Neumann) closure and
+    /// σ_a = σ_t − σ_s = 0 at every cell centre (albedo exactly 1 everywhere) nothing leaves
+    /// the system, so a source has no steady state and A is singular (a constant L_0^0 with
+    /// all other moments 0 is in its null space; the energy balance P_Q = P_A + P_B of
+    /// [`crate::energy`] cannot hold with P_A = P_B = 0). σ_a counts as zero when it is below 1e-12 σ_t (the rounding
+    /// [`Problem::coefficients`] tolerates in σ_s ≤ σ_t). Stops at the first absorbing
+    /// cell; coefficient errors are returned as they are.
+    pub fn check_not_singular(&self) -> anyhow::Result<()> {
+        if self.boundary != Boundary::Neumann {
+            return Ok(());
+        }
+        let g = &self.grid;
+        for i in 0..g.res[0] {
+            for j in 0..g.res[1] {
+                for k in 0..g.res[2] {
+                    let half = [2 * i as i64 + 1, 2 * j as i64 + 1, 2 * k as i64 + 1];
+                    let p = [0, 1, 2].map(|d| g.coord(d, half[d]));
+                    let c = self.coefficients(p)?;
+                    if c.sigma_t - c.sigma_s > 1e-12 * c.sigma_t {
+                        return Ok(());
+                    }
+                }
+            }
+        }
+        anyhow::bail!(
+            "the system is singular: nothing is absorbed (albedo 1, σ_a = 0 everywhere) and the \
+             neumann boundary reflects everything, so no steady state exists; \
+             use --bc dirichlet (light leaves the domain) or an albedo below 1"
+        )
+    }
+
+    /// Checks the parts that do not need field evaluation.
+    pub fn validate(&self) -> anyhow::Result<()> {
+        self.grid.validate()?;
+        if let Phase::HenyeyGreenstein(g) = self.phase {
+            anyhow::ensure!(
+                g.is_finite() && g.abs() < 1.0,
+                "Henyey–Greenstein g must satisfy |g| < 1, got {g}"
+            );
+        }
+        if let Some(min) = self.sigma_t_min {
+            anyhow::ensure!(
+                min.is_finite() && min > 0.0,
+                "--sigma-t-min must be positive, got {min}"
+            );
+        }
+        for s in &self.sources {
+            anyhow::ensure!(
+                s.m.unsigned_abs() <= s.l,
+                "source moment Q_{}^{} has |m| > l",
+                s.l,
+                s.m
+            );
+        }
+        Ok(())
+    }
+}
+
+fn check(name: &'static str, value: f64, p: Point) -> Result<(), CoefficientError> {
+    let [x, y, z] = p;
+    if !value.is_finite() {
+        Err(CoefficientError::NotFinite {
+            name,
+            value,
+            x,
+            y,
+            z,
+        })
+    } else if value < 0.0 {
+        Err(CoefficientError::Negative {
+            name,
+            value,
+            x,
+            y,
+            z,
+        })
+    } else {
+        Ok(())
+    }
+}

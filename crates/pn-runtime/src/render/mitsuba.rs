@@ -1,0 +1,514 @@
+//! Mitsuba 3 ground truth (issue 7, DESIGN.md §6): writes a render scene as a `.vol` density
+//! grid plus a Python script that builds the *same* scene with `mi.load_dict` (variant
+//! `scalar_rgb`) and renders it with the `volpath` path tracer; runs that script.
+//!
+//! **How each convention maps** (every line checked against an independent deterministic
+//! single-scattering integral on an asymmetric scene, see `tests/mitsuba_single_scatter.rs`
+//! and README_mitsuba.md):
+//!
+//! * medium: a `cube` shape with a `null` BSDF covering the density box, holding a
+//!   `heterogeneous` interior medium; `sigma_t` is a `gridvolume` with
+//!   `filter_type = "nearest"` (piecewise constant voxels, as ours) whose unit cube is mapped
+//!   onto the box by `to_world = translate(bbox_min)·scale(bbox_max − bbox_min)`
+//!   (Mitsuba ignores the `.vol` header's box unless `use_grid_bbox` is set); `scale` is
+//!   `sigma_t_scale`, `albedo` a float or a second `gridvolume`;
+//! * phase: Mitsuba's `hg` evaluates `1 + g² + 2g·(wi·wo)` with both directions pointing
+//!   away from the vertex, i.e. `1 + g² − 2g μ` in the propagation-direction cosine μ of
+//!   DESIGN.md §2: the same function, g > 0 forward;
+//! * lights: `directional` with `direction` = travel direction and `irradiance` = E;
+//!   `point` with `intensity` = Φ/(4π);
+//! * camera: `perspective` with `fov_axis = "x"` and `to_world = look_at(position, target,
+//!   up)` gives exactly our rays (image x right, y down); `hdrfilm` with a `box` filter
+//!   (each sample lands in its own pixel), RGB float32, written as EXR;
+//! * integrator: `volpath` with `max_depth = -1` is full transport; `max_depth = 2` is
+//!   single scattering only (camera ray, one medium vertex, one emitter connection; null
+//!   boundary crossings do not count): the image is exactly linear in the albedo.
+
+use super::medium::DensityGrid;
+use super::scene::{Albedo, RenderScene};
+use super::Light;
+use crate::problem::Phase;
+use anyhow::{bail, ensure, Context};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// The generated script's file name in the export folder.
+pub const SCRIPT_FILE: &str = "render_mitsuba.py";
+/// The density grid's file name in the export folder.
+pub const DENSITY_FILE: &str = "density.vol";
+/// The per-voxel albedo's file name (only for scenes with an albedo grid).
+pub const ALBEDO_FILE: &str = "albedo.vol";
+/// The image the script writes by default.
+pub const IMAGE_FILE: &str = "mitsuba.exr";
+/// Environment variable naming the Python interpreter that has `mitsuba`.
+pub const PYTHON_ENV: &str = "PN_MITSUBA_PYTHON";
+/// The interpreter `scripts/mitsuba-venv.sh` creates, relative to the repository root.
+pub const VENV_PYTHON: &str = ".venv-mitsuba/bin/python";
+/// The Mitsuba version the script is written for (pinned in `scripts/mitsuba-venv.sh`).
+pub const MITSUBA_VERSION: &str = "3.9.1";
+
+/// What to write into the script (each can be overridden when the script runs).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ExportOptions {
+    /// Samples per pixel.
+    pub spp: usize,
+    /// Sampler seed.
+    pub seed: u64,
+    /// `volpath` max_depth: −1 = all orders of scattering, 2 = single scattering only.
+    pub max_depth: i64,
+}
+
+impl ExportOptions {
+    /// The scene's `[render]` spp and seed, full transport.
+    pub fn from_scene(scene: &RenderScene) -> Self {
+        Self {
+            spp: scene.render.spp,
+            seed: scene.render.seed,
+            max_depth: -1,
+        }
+    }
+
+    /// Checks spp ≥ 1 and max_depth = −1 or ≥ 1.
+    pub fn validate(&self) -> anyhow::Result<()> {
+        ensure!(self.spp >= 1, "spp must be at least 1, got {}", self.spp);
+        ensure!(
+            self.max_depth == -1 || self.max_depth >= 1,
+            "max_depth must be -1 (unlimited) or at least 1, got {}",
+            self.max_depth
+        );
+        Ok(())
+    }
+}
+
+/// The files of an export.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Exported {
+    /// The folder.
+    pub dir: PathBuf,
+    /// `render_mitsuba.py`.
+    pub script: PathBuf,
+    /// `density.vol`.
+    pub density: PathBuf,
+    /// `albedo.vol` where the albedo is a grid.
+    pub albedo: Option<PathBuf>,
+}
+
+/// Writes `dir/density.vol` (and `dir/albedo.vol` for an albedo grid) and
+/// `dir/render_mitsuba.py` for `scene`; creates `dir`.
+pub fn export(scene: &RenderScene, dir: &Path, opts: &ExportOptions) -> anyhow::Result<Exported> {
+    opts.validate()?;
+    let grid = scene.density_grid()?;
+    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    let density = dir.join(DENSITY_FILE);
+    write_vol(&density, &grid)?;
+    let albedo = match &scene.medium.albedo {
+        Albedo::Constant(_) => None,
+        Albedo::Voxels(v) => {
+            let a = DensityGrid::new(grid.res, grid.bbox_min, grid.bbox_max, v.to_vec())
+                .context("albedo grid")?;
+            let path = dir.join(ALBEDO_FILE);
+            write_vol(&path, &a)?;
+            Some(path)
+        }
+    };
+    let script = dir.join(SCRIPT_FILE);
+    let text = script_text(scene, &grid, opts)?;
+    std::fs::write(&script, text).with_context(|| format!("cannot write {}", script.display()))?;
+    Ok(Exported {
+        dir: dir.to_path_buf(),
+        script,
+        density,
+        albedo,
+    })
+}
+
+fn write_vol(path: &Path, grid: &DensityGrid) -> anyhow::Result<()> {
+    let bytes = crate::vol::encode_vol(&grid.to_voxel_grid());
+    std::fs::write(path, bytes).with_context(|| format!("cannot write {}", path.display()))
+}
+
+/// A Python float literal (exact round trip; finite values only).
+fn py(x: f64) -> anyhow::Result<String> {
+    ensure!(x.is_finite(), "cannot export the non-finite value {x}");
+    Ok(format!("{x:?}"))
+}
+
+fn py3(v: [f64; 3]) -> anyhow::Result<String> {
+    Ok(format!("[{}, {}, {}]", py(v[0])?, py(v[1])?, py(v[2])?))
+}
+
+/// Whether `p` lies strictly inside the box (the camera then starts in the medium).
+fn inside(p: [f64; 3], min: [f64; 3], max: [f64; 3]) -> bool {
+    (0..3).all(|d| p[d] > min[d] && p[d] < max[d])
+}
+
+/// The text of `render_mitsuba.py` for `scene` with the density `grid` (deterministic:
+/// the same scene and options give the same bytes).
+pub fn script_text(
+    scene: &RenderScene,
+    grid: &DensityGrid,
+    opts: &ExportOptions,
+) -> anyhow::Result<String> {
+    opts.validate()?;
+    let m = &scene.medium;
+    ensure!(
+        m.sigma_t_scale.is_finite() && m.sigma_t_scale >= 0.0,
+        "sigma_t_scale must be finite and non-negative"
+    );
+    let albedo = match &m.albedo {
+        Albedo::Constant(a) => py(*a)?,
+        Albedo::Voxels(_) => format!("grid(\"{ALBEDO_FILE}\")"),
+    };
+    let phase = match scene.phase {
+        Phase::Isotropic => "{\"type\": \"isotropic\"}".to_string(),
+        Phase::HenyeyGreenstein(g) => format!("{{\"type\": \"hg\", \"g\": {}}}", py(g)?),
+    };
+    let mut emitters = String::new();
+    for (i, light) in scene.lights.iter().enumerate() {
+        let body = match light {
+            Light::Directional {
+                direction,
+                irradiance,
+            } => format!(
+                "{{\"type\": \"directional\", \"direction\": {}, \"irradiance\": {}}}",
+                py3(*direction)?,
+                py(*irradiance)?
+            ),
+            Light::Point { position, power } => format!(
+                "{{\"type\": \"point\", \"position\": {}, \"intensity\": {}}}",
+                py3(*position)?,
+                py(power / (4.0 * std::f64::consts::PI))?
+            ),
+        };
+        writeln!(emitters, "        \"light{i}\": {body},")?;
+    }
+    let c = &scene.camera;
+    let sensor_medium = if inside(c.position, grid.bbox_min, grid.bbox_max) {
+        "\n            \"medium\": {\"type\": \"ref\", \"id\": \"medium\"},"
+    } else {
+        ""
+    };
+    let fill = |t: &str| -> anyhow::Result<String> {
+        Ok(t.replace("@NAME@", &scene.name)
+            .replace("@VERSION@", MITSUBA_VERSION)
+            .replace("@SPP@", &opts.spp.to_string())
+            .replace("@SEED@", &opts.seed.to_string())
+            .replace("@MAX_DEPTH@", &opts.max_depth.to_string())
+            .replace("@BBOX_MIN@", &py3(grid.bbox_min)?)
+            .replace("@BBOX_MAX@", &py3(grid.bbox_max)?)
+            .replace("@SCALE@", &py(m.sigma_t_scale)?)
+            .replace("@ALBEDO@", &albedo)
+            .replace("@PHASE@", &phase)
+            .replace("@EMITTERS@", emitters.trim_end())
+            .replace("@ORIGIN@", &py3(c.position)?)
+            .replace("@TARGET@", &py3(c.target)?)
+            .replace("@UP@", &py3(c.up)?)
+            .replace("@FOV@", &py(c.fov_deg)?)
+            .replace("@WIDTH@", &c.width.to_string())
+            .replace("@HEIGHT@", &c.height.to_string())
+            .replace("@SENSOR_MEDIUM@", sensor_medium))
+    };
+    fill(TEMPLATE)
+}
+
+/// The script template; `@KEY@` placeholders are filled by [`script_text`].
+const TEMPLATE: &str = r#"#!/usr/bin/env python3
+"""Mitsuba 3 ground truth for the pnsolver scene "@NAME@" (generated by `pn export-mitsuba`).
+
+Builds the scene with mi.load_dict (variant scalar_rgb, Mitsuba @VERSION@), renders it with the
+volpath path tracer and writes an RGB float32 EXR (equal channels). The last line printed is
+JSON: {"image": ..., "seconds": ..., "spp": ..., "seed": ..., "max_depth": ...}.
+
+    python render_mitsuba.py [--spp N] [--seed S] [--max-depth D] [--out FILE]
+
+max_depth -1: all orders of scattering; 2: single scattering only.
+Install Mitsuba with scripts/mitsuba-venv.sh (pnsolver repository).
+"""
+import argparse
+import json
+import os
+import sys
+import time
+
+try:
+    import mitsuba as mi
+except ImportError:
+    sys.exit("render_mitsuba.py: the Python package 'mitsuba' is not installed for "
+             + sys.executable + "; run scripts/mitsuba-venv.sh and use its python")
+
+mi.set_variant("scalar_rgb")
+HERE = os.path.dirname(os.path.abspath(__file__))
+T = mi.ScalarTransform4f
+
+SPP = @SPP@
+SEED = @SEED@
+MAX_DEPTH = @MAX_DEPTH@
+# Density voxels: piecewise constant on [BBOX_MIN, BBOX_MAX], zero outside.
+BBOX_MIN = @BBOX_MIN@
+BBOX_MAX = @BBOX_MAX@
+
+
+def grid(name):
+    # The unit cube of the grid is mapped onto the box; "nearest" = piecewise constant.
+    size = [b - a for a, b in zip(BBOX_MIN, BBOX_MAX)]
+    return {"type": "gridvolume", "filename": os.path.join(HERE, name),
+            "filter_type": "nearest", "to_world": T().translate(BBOX_MIN).scale(size)}
+
+
+def scene_dict(max_depth):
+    centre = [(a + b) / 2 for a, b in zip(BBOX_MIN, BBOX_MAX)]
+    half = [(b - a) / 2 for a, b in zip(BBOX_MIN, BBOX_MAX)]
+    return {
+        "type": "scene",
+        "integrator": {"type": "volpath", "max_depth": max_depth},
+        "medium": {
+            "type": "heterogeneous",
+            "id": "medium",
+            "sigma_t": grid("density.vol"),
+            "scale": @SCALE@,
+            "albedo": @ALBEDO@,
+            "phase": @PHASE@,
+        },
+        "box": {
+            "type": "cube",
+            "to_world": T().translate(centre).scale(half),
+            "bsdf": {"type": "null"},
+            "interior": {"type": "ref", "id": "medium"},
+        },
+@EMITTERS@
+        "sensor": {
+            "type": "perspective",
+            "fov": @FOV@,
+            "fov_axis": "x",
+            "to_world": T().look_at(origin=@ORIGIN@, target=@TARGET@, up=@UP@),@SENSOR_MEDIUM@
+            "sampler": {"type": "independent", "sample_count": SPP},
+            "film": {
+                "type": "hdrfilm",
+                "width": @WIDTH@,
+                "height": @HEIGHT@,
+                "rfilter": {"type": "box"},
+                "pixel_format": "rgb",
+                "component_format": "float32",
+            },
+        },
+    }
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--spp", type=int, default=SPP)
+    ap.add_argument("--seed", type=int, default=SEED)
+    ap.add_argument("--max-depth", type=int, default=MAX_DEPTH)
+    ap.add_argument("--out", default=os.path.join(HERE, "mitsuba.exr"))
+    args = ap.parse_args()
+    scene = mi.load_dict(scene_dict(args.max_depth))
+    start = time.perf_counter()
+    image = mi.render(scene, spp=args.spp, seed=args.seed)
+    seconds = time.perf_counter() - start
+    mi.Bitmap(image).write(args.out)
+    print(json.dumps({"image": os.path.abspath(args.out), "seconds": seconds,
+                      "spp": args.spp, "seed": args.seed, "max_depth": args.max_depth,
+                      "mitsuba": mi.__version__}))
+
+
+if __name__ == "__main__":
+    main()
+"#;
+
+/// The Python interpreter to run Mitsuba with: `explicit` (from `--python`), else
+/// `$PN_MITSUBA_PYTHON`, else `.venv-mitsuba/bin/python` in the current folder or in the
+/// repository this binary was built from. Errors name `scripts/mitsuba-venv.sh`.
+pub fn find_python(explicit: Option<&Path>) -> anyhow::Result<PathBuf> {
+    if let Some(p) = explicit {
+        return Ok(p.to_path_buf());
+    }
+    if let Some(p) = std::env::var_os(PYTHON_ENV).filter(|p| !p.is_empty()) {
+        return Ok(PathBuf::from(p));
+    }
+    let repo = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    for base in [Path::new("."), repo.as_path()] {
+        let p = base.join(VENV_PYTHON);
+        if p.is_file() {
+            return Ok(p);
+        }
+    }
+    bail!(
+        "no Python with Mitsuba found: run scripts/mitsuba-venv.sh (creates {VENV_PYTHON}), \
+         or pass --python / set {PYTHON_ENV} to an interpreter that has `mitsuba` installed"
+    )
+}
+
+/// Checks that `python` runs and imports `mitsuba` with the `scalar_rgb` variant; returns
+/// the Mitsuba version.
+pub fn check_python(python: &Path) -> anyhow::Result<String> {
+    let out = Command::new(python)
+        .args([
+            "-c",
+            "import mitsuba as mi; mi.set_variant('scalar_rgb'); print(mi.__version__)",
+        ])
+        .output()
+        .with_context(|| {
+            format!(
+                "cannot run the Python interpreter {} (create one with scripts/mitsuba-venv.sh)",
+                python.display()
+            )
+        })?;
+    if !out.status.success() {
+        bail!(
+            "{} cannot import mitsuba (scalar_rgb): {}\ninstall it with scripts/mitsuba-venv.sh",
+            python.display(),
+            String::from_utf8_lossy(&out.stderr).trim()
+        );
+    }
+    Ok(String::from_utf8_lossy(&out.stdout).trim().to_string())
+}
+
+/// Overrides for one run of an exported script (`None`: the exported value).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct RunOptions {
+    /// Samples per pixel.
+    pub spp: Option<usize>,
+    /// Sampler seed.
+    pub seed: Option<u64>,
+    /// `volpath` max_depth.
+    pub max_depth: Option<i64>,
+    /// Output EXR (default `dir/mitsuba.exr`).
+    pub out: Option<PathBuf>,
+}
+
+/// The result of one Mitsuba render.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MitsubaRun {
+    /// The EXR written.
+    pub image: PathBuf,
+    /// Seconds spent in `mi.render` (scene loading excluded).
+    pub seconds: f64,
+}
+
+/// Runs `dir/render_mitsuba.py` with `python` as exported; returns the EXR's path.
+pub fn run_mitsuba(dir: &Path, python: &Path) -> anyhow::Result<PathBuf> {
+    Ok(run_mitsuba_with(dir, python, &RunOptions::default())?.image)
+}
+
+/// Runs `dir/render_mitsuba.py` with `python` and the overrides in `opts`.
+pub fn run_mitsuba_with(
+    dir: &Path,
+    python: &Path,
+    opts: &RunOptions,
+) -> anyhow::Result<MitsubaRun> {
+    let script = dir.join(SCRIPT_FILE);
+    ensure!(
+        script.is_file(),
+        "{} does not exist: run `pn export-mitsuba` first",
+        script.display()
+    );
+    check_python(python)?;
+    let mut cmd = Command::new(python);
+    cmd.arg(&script);
+    if let Some(s) = opts.spp {
+        ensure!(s >= 1, "spp must be at least 1");
+        cmd.args(["--spp", &s.to_string()]);
+    }
+    if let Some(s) = opts.seed {
+        cmd.args(["--seed", &s.to_string()]);
+    }
+    if let Some(d) = opts.max_depth {
+        ensure!(d == -1 || d >= 1, "max_depth must be -1 or at least 1");
+        cmd.args(["--max-depth", &d.to_string()]);
+    }
+    if let Some(o) = &opts.out {
+        cmd.arg("--out").arg(o);
+    }
+    let out = cmd
+        .output()
+        .with_context(|| format!("cannot run {} {}", python.display(), script.display()))?;
+    if !out.status.success() {
+        bail!(
+            "Mitsuba render failed ({}): {}",
+            out.status,
+            String::from_utf8_lossy(&out.stderr).trim()
+        );
+    }
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let last = stdout.lines().last().unwrap_or("");
+    let v: serde_json::Value = serde_json::from_str(last)
+        .with_context(|| format!("unexpected output of {}: {stdout}", script.display()))?;
+    let image = v["image"]
+        .as_str()
+        .map(PathBuf::from)
+        .with_context(|| format!("no image in the output of {}", script.display()))?;
+    let seconds = v["seconds"].as_f64().unwrap_or(f64::NAN);
+    Ok(MitsubaRun { image, seconds })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scene() -> RenderScene {
+        RenderScene::builtin("lowalbedo").unwrap()
+    }
+
+    #[test]
+    fn script_is_deterministic_and_carries_the_scene() {
+        let s = scene();
+        let g = s.density_grid().unwrap();
+        let o = ExportOptions::from_scene(&s);
+        let a = script_text(&s, &g, &o).unwrap();
+        assert_eq!(a, script_text(&s, &g, &o).unwrap());
+        assert!(!a.contains('@'), "unfilled placeholder");
+        // Point light: intensity Φ/(4π); directional: irradiance and travel direction.
+        assert!(a.contains(&format!(
+            "\"intensity\": {:?}",
+            30.0 / (4.0 * std::f64::consts::PI)
+        )));
+        assert!(a.contains("\"type\": \"hg\", \"g\": 0.4"));
+        assert!(a.contains("\"fov_axis\": \"x\""));
+        assert!(a.contains("\"filter_type\": \"nearest\""));
+        assert!(a.contains("\"scale\": 6.0"));
+        // The camera is outside the medium box: no sensor medium.
+        assert!(!a.contains("\"medium\": {\"type\": \"ref\""));
+    }
+
+    #[test]
+    fn camera_inside_the_medium_gets_the_medium() {
+        let mut s = scene();
+        s.camera.position = [0.0, 0.1, 0.0];
+        let g = s.density_grid().unwrap();
+        let a = script_text(&s, &g, &ExportOptions::from_scene(&s)).unwrap();
+        assert!(a.contains("\"medium\": {\"type\": \"ref\", \"id\": \"medium\"},"));
+    }
+
+    #[test]
+    fn bad_options_are_refused() {
+        let s = scene();
+        let g = s.density_grid().unwrap();
+        let mut o = ExportOptions::from_scene(&s);
+        o.max_depth = 0;
+        assert!(script_text(&s, &g, &o).is_err());
+        o.max_depth = 2;
+        o.spp = 0;
+        assert!(script_text(&s, &g, &o).is_err());
+    }
+
+    #[test]
+    fn export_writes_a_vol_that_reads_back() {
+        let s = scene();
+        let dir = std::env::temp_dir().join(format!("pn-mitsuba-export-{}", std::process::id()));
+        let e = export(&s, &dir, &ExportOptions::from_scene(&s)).unwrap();
+        let back = crate::vol::read_vol(&e.density).unwrap();
+        let g = s.density_grid().unwrap();
+        assert_eq!(back.dims, g.res);
+        let [i, j, k] = [3, 17, 25];
+        assert_eq!(back.at(i, j, k) as f32, g.data[g.index(i, j, k)]);
+        assert!(e.script.is_file() && e.albedo.is_none());
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn missing_python_is_a_clear_error() {
+        let e = check_python(Path::new("/nonexistent/python")).unwrap_err();
+        assert!(format!("{e:#}").contains("mitsuba-venv.sh"));
+    }
+}

@@ -1,0 +1,805 @@
+//! Render scenes: the TOML format, its validation and the built-in scenes.
+//!
+//! ```toml
+//! [medium]
+//! kind = "cloud"            # "grid" (file = "x.vol" | "x.npy"), "sphere", "box", "cloud", "nebula"
+//! seed = 7                  # procedural kinds: deterministic from the seed
+//! resolution = [64, 64, 64] # density-grid resolution of procedural kinds
+//! bbox_min = [-1.0, -1.0, -1.0]
+//! bbox_max = [1.0, 1.0, 1.0]   # "grid": the .vol header's box unless given
+//! sigma_t_scale = 20.0      # σ_t(x) = sigma_t_scale · density(x)  (1/length)
+//! albedo = 0.9              # or albedo_file = "a.npy" (same grid)
+//! [phase]
+//! kind = "hg"               # "isotropic" | "hg"
+//! g = 0.3
+//! [[light]]
+//! kind = "directional"      # travel direction (from the light into the medium)
+//! direction = [0.0, -1.0, -0.3]
+//! irradiance = 1.0
+//! [[light]]
+//! kind = "point"
+//! position = [2.0, 2.0, 0.0]
+//! power = 50.0              # radiant intensity power/(4π)
+//! [camera]
+//! position = [0.0, 0.0, 4.0]
+//! target = [0.0, 0.0, 0.0]
+//! up = [0.0, 1.0, 0.0]
+//! fov = 40.0                # horizontal, degrees
+//! width = 128
+//! height = 128
+//! [solve]
+//! method = "pn"             # "pn" | "cda" | "fld" | "none" (single scattering only)
+//! order = 3
+//! resolution = [32, 32, 32] # solve grid over the medium box (may be coarser)
+//! margin = 2                # empty cells kept around the cropped medium
+//! absorbing_layer = 4       # graded absorber outside the margin (0 = none)
+//! tolerance = 1e-6
+//! sigma_t_min = 0.0         # 0 or absent: automatic where vacuum is present
+//! [render]
+//! spp = 64
+//! seed = 1
+//! ```
+//!
+//! Unknown keys are refused; parse errors carry the line and column; relative file paths
+//! are resolved against the scene file's folder. See [`super::medium`] and
+//! [`super::camera`] for the geometric conventions shared with the Mitsuba export.
+
+use super::camera::{norm, Camera};
+use super::lights::Light;
+use super::medium::{check_box, DensityGrid, Procedural};
+use crate::npy::read_npy;
+use crate::problem::Phase;
+use crate::vol::read_vol;
+use anyhow::{bail, ensure, Context};
+use serde::Deserialize;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+/// Where the density comes from.
+#[derive(Clone, Debug, PartialEq)]
+pub enum MediumSource {
+    /// A built-in procedural medium, generated at [`MediumSpec::resolution`].
+    Procedural(Procedural),
+    /// A grid read from a `.vol` or `.npy` file (already loaded and checked).
+    File {
+        /// The file (resolved against the scene's folder).
+        path: PathBuf,
+        /// Its contents on the medium box.
+        grid: Arc<DensityGrid>,
+    },
+}
+
+/// The single-scattering albedo.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Albedo {
+    /// The same everywhere.
+    Constant(f64),
+    /// One value per density voxel (same order as [`DensityGrid::data`]).
+    Voxels(Arc<Vec<f32>>),
+}
+
+/// The participating medium.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MediumSpec {
+    /// Density source.
+    pub source: MediumSource,
+    /// Seed of procedural media.
+    pub seed: u64,
+    /// Density-grid resolution.
+    pub resolution: [usize; 3],
+    /// Lower corner of the medium box.
+    pub bbox_min: [f64; 3],
+    /// Upper corner of the medium box.
+    pub bbox_max: [f64; 3],
+    /// σ_t = `sigma_t_scale` × density (1/length).
+    pub sigma_t_scale: f64,
+    /// Albedo σ_s/σ_t.
+    pub albedo: Albedo,
+}
+
+impl MediumSpec {
+    /// Albedo of density voxel `index`.
+    #[inline]
+    pub fn albedo_at(&self, index: usize) -> f64 {
+        match &self.albedo {
+            Albedo::Constant(a) => *a,
+            Albedo::Voxels(v) => v[index] as f64,
+        }
+    }
+
+    /// Kind name as in the scene file ("grid" for files).
+    pub fn kind_name(&self) -> &'static str {
+        match &self.source {
+            MediumSource::Procedural(p) => p.name(),
+            MediumSource::File { .. } => "grid",
+        }
+    }
+}
+
+/// The multiple-scattering method.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum RenderMethod {
+    /// The P_N equations of the solve order.
+    Pn,
+    /// Classical diffusion.
+    Cda,
+    /// Flux-limited diffusion.
+    Fld,
+    /// Single scattering only.
+    None,
+}
+
+impl std::str::FromStr for RenderMethod {
+    type Err = anyhow::Error;
+    fn from_str(s: &str) -> anyhow::Result<Self> {
+        match s {
+            "pn" => Ok(Self::Pn),
+            "cda" => Ok(Self::Cda),
+            "fld" => Ok(Self::Fld),
+            "none" => Ok(Self::None),
+            _ => bail!("unknown method {s:?} (expected pn, cda, fld or none)"),
+        }
+    }
+}
+
+impl RenderMethod {
+    /// Lower-case name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Pn => "pn",
+            Self::Cda => "cda",
+            Self::Fld => "fld",
+            Self::None => "none",
+        }
+    }
+}
+
+/// `[solve]`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SolveSettings {
+    /// Method.
+    pub method: RenderMethod,
+    /// P_N order.
+    pub order: usize,
+    /// Solve-grid cells per axis over the medium box (before cropping).
+    pub resolution: [usize; 3],
+    /// Empty solve cells kept around the cropped medium.
+    pub margin: usize,
+    /// Cells of graded absorber outside the margin (0: the Dirichlet boundary sits right
+    /// at the margin; see `solve_setup::add_absorbing_layer`).
+    pub absorbing_layer: usize,
+    /// Relative residual tolerance of the solver.
+    pub tolerance: f64,
+    /// σ_t threshold; `None` = automatic where vacuum is present.
+    pub sigma_t_min: Option<f64>,
+}
+
+/// `[render]`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RenderSettings {
+    /// Samples per pixel.
+    pub spp: usize,
+    /// Seed of the per-pixel random streams.
+    pub seed: u64,
+}
+
+/// A complete render scene.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RenderScene {
+    /// Name (file stem or built-in name).
+    pub name: String,
+    /// Medium.
+    pub medium: MediumSpec,
+    /// Phase function.
+    pub phase: Phase,
+    /// Lights.
+    pub lights: Vec<Light>,
+    /// Camera.
+    pub camera: Camera,
+    /// Solve settings.
+    pub solve: SolveSettings,
+    /// Render settings.
+    pub render: RenderSettings,
+}
+
+/// The built-in scene names.
+pub const BUILTIN_SCENES: [&str; 4] = ["cloud", "nebula", "sphere", "lowalbedo"];
+
+/// Largest samples per pixel accepted.
+pub const MAX_SPP: usize = 1 << 20;
+
+// ---- TOML representation ----
+
+#[derive(Deserialize, Debug)]
+#[serde(deny_unknown_fields)]
+struct SceneToml {
+    medium: MediumToml,
+    phase: Option<PhaseToml>,
+    #[serde(default)]
+    light: Vec<LightToml>,
+    camera: CameraToml,
+    solve: Option<SolveToml>,
+    render: Option<RenderToml>,
+}
+
+#[derive(Deserialize, Debug)]
+#[serde(deny_unknown_fields)]
+struct MediumToml {
+    kind: String,
+    file: Option<PathBuf>,
+    seed: Option<u64>,
+    resolution: Option<[usize; 3]>,
+    bbox_min: Option<[f64; 3]>,
+    bbox_max: Option<[f64; 3]>,
+    sigma_t_scale: f64,
+    albedo: Option<f64>,
+    albedo_file: Option<PathBuf>,
+}
+
+#[derive(Deserialize, Debug)]
+#[serde(deny_unknown_fields)]
+struct PhaseToml {
+    kind: String,
+    g: Option<f64>,
+}
+
+#[derive(Deserialize, Debug)]
+#[serde(deny_unknown_fields)]
+struct LightToml {
+    kind: String,
+    direction: Option<[f64; 3]>,
+    irradiance: Option<f64>,
+    position: Option<[f64; 3]>,
+    power: Option<f64>,
+}
+
+#[derive(Deserialize, Debug)]
+#[serde(deny_unknown_fields)]
+struct CameraToml {
+    position: [f64; 3],
+    target: [f64; 3],
+    up: [f64; 3],
+    fov: f64,
+    width: usize,
+    height: usize,
+}
+
+#[derive(Deserialize, Debug)]
+#[serde(deny_unknown_fields)]
+struct SolveToml {
+    method: Option<RenderMethod>,
+    order: Option<usize>,
+    resolution: Option<[usize; 3]>,
+    margin: Option<usize>,
+    absorbing_layer: Option<usize>,
+    tolerance: Option<f64>,
+    sigma_t_min: Option<f64>,
+}
+
+#[derive(Deserialize, Debug)]
+#[serde(deny_unknown_fields)]
+struct RenderToml {
+    spp: Option<usize>,
+    seed: Option<u64>,
+}
+
+const DEFAULT_BBOX: ([f64; 3], [f64; 3]) = ([-1.0; 3], [1.0; 3]);
+
+impl RenderScene {
+    /// Reads and checks a scene file (errors name the file, and the line and column for
+    /// syntax and type errors).
+    pub fn from_path(path: &Path) -> anyhow::Result<RenderScene> {
+        let text = std::fs::read_to_string(path)
+            .with_context(|| format!("cannot read scene file {}", path.display()))?;
+        let base = path.parent().unwrap_or(Path::new("."));
+        let mut scene = Self::from_toml_str(&text, base)
+            .with_context(|| format!("scene file {}", path.display()))?;
+        if let Some(stem) = path.file_stem().and_then(|s| s.to_str()) {
+            scene.name = stem.to_string();
+        }
+        Ok(scene)
+    }
+
+    /// Parses and checks a scene from TOML text; relative paths are resolved against
+    /// `base_dir`. The name is "scene" (see [`RenderScene::from_path`]).
+    pub fn from_toml_str(s: &str, base_dir: &Path) -> anyhow::Result<RenderScene> {
+        // toml's Display names the line and column and quotes the offending line.
+        let t: SceneToml = toml::from_str(s).map_err(|e| anyhow::anyhow!("{e}"))?;
+        build(t, base_dir)
+    }
+
+    /// A built-in scene ([`BUILTIN_SCENES`]); the same files as `scenes/<name>.toml`.
+    pub fn builtin(name: &str) -> Option<RenderScene> {
+        let text = match name {
+            "cloud" => include_str!("../../../../scenes/cloud.toml"),
+            "nebula" => include_str!("../../../../scenes/nebula.toml"),
+            "sphere" => include_str!("../../../../scenes/sphere.toml"),
+            "lowalbedo" => include_str!("../../../../scenes/lowalbedo.toml"),
+            _ => return None,
+        };
+        // The built-in files are tested to parse (see the tests below).
+        let mut s = Self::from_toml_str(text, Path::new(".")).ok()?;
+        s.name = name.to_string();
+        Some(s)
+    }
+
+    /// A built-in name or a scene file path.
+    pub fn load(arg: &str) -> anyhow::Result<RenderScene> {
+        let path = Path::new(arg);
+        if arg.ends_with(".toml") || path.is_file() {
+            return Self::from_path(path);
+        }
+        Self::builtin(arg).with_context(|| {
+            format!(
+                "{arg:?} is neither a scene file nor a built-in scene ({})",
+                BUILTIN_SCENES.join(", ")
+            )
+        })
+    }
+
+    /// The density grid of the medium (generated for procedural media).
+    pub fn density_grid(&self) -> anyhow::Result<DensityGrid> {
+        let m = &self.medium;
+        match &m.source {
+            MediumSource::Procedural(p) => p.grid(m.resolution, m.bbox_min, m.bbox_max, m.seed),
+            MediumSource::File { grid, .. } => Ok((**grid).clone()),
+        }
+    }
+}
+
+fn finite3(name: &str, v: [f64; 3]) -> anyhow::Result<()> {
+    ensure!(
+        v.iter().all(|c| c.is_finite()),
+        "{name} must be finite, got {v:?}"
+    );
+    Ok(())
+}
+
+fn nonneg(name: &str, v: f64) -> anyhow::Result<()> {
+    ensure!(
+        v.is_finite() && v >= 0.0,
+        "{name} must be finite and non-negative, got {v}"
+    );
+    Ok(())
+}
+
+/// Reads a `.vol` or `.npy` grid file as (grid, bbox from the file if any).
+fn read_grid_file(path: &Path) -> anyhow::Result<(crate::field::VoxelGrid, bool)> {
+    match path.extension().and_then(|e| e.to_str()) {
+        Some("vol") => Ok((read_vol(path)?, true)),
+        Some("npy") => {
+            let a = read_npy(path)?;
+            ensure!(
+                a.shape.len() == 3,
+                "{}: expected a 3D array of shape (nx, ny, nz), got shape {:?}",
+                path.display(),
+                a.shape
+            );
+            let dims = [a.shape[0], a.shape[1], a.shape[2]];
+            let (min, max) = DEFAULT_BBOX;
+            Ok((crate::field::VoxelGrid::new(dims, min, max, a.data)?, false))
+        }
+        _ => bail!(
+            "{}: unsupported grid file (expected .vol or .npy)",
+            path.display()
+        ),
+    }
+}
+
+fn build_medium(m: MediumToml, base: &Path) -> anyhow::Result<MediumSpec> {
+    nonneg("medium.sigma_t_scale", m.sigma_t_scale)?;
+    for (n, v) in [
+        ("medium.bbox_min", m.bbox_min),
+        ("medium.bbox_max", m.bbox_max),
+    ] {
+        if let Some(v) = v {
+            finite3(n, v)?;
+        }
+    }
+    let seed = m.seed.unwrap_or(0);
+    let (source, resolution, bbox_min, bbox_max) = match m.kind.as_str() {
+        "grid" => {
+            let file = m
+                .file
+                .context("medium.kind = \"grid\" needs medium.file (a .vol or .npy file)")?;
+            ensure!(
+                m.seed.is_none(),
+                "medium.seed applies to procedural media only"
+            );
+            let path = base.join(&file);
+            let (vg, has_box) = read_grid_file(&path)?;
+            if let Some(r) = m.resolution {
+                ensure!(
+                    r == vg.dims,
+                    "medium.resolution {r:?} disagrees with the grid file's {:?}; leave it out",
+                    vg.dims
+                );
+            }
+            let (dmin, dmax) = if has_box {
+                (vg.min, vg.max)
+            } else {
+                DEFAULT_BBOX
+            };
+            let bmin = m.bbox_min.unwrap_or(dmin);
+            let bmax = m.bbox_max.unwrap_or(dmax);
+            let grid = DensityGrid::from_voxel_grid(&vg, bmin, bmax)
+                .with_context(|| format!("density file {}", path.display()))?;
+            let res = grid.res;
+            (
+                MediumSource::File {
+                    path,
+                    grid: Arc::new(grid),
+                },
+                res,
+                bmin,
+                bmax,
+            )
+        }
+        other => {
+            let p = match other {
+                "sphere" => Procedural::Sphere,
+                "box" => Procedural::Box,
+                "cloud" => Procedural::Cloud,
+                "nebula" => Procedural::Nebula,
+                _ => bail!(
+                    "unknown medium.kind {other:?} (expected grid, sphere, box, cloud or nebula)"
+                ),
+            };
+            ensure!(
+                m.file.is_none(),
+                "medium.file applies to kind = \"grid\" only"
+            );
+            let res = m.resolution.unwrap_or([64; 3]);
+            ensure!(
+                res.iter().all(|&n| n > 0),
+                "medium.resolution must be positive on every axis, got {res:?}"
+            );
+            (
+                MediumSource::Procedural(p),
+                res,
+                m.bbox_min.unwrap_or(DEFAULT_BBOX.0),
+                m.bbox_max.unwrap_or(DEFAULT_BBOX.1),
+            )
+        }
+    };
+    check_box(bbox_min, bbox_max).context("medium")?;
+    let albedo = match (m.albedo, m.albedo_file) {
+        (Some(_), Some(_)) => bail!("give medium.albedo or medium.albedo_file, not both"),
+        (None, None) => bail!("medium.albedo (or medium.albedo_file) is required"),
+        (Some(a), None) => {
+            ensure!(
+                a.is_finite() && (0.0..=1.0).contains(&a),
+                "medium.albedo must lie in [0, 1], got {a}"
+            );
+            Albedo::Constant(a)
+        }
+        (None, Some(f)) => {
+            let path = base.join(&f);
+            let (vg, _) = read_grid_file(&path)?;
+            ensure!(
+                vg.dims == resolution,
+                "albedo file {} has resolution {:?}, the density grid {:?}",
+                path.display(),
+                vg.dims,
+                resolution
+            );
+            let g = DensityGrid::from_voxel_grid(&vg, bbox_min, bbox_max)
+                .with_context(|| format!("albedo file {}", path.display()))?;
+            if let Some(p) = g.data.iter().position(|v| *v > 1.0) {
+                bail!(
+                    "albedo file {}: value {} at index {p} exceeds 1",
+                    path.display(),
+                    g.data[p]
+                );
+            }
+            Albedo::Voxels(Arc::new(g.data))
+        }
+    };
+    Ok(MediumSpec {
+        source,
+        seed,
+        resolution,
+        bbox_min,
+        bbox_max,
+        sigma_t_scale: m.sigma_t_scale,
+        albedo,
+    })
+}
+
+fn build_light(l: LightToml, n: usize) -> anyhow::Result<Light> {
+    let ctx = || format!("light {} (kind = {:?})", n + 1, l.kind);
+    match l.kind.as_str() {
+        "directional" => {
+            ensure!(
+                l.position.is_none() && l.power.is_none(),
+                "{}: position and power apply to point lights",
+                ctx()
+            );
+            let d = l
+                .direction
+                .with_context(|| format!("{}: needs direction", ctx()))?;
+            let e = l
+                .irradiance
+                .with_context(|| format!("{}: needs irradiance", ctx()))?;
+            finite3("direction", d).with_context(ctx)?;
+            let len = norm(d);
+            ensure!(len > 0.0, "{}: direction must not be zero", ctx());
+            nonneg("irradiance", e).with_context(ctx)?;
+            Ok(Light::Directional {
+                direction: d.map(|c| c / len),
+                irradiance: e,
+            })
+        }
+        "point" => {
+            ensure!(
+                l.direction.is_none() && l.irradiance.is_none(),
+                "{}: direction and irradiance apply to directional lights",
+                ctx()
+            );
+            let p = l
+                .position
+                .with_context(|| format!("{}: needs position", ctx()))?;
+            let w = l.power.with_context(|| format!("{}: needs power", ctx()))?;
+            finite3("position", p).with_context(ctx)?;
+            nonneg("power", w).with_context(ctx)?;
+            Ok(Light::Point {
+                position: p,
+                power: w,
+            })
+        }
+        k => bail!(
+            "light {}: unknown kind {k:?} (expected directional or point)",
+            n + 1
+        ),
+    }
+}
+
+fn build(t: SceneToml, base: &Path) -> anyhow::Result<RenderScene> {
+    let medium = build_medium(t.medium, base).context("[medium]")?;
+    let phase = match t.phase {
+        None => Phase::Isotropic,
+        Some(p) => match p.kind.as_str() {
+            "isotropic" => {
+                ensure!(p.g.is_none(), "[phase]: g applies to kind = \"hg\" only");
+                Phase::Isotropic
+            }
+            "hg" => {
+                let g = p.g.context("[phase]: kind = \"hg\" needs g")?;
+                ensure!(
+                    g.is_finite() && g.abs() < 1.0,
+                    "[phase]: Henyey–Greenstein g must satisfy |g| < 1, got {g}"
+                );
+                Phase::HenyeyGreenstein(g)
+            }
+            k => bail!("[phase]: unknown kind {k:?} (expected isotropic or hg)"),
+        },
+    };
+    let lights = t
+        .light
+        .into_iter()
+        .enumerate()
+        .map(|(n, l)| build_light(l, n))
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    let c = t.camera;
+    let camera = Camera {
+        position: c.position,
+        target: c.target,
+        up: c.up,
+        fov_deg: c.fov,
+        width: c.width,
+        height: c.height,
+    };
+    camera.validate().context("[camera]")?;
+    let s = t.solve.unwrap_or(SolveToml {
+        method: None,
+        order: None,
+        resolution: None,
+        margin: None,
+        absorbing_layer: None,
+        tolerance: None,
+        sigma_t_min: None,
+    });
+    let solve = SolveSettings {
+        method: s.method.unwrap_or(RenderMethod::Pn),
+        order: s.order.unwrap_or(3),
+        resolution: s.resolution.unwrap_or([32; 3]),
+        margin: s.margin.unwrap_or(2),
+        absorbing_layer: s.absorbing_layer.unwrap_or(DEFAULT_ABSORBING_LAYER),
+        tolerance: s.tolerance.unwrap_or(1e-6),
+        sigma_t_min: s.sigma_t_min.filter(|v| *v != 0.0),
+    };
+    solve.validate().context("[solve]")?;
+    let r = t.render.unwrap_or(RenderToml {
+        spp: None,
+        seed: None,
+    });
+    let render = RenderSettings {
+        spp: r.spp.unwrap_or(64),
+        seed: r.seed.unwrap_or(1),
+    };
+    render.validate().context("[render]")?;
+    Ok(RenderScene {
+        name: "scene".into(),
+        medium,
+        phase,
+        lights,
+        camera,
+        solve,
+        render,
+    })
+}
+
+/// Default thickness (cells) of the absorbing layer around the solve grid.
+pub const DEFAULT_ABSORBING_LAYER: usize = 4;
+
+impl SolveSettings {
+    /// Cells added around the cropped medium: the empty margin plus the absorbing layer.
+    pub fn padding(&self) -> usize {
+        self.margin + self.absorbing_layer
+    }
+
+    /// Checks order, resolution, tolerance and threshold.
+    pub fn validate(&self) -> anyhow::Result<()> {
+        let max = pn_stencil::MAX_ORDER;
+        ensure!(
+            (1..=max).contains(&self.order),
+            "order must lie in 1..={max}, got {}",
+            self.order
+        );
+        ensure!(
+            self.resolution.iter().all(|&n| (1..=4096).contains(&n)),
+            "solve resolution must be between 1 and 4096 per axis, got {:?}",
+            self.resolution
+        );
+        ensure!(
+            self.margin <= 64,
+            "margin must be at most 64 cells, got {}",
+            self.margin
+        );
+        ensure!(
+            self.absorbing_layer <= 64,
+            "absorbing_layer must be at most 64 cells, got {}",
+            self.absorbing_layer
+        );
+        ensure!(
+            self.tolerance.is_finite() && self.tolerance > 0.0 && self.tolerance < 1.0,
+            "tolerance must lie in (0, 1), got {}",
+            self.tolerance
+        );
+        if let Some(t) = self.sigma_t_min {
+            ensure!(
+                t.is_finite() && t > 0.0,
+                "sigma_t_min must be finite and non-negative, got {t}"
+            );
+        }
+        Ok(())
+    }
+}
+
+impl RenderSettings {
+    /// Checks the sample count.
+    pub fn validate(&self) -> anyhow::Result<()> {
+        ensure!(
+            (1..=MAX_SPP).contains(&self.spp),
+            "spp must lie in 1..={MAX_SPP}, got {}",
+            self.spp
+        );
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const MINIMAL: &str = r#"
+[medium]
+kind = "sphere"
+resolution = [8, 8, 8]
+sigma_t_scale = 2.0
+albedo = 0.5
+[[light]]
+kind = "directional"
+direction = [0.0, -2.0, 0.0]
+irradiance = 1.0
+[camera]
+position = [0.0, 0.0, 4.0]
+target = [0.0, 0.0, 0.0]
+up = [0.0, 1.0, 0.0]
+fov = 40.0
+width = 8
+height = 8
+"#;
+
+    fn parse(s: &str) -> anyhow::Result<RenderScene> {
+        RenderScene::from_toml_str(s, Path::new("."))
+    }
+
+    fn err(s: &str) -> String {
+        format!("{:#}", parse(s).unwrap_err())
+    }
+
+    #[test]
+    fn builtin_scenes_parse() {
+        for name in BUILTIN_SCENES {
+            let s = RenderScene::builtin(name).unwrap_or_else(|| panic!("{name}"));
+            assert_eq!(s.name, name);
+            let g = s.density_grid().unwrap();
+            assert!(g.max_density() > 0.0, "{name}");
+        }
+        assert!(RenderScene::builtin("nope").is_none());
+    }
+
+    #[test]
+    fn defaults_and_normalisation() {
+        let s = parse(MINIMAL).unwrap();
+        assert_eq!(s.phase, Phase::Isotropic);
+        assert_eq!(
+            s.lights[0],
+            Light::Directional {
+                direction: [0.0, -1.0, 0.0],
+                irradiance: 1.0
+            }
+        );
+        assert_eq!(s.solve.method, RenderMethod::Pn);
+        assert_eq!(s.solve.sigma_t_min, None);
+        assert_eq!(s.render.spp, 64);
+    }
+
+    #[test]
+    fn bad_input_is_refused_with_the_field() {
+        let e = err(&MINIMAL.replace("albedo = 0.5", "albedo = 0.5\ncolour = 1"));
+        assert!(e.contains("unknown field") && e.contains("line"), "{e}");
+        let e = err(&MINIMAL.replace("albedo = 0.5", "albedo = 1.5"));
+        assert!(e.contains("[0, 1]"), "{e}");
+        let e = err(&MINIMAL.replace("sigma_t_scale = 2.0", "sigma_t_scale = -2.0"));
+        assert!(e.contains("non-negative"), "{e}");
+        let e = err(&MINIMAL.replace("sigma_t_scale = 2.0", "sigma_t_scale = nan"));
+        assert!(e.contains("sigma_t_scale"), "{e}");
+        let e = err(&MINIMAL.replace("width = 8", "width = 0"));
+        assert!(e.contains("image size"), "{e}");
+        let e = err(&MINIMAL.replace("up = [0.0, 1.0, 0.0]", "up = [0.0, 0.0, 1.0]"));
+        assert!(e.contains("parallel"), "{e}");
+        let e = err(&MINIMAL.replace("fov = 40.0", "fov = 180.0"));
+        assert!(e.contains("fov"), "{e}");
+        let e = err(&MINIMAL.replace("kind = \"sphere\"", "kind = \"torus\""));
+        assert!(e.contains("torus"), "{e}");
+        let e = err(&MINIMAL.replace("irradiance = 1.0", "irradiance = -1.0"));
+        assert!(e.contains("irradiance"), "{e}");
+        let e = err(&MINIMAL.replace("fov = 40.0", "fov = \"wide\""));
+        assert!(e.contains("line 15, column 7"), "{e}");
+    }
+
+    #[test]
+    fn vol_files_are_read_and_bad_ones_refused() {
+        let dir = std::env::temp_dir().join(format!("pn-render-scene-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let g = DensityGrid::new([2, 1, 1], [0.0; 3], [2.0, 1.0, 1.0], vec![0.25, 1.0]).unwrap();
+        let bytes = crate::vol::encode_vol(&g.to_voxel_grid());
+        std::fs::write(dir.join("d.vol"), &bytes).unwrap();
+        std::fs::write(dir.join("bad.vol"), &bytes[..bytes.len() - 2]).unwrap();
+        let text = MINIMAL
+            .replace("kind = \"sphere\"", "kind = \"grid\"\nfile = \"d.vol\"")
+            .replace("resolution = [8, 8, 8]\n", "");
+        let s = RenderScene::from_toml_str(&text, &dir).unwrap();
+        assert_eq!(s.density_grid().unwrap(), g);
+        let e = format!(
+            "{:#}",
+            RenderScene::from_toml_str(&text.replace("d.vol", "bad.vol"), &dir).unwrap_err()
+        );
+        assert!(e.contains("bytes of data"), "{e}");
+        // A per-voxel albedo from .npy (shape (nx, ny, nz), x first) on the same grid.
+        crate::npy::write_npy(&dir.join("a.npy"), &[2, 1, 1], &[0.5, 0.25]).unwrap();
+        let with_albedo = text.replace("albedo = 0.5", "albedo_file = \"a.npy\"");
+        let s = RenderScene::from_toml_str(&with_albedo, &dir).unwrap();
+        assert_eq!((s.medium.albedo_at(0), s.medium.albedo_at(1)), (0.5, 0.25));
+        crate::npy::write_npy(&dir.join("b.npy"), &[2, 1, 1], &[0.5, 1.5]).unwrap();
+        let e = format!(
+            "{:#}",
+            RenderScene::from_toml_str(&with_albedo.replace("a.npy", "b.npy"), &dir).unwrap_err()
+        );
+        assert!(e.contains("exceeds 1"), "{e}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}
