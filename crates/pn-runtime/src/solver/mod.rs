@@ -162,6 +162,36 @@ pub struct SolverOptions {
     pub divergence_limit: f64,
     /// Show a progress bar (only drawn when stderr is a terminal).
     pub progress: bool,
+    /// Expert settings for experiments (multigrid parameters, a forced Krylov method,
+    /// per-phase timing); the defaults are the tuned choices.
+    pub tuning: SolverTuning,
+}
+
+/// Expert solver settings, passed in as values: the library never reads the environment.
+/// The `pn` binary fills them from `PN_MG_*`, `PN_PARITY_METHOD` and `PN_SOLVER_PROFILE`
+/// through [`SolverTuning::from_vars`].
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SolverTuning {
+    /// Multigrid parameters; `None`: each solver's tuned defaults.
+    pub multigrid: Option<multigrid::MgOptions>,
+    /// Force the Krylov method of the parity solvers (`cg`, `bicgstab`, `gmres`).
+    pub krylov: Option<parity::KrylovMethod>,
+    /// Print a per-phase timing line.
+    pub profile: bool,
+}
+
+impl SolverTuning {
+    /// The settings from named variables (`get("PN_MG_RATIO")` etc.; unparsable values are
+    /// ignored): `PN_MG_FINE_DEGREE`, `PN_MG_COARSE_DEGREE`, `PN_MG_COARSE_DEGREE_2D`,
+    /// `PN_MG_RATIO`, `PN_MG_FINE_RATIO`, `PN_MG_POWER_STEPS`, `PN_MG_COARSE_MAX`,
+    /// `PN_MG_SCALE`, `PN_MG_ADDITIVE`, `PN_PARITY_METHOD=cg|bicgstab|gmres`,
+    /// `PN_SOLVER_PROFILE` (set: profile).
+    pub fn from_vars(get: impl Fn(&str) -> Option<String>) -> Self {
+        // Filled in by the runtime clean-up (issue 15); until then the solvers still read
+        // the environment themselves.
+        let _ = &get;
+        Self::default()
+    }
 }
 
 impl Default for SolverOptions {
@@ -173,6 +203,7 @@ impl Default for SolverOptions {
             stagnation_drop: 1e-4,
             divergence_limit: 1e8,
             progress: true,
+            tuning: SolverTuning::default(),
         }
     }
 }
