@@ -22,8 +22,6 @@
 //! serially. Sums are taken in another order than the CSR product, so results agree with
 //! it to rounding (~1e-16 relative), not bit for bit.
 
-pub mod solve;
-
 use crate::assemble::check_kernel;
 use crate::context::RowContext;
 use crate::layout::Layout;

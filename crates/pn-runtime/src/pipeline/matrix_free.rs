@@ -1,36 +1,15 @@
 //! The pipeline's matrix-free route: problem → [`MatFreeOperator`] → Krylov solve →
 //! un-stagger → energy balance, without ever assembling `A` (the `-mf` solvers).
 
-use super::MatFreeOperator;
+use super::{check_magnitude_values, finish, solve_with_scaled_rhs, Solution, Solved};
 use crate::energy::energy_balance;
 use crate::layout::Layout;
+use crate::matfree::MatFreeOperator;
 use crate::operator::LinearOperator;
-use crate::pipeline::{check_magnitude_values, finish, Solution, Solved};
 use crate::problem::Problem;
 use crate::solver::{cgnr_mf, lsmr, lsqr, SolveStats, SolverKind, SolverOptions};
 use pn_stencil::StencilKernel;
 use std::time::Instant;
-
-/// Solves `solve(b')` with `b' = b / 2^k` when `b`'s largest entry is outside
-/// [1e-100, 1e100] and scales the solution and the absolute residuals back: the solvers
-/// work with ‖b‖², which underflows for a source of 1e-300 (u = 0 would be "converged") or
-/// overflows for 1e200. Power-of-two scaling is exact and leaves the relative residual as is.
-pub fn solve_with_scaled_rhs(
-    b: &[f64],
-    solve: impl FnOnce(&[f64]) -> (Vec<f64>, SolveStats),
-) -> (Vec<f64>, SolveStats) {
-    let max_b = b.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-    if max_b == 0.0 || (1e-100..=1e100).contains(&max_b) {
-        return solve(b);
-    }
-    let scale = 2f64.powi(max_b.log2().round() as i32);
-    let scaled: Vec<f64> = b.iter().map(|v| v / scale).collect();
-    let (mut u, mut stats) = solve(&scaled);
-    u.iter_mut().for_each(|v| *v *= scale);
-    stats.absolute_residual *= scale;
-    stats.rhs_norm *= scale;
-    (u, stats)
-}
 
 /// Runs the matrix-free solver `kind` on `op` (any non-`-mf` kind is an error).
 pub fn solve_operator(
@@ -49,7 +28,7 @@ pub fn solve_operator(
     Ok(solve_with_scaled_rhs(b, |b| run(op, b, opts, kind.name())))
 }
 
-/// [`crate::pipeline::solve_problem`] without assembly: builds the matrix-free operator
+/// [`super::solve_problem`] without assembly: builds the matrix-free operator
 /// (its time is reported as `seconds_assembly`), solves with the `-mf` solver `kind`, and
 /// un-staggers. `nonzeros` reports the number of stored (position-dependent) weights (0
 /// for a homogeneous medium), not the non-zeros of `A`. The energy balance uses the boundary

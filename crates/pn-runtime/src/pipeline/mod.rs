@@ -1,5 +1,11 @@
 //! From a problem and a stencil kernel to a solution at cell centres:
 //! layout → assembly → solve → un-stagger → energy balance.
+//!
+//! Three routes share the checks and the finish here: the assembled matrix (CSR `A`), the
+//! parity blocks ([`assemble_split`]), and the matrix-free operator ([`matrix_free`], the
+//! `-mf` solvers, on [`crate::matfree::MatFreeOperator`]).
+
+pub mod matrix_free;
 
 use crate::assemble::assemble;
 use crate::assemble_split::{assemble_split, has_parity_structure};
@@ -53,7 +59,7 @@ pub fn solve_problem(
     opts: &SolverOptions,
 ) -> anyhow::Result<Solution> {
     if solver.is_matrix_free() {
-        return crate::matfree::solve::solve_problem_matrix_free(problem, kernel, solver, opts);
+        return matrix_free::solve_problem_matrix_free(problem, kernel, solver, opts);
     }
     problem.validate()?;
     problem.check_not_singular()?;
@@ -127,9 +133,8 @@ fn solve_split_system(
     let seconds_assembly = t0.elapsed().as_secs_f64();
     check_magnitude_values(system.max_entry, true, &system.rhs)?;
     let t1 = Instant::now();
-    let (u, stats) = crate::matfree::solve::solve_with_scaled_rhs(&system.rhs, |b| {
-        parity.solve_split(&system.split, b, opts)
-    });
+    let (u, stats) =
+        solve_with_scaled_rhs(&system.rhs, |b| parity.solve_split(&system.split, b, opts));
     let seconds_solve = t1.elapsed().as_secs_f64();
     let nonzeros = system.split.nnz_a;
     drop(system);
@@ -221,5 +226,26 @@ fn solve_scaled(
     opts: &SolverOptions,
 ) -> (Vec<f64>, SolveStats) {
     let solver = solver.solver_for(layout);
-    crate::matfree::solve::solve_with_scaled_rhs(b, |b| solver.solve(a, b, opts))
+    solve_with_scaled_rhs(b, |b| solver.solve(a, b, opts))
+}
+
+/// Solves `solve(b')` with `b' = b / 2^k` when `b`'s largest entry is outside
+/// [1e-100, 1e100] and scales the solution and the absolute residuals back: the solvers
+/// work with ‖b‖², which underflows for a source of 1e-300 (u = 0 would be "converged") or
+/// overflows for 1e200. Power-of-two scaling is exact and leaves the relative residual as is.
+pub fn solve_with_scaled_rhs(
+    b: &[f64],
+    solve: impl FnOnce(&[f64]) -> (Vec<f64>, SolveStats),
+) -> (Vec<f64>, SolveStats) {
+    let max_b = b.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    if max_b == 0.0 || (1e-100..=1e100).contains(&max_b) {
+        return solve(b);
+    }
+    let scale = 2f64.powi(max_b.log2().round() as i32);
+    let scaled: Vec<f64> = b.iter().map(|v| v / scale).collect();
+    let (mut u, mut stats) = solve(&scaled);
+    u.iter_mut().for_each(|v| *v *= scale);
+    stats.absolute_residual *= scale;
+    stats.rhs_norm *= scale;
+    (u, stats)
 }
