@@ -72,10 +72,7 @@ impl FieldContext for RowContext<'_> {
             FieldRef::Source { l, m } => self.record(pb.source(*l, *m, p)),
             // Classical diffusion coefficient D = 1/(3 σ_tr), σ_tr = σ_t − σ_s λ_1 p_1
             // (DESIGN.md §2.2).
-            FieldRef::Diffusion => self.record(
-                pb.coefficients(p)
-                    .map(|c| 1.0 / (3.0 * (c.sigma_t - c.sigma_s * pb.phase.moment(1)))),
-            ),
+            FieldRef::Diffusion => self.record(pb.coefficients(p).map(|c| c.diffusion(&pb.phase))),
         }
     }
 

@@ -179,6 +179,28 @@ pub struct Coefficients {
     pub sigma_s: f64,
 }
 
+/// The transport coefficient `σ_tr = σ_t − σ_s λ_1 p_1` (DESIGN.md §2.2; `λ_1 p_1 = g` for
+/// Henyey–Greenstein, see [`Phase::moment`]), whose inverse gives the classical diffusion
+/// coefficient `D = 1/(3σ_tr)`.
+///
+/// The one place the runtime, the FLD set-up and the closed-form references form it; with
+/// `sigma_t = 1` and `sigma_s = α` it is the normalised `σ_tr/σ_t = 1 − αg`.
+pub fn sigma_tr(sigma_t: f64, sigma_s: f64, phase_moment_1: f64) -> f64 {
+    sigma_t - sigma_s * phase_moment_1
+}
+
+impl Coefficients {
+    /// [`sigma_tr`] of these coefficients under `phase`.
+    pub fn sigma_tr(&self, phase: &Phase) -> f64 {
+        sigma_tr(self.sigma_t, self.sigma_s, phase.moment(1))
+    }
+
+    /// The classical diffusion coefficient `D = 1/(3σ_tr)` under `phase`.
+    pub fn diffusion(&self, phase: &Phase) -> f64 {
+        1.0 / (3.0 * self.sigma_tr(phase))
+    }
+}
+
 /// Invalid coefficient values found while evaluating fields.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum CoefficientError {

@@ -20,7 +20,7 @@ use anyhow::{ensure, Result};
 /// Plain formula: no checks on α or g (α = 1 gives the non-absorbing `3(1−g)/τ`).
 pub fn cda_point_source(tau: f64, albedo: f64, g: f64) -> f64 {
     let tau = tau.abs();
-    let s_tr = 1.0 - albedo * g;
+    let s_tr = crate::problem::sigma_tr(1.0, albedo, g);
     let kappa = (3.0 * (1.0 - albedo) * s_tr).sqrt();
     3.0 * s_tr * (-kappa * tau).exp() / tau
 }

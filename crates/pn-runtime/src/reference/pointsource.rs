@@ -199,7 +199,7 @@ impl PointSourceModes {
     /// [`crate::reference::cda_point_source`] for the derivation.
     pub fn cda(albedo: f64, g: f64) -> Result<Self> {
         check_medium(albedo, g)?;
-        let s_tr = 1.0 - albedo * g;
+        let s_tr = crate::problem::sigma_tr(1.0, albedo, g);
         Ok(Self {
             order: 1,
             albedo,
