@@ -1,6 +1,7 @@
 //! `pn solve checkerboard` with the real (generated) stencils against StaRMAP
 //! (DESIGN.md §7, `../shared/reference/checkerboard/`), plus symmetry, 2D/3D consistency,
 //! energy balance, the collocated artefact and the Dirichlet closure.
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
 use pn_runtime::npy::read_npy;
 use std::path::{Path, PathBuf};

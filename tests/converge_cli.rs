@@ -4,6 +4,7 @@
 //! a block face and no staggered position (multiples of 7/(2n)) lands on one either (2n | 7m
 //! only for m = 2n, the domain edge); the sub-samples of `--sampling average` sit at odd
 //! multiples of 7/(16n) and never on an interface.
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
 use pn_runtime::convergence::restrict;
 use pn_runtime::npy::read_npy;

@@ -10,6 +10,7 @@
 //! lengths: the infinite-medium reference is then within ~e^{−2κW} ≈ 6e-6 of the bounded
 //! solution near the centre, where the L2 norm lives — far below the discretization errors
 //! measured here (≥ 1e-3).
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
 use pn_kernels::{pn_kernel, Dim, Staggering};
 use pn_runtime::convergence::{observed_order, rel_l2_diff, restrict, richardson};

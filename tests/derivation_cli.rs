@@ -1,4 +1,5 @@
 //! `pn latex`, `pn equations`, `pn supplemental` end to end (issue 2).
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
 use std::process::Command;
 use std::time::{Duration, Instant};

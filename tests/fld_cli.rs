@@ -1,6 +1,7 @@
 //! `pn solve --method fld`: end to end on the point source (files, report, L_0^0
 //! normalisation), the Picard route against the Gauss–Seidel route on a sphere in vacuum
 //! given as voxel data, and the errors of bad FLD input.
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
 use pn_runtime::npy::{encode_npy, read_npy};
 use std::path::{Path, PathBuf};

@@ -29,6 +29,7 @@
 //!
 //! The test skips with a message when no Python with Mitsuba is found, unless
 //! `PN_REQUIRE_MITSUBA=1` (CI), where that is a failure.
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
 use pn_runtime::render::mitsuba::{self, ExportOptions, RunOptions};
 use pn_runtime::render::renderer::Renderer;

@@ -3,6 +3,7 @@
 //! The fast test checks the same answer and the work ratio on a small grid; the ignored
 //! one prints the issue-8 table for 71² P_1/P_3/P_5 at residual 1e-10:
 //! `cargo test --release --test parity_bench -- --ignored --nocapture`.
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
 use pn_kernels::{pn_kernel, Dim, Staggering};
 use pn_runtime::assemble::{assemble, System};

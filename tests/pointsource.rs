@@ -9,6 +9,7 @@
 //! * `pn solve pointsource` writes `profile.csv` / `profile.png` / `profile_diagonal.csv`.
 //!
 //! Numbers measured with these tests are in `README_pointsource.md`.
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
 use pn_drivers::pointsource_extras::{exact_modes, profile, Ray};
 use pn_kernels::{cda_kernel, pn_kernel, Dim, Staggering};

@@ -1,6 +1,7 @@
 //! `pn render` end to end on small scenes (16³ density, ≤ 16³ solve grid, 32×32 image,
 //! few spp): every method runs and writes its files; the multiple-scattering part behaves
 //! as the theory says; bad input gives one clear error.
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
 use pn_drivers::render::render_scene;
 use pn_runtime::render::image_io::read_exr_gray;

@@ -1,4 +1,5 @@
 //! `pn solve` on TOML scenes with voxel data (.npy and .vol) and on the point source.
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
 use pn_runtime::field::VoxelGrid;
 use pn_runtime::npy::{encode_npy, read_npy};

@@ -11,6 +11,7 @@
 //! * `Report`: converged as above, or stopped with a finite residual above the tolerance
 //!   and a status saying why (never a NaN, a hang or a panic);
 //! * `Refused(word)`: an error whose message contains `word`.
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
 use pn_kernels::{pn_kernel, Dim, Staggering};
 use pn_runtime::field::Field;

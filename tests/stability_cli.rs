@@ -1,5 +1,6 @@
 //! Issue 9 at the command line: the memory estimate and `--max-memory`, the automatic
 //! σ_t threshold, and a clear error (never a panic) for every bad flag value.
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
 use pn_runtime::npy::encode_npy;
 use std::path::PathBuf;

@@ -7,6 +7,7 @@
 //! with centres within 0.1 of the centre, Dirichlet or Neumann boundary. The vacuum makes A singular
 //! (DESIGN.md §5); raising σ_t to the threshold regularises it, and the smaller the
 //! threshold the worse the conditioning, so the iteration count grows as it shrinks.
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
 use pn_kernels::{pn_kernel, Dim, Staggering};
 use pn_runtime::field::Field;

@@ -1,4 +1,5 @@
 //! `pn stencil`: the discretized stencil as text and JSON, and its bad-input errors.
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
 use std::process::Command;
 

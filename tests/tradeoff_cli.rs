@@ -2,6 +2,7 @@
 //! has the documented columns, one row per method × resolution × tolerance, every error is
 //! finite (FLD has no own reference and leaves that column empty), and the plot exists.
 //! Also `pn solve --solver cgnr-mf/lsqr/lsmr` and a bad `--solver` name.
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
 use std::path::PathBuf;
 

@@ -97,6 +97,10 @@ impl Linear {
     }
 
     /// Canonical expression: index terms sorted by name, constant last.
+    #[expect(
+        clippy::expect_used,
+        reason = "the empty and one-term cases return before, so terms has exactly one element here"
+    )]
     pub fn to_expr(&self) -> Expr {
         let mut terms: Vec<Expr> = self
             .coeffs

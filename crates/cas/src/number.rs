@@ -28,6 +28,10 @@ pub struct Surd {
 
 type R128 = Ratio<i128>;
 
+#[expect(
+    clippy::panic,
+    reason = "Surd is exact i64 arithmetic by design: the P_N derivation up to MAX_ORDER stays far inside it, and a silently rounded coefficient would be worse than stopping"
+)]
 fn to_r64(r: R128) -> Rational64 {
     let n = r.numer().to_i64();
     let d = r.denom().to_i64();
@@ -103,6 +107,10 @@ impl Surd {
         Self::new128(to_r128(coeff), to_r128(radicand))
     }
 
+    #[expect(
+        clippy::expect_used,
+        reason = "p·q of two i64-range radicand parts fits i128; the P_N coefficients up to MAX_ORDER are far from that range, an overflow would be a caller's expression outside the cas's exact range"
+    )]
     fn new128(coeff: R128, radicand: R128) -> Option<Surd> {
         if radicand.is_negative() {
             return None;

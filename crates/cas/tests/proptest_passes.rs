@@ -10,6 +10,7 @@
 //! Passes checked: fold, expand, split, pull_factors, collect, normalize, collapse_deltas,
 //! delta_substitute, merge_sums. (The SH passes need SH evaluation and are checked by
 //! quadrature in pn-codegen.)
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
 use cas::expr::{Axis, DirVar, Expr, FieldName, ShKind};
 use cas::passes::{collect, delta, expand, fold, normalize, pull, split};

@@ -63,6 +63,10 @@ struct RowGen {
 }
 
 impl RowGen {
+    #[expect(
+        clippy::expect_used,
+        reason = "RowGen::fields is collected from every field reference of the row before any code is generated"
+    )]
     fn field_ident(&self, f: &FieldRef, o: &HalfOffset) -> Ident {
         let k = self
             .fields
@@ -73,6 +77,7 @@ impl RowGen {
     }
 
     /// `(negative, |w|)`: pulls a leading negative constant out of `w`.
+    #[expect(clippy::expect_used, reason = "the pop is under rest.len() == 1")]
     fn signed(&self, w: &Weight) -> (bool, Code) {
         match w {
             Weight::Const(c) if *c < 0.0 => (true, Code::atom(float(-c))),
@@ -345,6 +350,7 @@ pub fn kernel_tokens(ir: &StencilIr) -> Result<TokenStream, StencilError> {
                 fn pattern(&self, row: usize) -> &[TermPattern] {
                     PATTERNS[row]
                 }
+                #[expect(clippy::panic, reason = "rows are 0..moments().len() by the StencilKernel contract; like PATTERNS[row], another row is the caller's bug")]
                 fn eval_row(&self, row: usize, ctx: &dyn FieldContext, weights: &mut [f64]) -> f64 {
                     match row {
                         #(#arms)*

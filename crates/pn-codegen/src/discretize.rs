@@ -135,6 +135,7 @@ impl Poly {
             }
         }
     }
+    #[expect(clippy::expect_used, reason = "the pop is under fs.len() == 1")]
     fn to_weight(&self) -> Weight {
         fn atom_weight(a: &Atom) -> Weight {
             match a {
@@ -244,6 +245,10 @@ struct Walker<'a> {
 }
 
 impl Walker<'_> {
+    #[expect(
+        clippy::expect_used,
+        reason = "the offset stack starts with one entry and pop never removes the last one"
+    )]
     fn top(&self) -> HalfOffset {
         *self.stack.last().expect("the offset stack is never empty")
     }

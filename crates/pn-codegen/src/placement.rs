@@ -70,6 +70,10 @@ pub fn collocated(sys: &PdeSystem) -> Vec<MomentPlacement> {
 /// first unknown (L_0^0 for P_N and diffusion) of every connected component sits at the
 /// cell centre. Errors if a constraint is violated or an equation references an unknown
 /// that is not part of the system.
+#[expect(
+    clippy::expect_used,
+    reason = "the breadth-first search sets a shift before it queues an unknown, and the outer loop starts a search from every unknown without one, so every unknown has one"
+)]
 pub fn derive_staggered(sys: &PdeSystem) -> Result<Vec<MomentPlacement>, StencilError> {
     let n = sys.unknowns.len();
     let index = |lm: (i64, i64)| sys.unknowns.iter().position(|&u| u == lm);

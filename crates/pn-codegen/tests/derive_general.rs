@@ -1,5 +1,6 @@
 //! The general (symbolic l, m) equations instantiated at every concrete (l, m) equal the
 //! expanded system, and the phase-function factors agree with quadrature.
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
 use pn_codegen::derive::general::{general_equations, instantiate, MCase};
 use pn_codegen::derive::real_pn_system;

@@ -1,4 +1,5 @@
 //! Tests of placement, 2D reduction, discretization and code generation (issue 3).
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
 mod stencil_support;
 

@@ -1,4 +1,5 @@
 //! Compiled (build.rs) versus interpreted stencils and the run-time fallback.
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
 use pn_codegen::discretize::{cda_ir, diffusion_ir, pn_ir_for_order, pn_name};
 use pn_kernels::compiled;

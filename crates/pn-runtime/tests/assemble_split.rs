@@ -1,5 +1,6 @@
 //! Assembly straight into the parity blocks (`assemble_split`) against splitting the
 //! assembled matrix, and the parity solve from the blocks alone against the solve with `A`.
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
 mod common;
 

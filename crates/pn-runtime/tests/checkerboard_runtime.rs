@@ -1,5 +1,6 @@
 //! The runtime against StaRMAP, using the independent quadrature stencil of `common`
 //! (so the runtime is checked without the code generator).
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
 mod common;
 

@@ -1,5 +1,6 @@
 //! Restriction, block averages, observed orders and Richardson estimates
 //! (`pn_runtime::convergence`, issue 10) on fields with known answers.
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
 use pn_runtime::convergence::{
     analyse, block_averages, check_nesting, observed_order, rel_l2_diff, restrict, richardson,

@@ -1,5 +1,6 @@
 //! Flux limiters: their two limits, |E| ≤ φ (R·F ≤ 1), spot values, the stable small-R branch
 //! of Levermore–Pomraning, and parsing.
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
 use pn_runtime::fld::Limiter;
 

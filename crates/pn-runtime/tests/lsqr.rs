@@ -1,6 +1,7 @@
 //! LSQR, LSMR and matrix-free CGNR: a small dense least-squares problem against nalgebra's
 //! SVD solution, and the P_N systems against parity-cg (checkerboard P_1, a small point
 //! source), assembled and matrix-free.
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
 use nalgebra::DMatrix;
 use pn_codegen::discretize::pn_ir_for_order;

@@ -2,6 +2,7 @@
 //! right-hand side on random vectors, for P_1/P_3 in 2D and 3D and CDA, both boundary
 //! closures, heterogeneous (checkerboard) and homogeneous (point source) media, on
 //! non-cubic grids (so that an axis mix-up in the index arithmetic shows).
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
 use pn_codegen::discretize::{cda_ir, pn_ir_for_order};
 use pn_runtime::assemble::assemble;

@@ -2,6 +2,7 @@
 //! the V-cycle, resolution-independent iteration counts on CDA, and the same answer as
 //! the other parity preconditioners, on systems assembled with the independent quadrature
 //! stencil of `common`.
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
 mod common;
 

@@ -1,6 +1,7 @@
 //! `parity-cg` against the baseline CGNR on systems assembled by the runtime, with the
 //! independent quadrature stencil of `common` (so this does not depend on the code
 //! generator).
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
 mod common;
 

@@ -5,6 +5,7 @@
 //! valid prefix and random rest (headers with random dimensions, shapes and lengths), and
 //! the scene parser gets files assembled from the real keys with random (valid and invalid)
 //! values besides arbitrary text.
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
 use pn_runtime::field::VoxelGrid;
 use pn_runtime::npy::{decode_npy, encode_npy};

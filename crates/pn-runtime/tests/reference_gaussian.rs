@@ -1,5 +1,6 @@
 //! Gaussian-smoothed point-source solutions and the scaled complementary error function,
 //! checked against direct numerical quadrature.
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
 use pn_runtime::reference::{
     erfc, erfcx, gaussian_3d, pn_point_source, yukawa_gaussian, PointSourceModes,

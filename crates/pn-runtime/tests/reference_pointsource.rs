@@ -1,4 +1,5 @@
 //! Semi-analytic P_N point-source solution (DESIGN.md §7, shared/reference/pointsource/).
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
 use pn_runtime::reference::{
     cda_point_source, grosjean, pn_point_source, transport_diffusion_mode, PointSourceModes,

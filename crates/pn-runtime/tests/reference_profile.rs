@@ -1,4 +1,5 @@
 //! `profile.csv` / `profile.png` writers of the point-source scene.
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
 use pn_runtime::reference::{
     cda_point_source, grosjean, pn_point_source, write_profile_csv, write_profile_png, ProfileRow,

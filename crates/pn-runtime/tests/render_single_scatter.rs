@@ -10,6 +10,7 @@
 //! error). The estimate must lie within 3 standard errors of the reference (a two-sided
 //! test with false-failure probability ≈ 0.3 % for a normal mean; the seeds are fixed, so
 //! the outcome is deterministic).
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
 use pn_runtime::render::lights::phase_value;
 use pn_runtime::render::renderer::{Renderer, Rng};

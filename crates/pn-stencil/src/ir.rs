@@ -220,6 +220,7 @@ impl std::fmt::Display for FieldRef {
 impl std::fmt::Display for Weight {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         /// `(negative, |w|)` with a leading negative constant pulled out.
+        #[expect(clippy::expect_used, reason = "the pop is under rest.len() == 1")]
         fn signed(w: &Weight) -> (bool, Weight) {
             match w {
                 Weight::Const(c) if *c < 0.0 => (true, Weight::Const(-c)),

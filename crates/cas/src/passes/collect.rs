@@ -18,6 +18,10 @@ pub struct ComplexCoeff {
     pub im: Vec<Surd>,
 }
 
+#[expect(
+    clippy::expect_used,
+    reason = "position() matched the same radicand, which is the only case add_like refuses"
+)]
 fn add_into(v: &mut Vec<Surd>, s: Surd) {
     if s.is_zero() {
         return;
@@ -48,6 +52,10 @@ impl ComplexCoeff {
         }
     }
     /// As an expression (`None` for 1, so it can be omitted from a product).
+    #[expect(
+        clippy::expect_used,
+        reason = "the one-term case is checked just before, so pop() returns it"
+    )]
     pub fn to_expr(&self) -> Option<Expr> {
         if self.im.is_empty() && self.re.len() == 1 && self.re[0].is_one() {
             return None;
@@ -111,6 +119,10 @@ pub fn collect(e: &Expr) -> Expr {
     }))
 }
 
+#[expect(
+    clippy::expect_used,
+    reason = "each expect is in a match arm for len() == 1, so the element exists"
+)]
 fn collect_terms(ts: Vec<Expr>) -> Expr {
     let mut groups: Vec<(Vec<Expr>, ComplexCoeff)> = Vec::new();
     for t in ts {
@@ -143,6 +155,10 @@ fn collect_terms(ts: Vec<Expr>) -> Expr {
 /// Collects with respect to selected factors: terms of a sum whose factors satisfying
 /// `key` are equal are combined into one term `(Σ coefficients) · key factors`, e.g.
 /// `a·x + b·x → (a + b)·x` for `key = "is x"`. Folds and collects first.
+#[expect(
+    clippy::expect_used,
+    reason = "each expect is in a match arm or branch for len() == 1, so the element exists"
+)]
 pub fn collect_wrt(e: &Expr, key: &dyn Fn(&Expr) -> bool) -> Expr {
     collect(e).rewrite_owned(&mut |n| match n {
         Expr::Add(ts) if crate::index::Linear::from_expr(&Expr::Add(ts.clone())).is_none() => {

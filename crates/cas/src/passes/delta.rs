@@ -69,6 +69,10 @@ pub fn delta_substitute_in(e: &Expr, only: &dyn Fn(&Expr) -> bool) -> Expr {
     })
 }
 
+#[expect(
+    clippy::expect_used,
+    reason = "in the match arm for rest.len() == 1, so pop() returns the element"
+)]
 fn collapse(index: &str, lo: &Expr, hi: Option<&Expr>, body: &Expr) -> Option<Expr> {
     let fs: Vec<Expr> = match body {
         Expr::Mul(fs) => fs.clone(),

@@ -21,6 +21,10 @@ fn factors(e: Expr) -> Vec<Expr> {
     }
 }
 
+#[expect(
+    clippy::expect_used,
+    reason = "in the match arm for fs.len() == 1, so pop() returns the element"
+)]
 fn product(mut fs: Vec<Expr>) -> Expr {
     match fs.len() {
         0 => Expr::int(1),

@@ -121,6 +121,7 @@ fn sums_out_of_product(fs: Vec<Expr>) -> Expr {
 }
 
 /// Merges integrals over the same variable that appear as terms of one sum.
+#[expect(clippy::expect_used, reason = "the pop is under out.len() == 1")]
 pub fn merge_integrals(e: &Expr) -> Expr {
     e.rewrite_bottom_up(&mut |n| match n {
         Expr::Add(ts) => {
@@ -156,6 +157,7 @@ pub fn merge_integrals(e: &Expr) -> Expr {
 
 /// Merges sums with the same index and bounds that appear as terms of one sum:
 /// `Σ_i a + Σ_i b = Σ_i (a + b)`.
+#[expect(clippy::expect_used, reason = "the pop is under out.len() == 1")]
 pub fn merge_sums(e: &Expr) -> Expr {
     e.rewrite_bottom_up(&mut |n| match n {
         Expr::Add(ts) => {

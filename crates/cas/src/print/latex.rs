@@ -178,6 +178,7 @@ fn print(e: &Expr) -> (String, Prec) {
 }
 
 /// If `t` prints with a leading minus, returns the positive version.
+#[expect(clippy::expect_used, reason = "the pop is under rest.len() == 1")]
 fn negated(t: &Expr) -> (bool, Option<Expr>) {
     match t {
         Expr::Num(s) if s.is_negative() => (true, Some(Expr::Num(s.neg()))),

@@ -7,6 +7,10 @@ use crate::expr::{Axis, Expr, FieldName};
 use crate::number::Surd;
 
 /// Rust source for an `f64` expression.
+#[expect(
+    clippy::expect_used,
+    reason = "the match guard checked as_integer().is_some() on the same value"
+)]
 pub fn rust(e: &Expr) -> String {
     match e {
         Expr::Num(s) => surd(s),

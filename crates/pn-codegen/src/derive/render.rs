@@ -83,6 +83,10 @@ pub fn general_latex(eqs: &[GeneralEquation]) -> String {
 }
 
 /// The closed forms of `a_{l,m}` … `f_{l,m}` (printed from the trees the passes use).
+#[expect(
+    clippy::expect_used,
+    reason = "names lists exactly the six coefficients a…f that coefficient_definition knows"
+)]
 pub fn coefficient_definitions() -> String {
     let (l, m) = (Expr::index("l"), Expr::index("m"));
     let mut out = String::from("with\n\\begin{align*}\n");

@@ -148,6 +148,7 @@ pub fn extract(l: i64, m: i64, lhs: &Expr, rhs: &Expr) -> Result<Vec<Term>, Deri
     Ok(terms)
 }
 
+#[expect(clippy::expect_used, reason = "the pop is under fs.len() == 1")]
 fn term_expr(t: &Term) -> Expr {
     let name = if t.kind == TermKind::Source { "Q" } else { "L" };
     let mom = Expr::coeff(name, ShKind::Real, Expr::Int(t.l), Expr::Int(t.m));
