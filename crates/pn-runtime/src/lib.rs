@@ -3,7 +3,8 @@
 //! * [`reference`]: analytic and semi-analytic reference solutions (point source).
 //! * [`fld`]: flux-limited diffusion (nonlinear Gauss–Seidel solver and limiters).
 //! * Problem description: [`field`], [`problem`], [`scenes`] (built-in), [`scene_file`]
-//!   (TOML), [`vol`] and [`npy`] (voxel data and array files).
+//!   (TOML), [`vol`] and [`npy`] (voxel data and array files); [`scene_registry`] lists
+//!   every built-in scene of `pn solve` and `pn render`.
 //! * Discrete system: [`layout`] (unknowns and boundary closure), [`context`] (fields at
 //!   staggered positions), [`assemble`] (sprs CSR).
 //! * Solving: [`linalg`], [`solver`] (CGNR), [`pipeline`] (the whole chain).
@@ -31,6 +32,7 @@ pub mod plot;
 pub mod problem;
 pub mod render;
 pub mod scene_file;
+pub mod scene_registry;
 pub mod scenes;
 pub mod solver;
 pub mod threads;

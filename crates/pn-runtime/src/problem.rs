@@ -207,28 +207,43 @@ pub enum CoefficientError {
     /// NaN or infinite.
     #[error("{name} is not finite ({value}) at ({x:.6}, {y:.6}, {z:.6})")]
     NotFinite {
+        /// The field's name (σ_t, σ_s, albedo or source).
         name: &'static str,
+        /// The value found.
         value: f64,
+        /// The point's x coordinate.
         x: f64,
+        /// The point's y coordinate.
         y: f64,
+        /// The point's z coordinate.
         z: f64,
     },
     /// Negative.
     #[error("{name} is negative ({value}) at ({x:.6}, {y:.6}, {z:.6})")]
     Negative {
+        /// The field's name (σ_t, σ_s, albedo or source).
         name: &'static str,
+        /// The value found.
         value: f64,
+        /// The point's x coordinate.
         x: f64,
+        /// The point's y coordinate.
         y: f64,
+        /// The point's z coordinate.
         z: f64,
     },
     /// σ_s > σ_t.
     #[error("σ_s = {sigma_s} exceeds σ_t = {sigma_t} at ({x:.6}, {y:.6}, {z:.6}) (albedo > 1)")]
     ScatteringExceedsExtinction {
+        /// σ_s at the point (α σ_t for an albedo field).
         sigma_s: f64,
+        /// σ_t at the point, before the threshold.
         sigma_t: f64,
+        /// The point's x coordinate.
         x: f64,
+        /// The point's y coordinate.
         y: f64,
+        /// The point's z coordinate.
         z: f64,
     },
     /// σ_t = 0 without a threshold.
@@ -236,7 +251,14 @@ pub enum CoefficientError {
         "σ_t = 0 at ({x:.6}, {y:.6}, {z:.6}): the system is singular in vacuum; \
          set a minimum extinction with --sigma-t-min (e.g. --sigma-t-min 1e-3)"
     )]
-    Vacuum { x: f64, y: f64, z: f64 },
+    Vacuum {
+        /// The point's x coordinate.
+        x: f64,
+        /// The point's y coordinate.
+        y: f64,
+        /// The point's z coordinate.
+        z: f64,
+    },
 }
 
 impl Problem {

@@ -12,12 +12,15 @@
 //! * [`gaussian`]: the same solutions for a source with a 3D Gaussian profile (for
 //!   convergence studies), and the scaled complementary error function they need.
 //! * [`profile`]: the `profile.csv` / `profile.png` outputs of the `pointsource` scene.
+//! * [`special`]: the special functions they need (erfc, the scaled erfcx).
+//! * [`starmap`]: the reader of the StaRMAP checkerboard references (CSV).
 
 pub mod closed_forms;
 pub mod gaussian;
 pub mod pointsource;
 pub mod profile;
 pub mod special;
+pub mod starmap;
 
 pub use closed_forms::{
     cda_point_source, grosjean, transport_diffusion_mode, TransportDiffusionMode,

@@ -1,4 +1,5 @@
-//! TOML scene files.
+//! TOML scene files for `pn solve`: the transport problem on a grid (see
+//! [`crate::scene_registry`] for how they differ from the render scenes of `pn render`).
 //!
 //! ```toml
 //! name = "cloud"                 # optional; default: the file stem
@@ -29,6 +30,7 @@
 use crate::field::{Field, VoxelGrid};
 use crate::npy::read_npy;
 use crate::problem::{Boundary, Grid, Phase, Problem, Scattering, SourceTerm};
+use crate::scene_registry::{self, SceneKind};
 use crate::scenes::Scene;
 use crate::vol::read_vol;
 use anyhow::{bail, ensure, Context};
@@ -103,7 +105,14 @@ pub fn load_scene(path: &Path) -> anyhow::Result<Scene> {
             .map(str::trim)
             .collect::<Vec<_>>()
             .join("; ");
-        anyhow::anyhow!("{}:{line}:{col}: {msg}", path.display())
+        let hint = match scene_registry::toml_kind(&text) {
+            Some(SceneKind::Render) => format!(
+                " ({})",
+                scene_registry::wrong_kind_file_hint(path, SceneKind::Render)
+            ),
+            _ => String::new(),
+        };
+        anyhow::anyhow!("{}:{line}:{col}: {msg}{hint}", path.display())
     })?;
     let base = path.parent().unwrap_or(Path::new(".")).to_path_buf();
     build(spec, &base, path).with_context(|| format!("scene file {}", path.display()))
@@ -394,5 +403,16 @@ mod tests {
     fn line_and_column() {
         assert_eq!(line_col("ab\ncd", 4), (2, 2));
         assert_eq!(line_col("ab", 0), (1, 1));
+    }
+
+    #[test]
+    fn a_render_scene_file_points_to_pn_render() {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/cloud.toml");
+        let e = format!("{:#}", load_scene(&path).unwrap_err());
+        assert!(e.contains("unknown field `medium`"), "{e}");
+        assert!(
+            e.contains("this is a render scene file: run it with `pn render "),
+            "{e}"
+        );
     }
 }

@@ -1,7 +1,11 @@
-//! Built-in scenes: `checkerboard`, `checkerboard3d` and `pointsource` (DESIGN.md §7).
+//! Built-in solve scenes: `checkerboard`, `checkerboard3d` and `pointsource` (DESIGN.md §7),
+//! built in code; their names and descriptions are in [`crate::scene_registry`], which also
+//! knows the render scenes (`pn render`). Scene files for `pn solve` are read by
+//! [`crate::scene_file`].
 
 use crate::field::{Field, Point};
 use crate::problem::{Boundary, Grid, Phase, Problem, Scattering, SourceTerm};
+use crate::scene_registry::{self, SceneKind};
 use anyhow::{bail, ensure};
 use pn_stencil::Dim;
 
@@ -18,8 +22,11 @@ pub struct Scene {
     pub notes: Vec<String>,
 }
 
-/// Names of the built-in scenes.
-pub const BUILTIN_SCENES: [&str; 3] = ["checkerboard", "checkerboard3d", "pointsource"];
+/// Names of the built-in solve scenes (the [`SceneKind::Solve`] entries of
+/// [`crate::scene_registry::BUILTIN_SCENES`]).
+pub fn builtin_names() -> Vec<&'static str> {
+    scene_registry::names(SceneKind::Solve)
+}
 
 /// The source of the `pointsource` scene.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -92,15 +99,20 @@ pub struct BuiltinOptions {
     pub pointsource: PointSourceParams,
 }
 
-/// Builds the built-in scene `name`.
+/// Builds the built-in scene `name`. A render scene's name (`cloud`, …) is refused with a
+/// message naming `pn render`; other unknown names with the list of built-in solve scenes.
 pub fn builtin(name: &str, opts: &BuiltinOptions) -> anyhow::Result<Scene> {
     match name {
         "checkerboard" => checkerboard(opts, false),
         "checkerboard3d" => checkerboard(opts, true),
         "pointsource" => pointsource(opts),
-        _ => bail!(
-            "unknown scene {name:?} (built-in scenes: {}; or a path to a .toml scene file)",
-            BUILTIN_SCENES.join(", ")
+        _ => Err(
+            scene_registry::wrong_kind_error(name, SceneKind::Solve).unwrap_or_else(|| {
+                anyhow::anyhow!(
+                    "unknown scene {name:?} (built-in scenes: {}; or a path to a .toml scene file)",
+                    builtin_names().join(", ")
+                )
+            }),
         ),
     }
 }
@@ -329,6 +341,25 @@ mod tests {
         assert!(resolve_res(Dim::Three, 71, Some(&[5, 6])).is_err());
         assert!(resolve_res(Dim::Two, 71, Some(&[0])).is_err());
         assert!(builtin("nope", &BuiltinOptions::default()).is_err());
+    }
+
+    #[test]
+    fn every_registered_solve_scene_builds_and_render_names_point_to_pn_render() {
+        let opts = BuiltinOptions {
+            res: Some(vec![4]),
+            ..Default::default()
+        };
+        for name in builtin_names() {
+            let s = builtin(name, &opts).unwrap_or_else(|e| panic!("{name}: {e:#}"));
+            assert_eq!(s.name, name);
+        }
+        let e = format!("{:#}", builtin("cloud", &opts).unwrap_err());
+        assert!(e.contains("`pn render cloud`"), "{e}");
+        let e = format!("{:#}", builtin("nope", &opts).unwrap_err());
+        assert!(
+            e.contains("unknown scene") && e.contains("checkerboard3d"),
+            "{e}"
+        );
     }
 
     #[test]

@@ -1,4 +1,6 @@
-//! Render scenes: the TOML format, its validation and the built-in scenes.
+//! Render scenes (`pn render`): the TOML format, its validation and the built-in scenes
+//! (`scenes/<name>.toml`, listed with their descriptions in [`crate::scene_registry`], which
+//! also says how this format differs from the solve-scene format of [`crate::scene_file`]).
 //!
 //! ```toml
 //! [medium]
@@ -49,6 +51,7 @@ use super::lights::Light;
 use super::medium::{check_box, DensityGrid, Procedural};
 use crate::npy::read_npy;
 use crate::problem::Phase;
+use crate::scene_registry::{self, SceneKind};
 use crate::vol::read_vol;
 use anyhow::{bail, ensure, Context};
 use serde::Deserialize;
@@ -203,8 +206,11 @@ pub struct RenderScene {
     pub render: RenderSettings,
 }
 
-/// The built-in scene names.
-pub const BUILTIN_SCENES: [&str; 4] = ["cloud", "nebula", "sphere", "lowalbedo"];
+/// Names of the built-in render scenes (the [`SceneKind::Render`] entries of
+/// [`crate::scene_registry::BUILTIN_SCENES`]).
+pub fn builtin_names() -> Vec<&'static str> {
+    scene_registry::names(SceneKind::Render)
+}
 
 /// Largest samples per pixel accepted.
 pub const MAX_SPP: usize = 1 << 20;
@@ -293,8 +299,16 @@ impl RenderScene {
         let text = std::fs::read_to_string(path)
             .with_context(|| format!("cannot read scene file {}", path.display()))?;
         let base = path.parent().unwrap_or(Path::new("."));
-        let mut scene = Self::from_toml_str(&text, base)
-            .with_context(|| format!("scene file {}", path.display()))?;
+        let mut scene = Self::from_toml_str(&text, base).with_context(|| {
+            match scene_registry::toml_kind(&text) {
+                Some(SceneKind::Solve) => format!(
+                    "scene file {} ({})",
+                    path.display(),
+                    scene_registry::wrong_kind_file_hint(path, SceneKind::Solve)
+                ),
+                _ => format!("scene file {}", path.display()),
+            }
+        })?;
         if let Some(stem) = path.file_stem().and_then(|s| s.to_str()) {
             scene.name = stem.to_string();
         }
@@ -309,31 +323,31 @@ impl RenderScene {
         build(t, base_dir)
     }
 
-    /// A built-in scene ([`BUILTIN_SCENES`]); the same files as `scenes/<name>.toml`.
+    /// A built-in render scene ([`builtin_names`]; the same files as `scenes/<name>.toml`,
+    /// compiled in by [`crate::scene_registry`]). `None` for any other name, a built-in
+    /// solve scene's included.
     pub fn builtin(name: &str) -> Option<RenderScene> {
-        let text = match name {
-            "cloud" => include_str!("../../../../scenes/cloud.toml"),
-            "nebula" => include_str!("../../../../scenes/nebula.toml"),
-            "sphere" => include_str!("../../../../scenes/sphere.toml"),
-            "lowalbedo" => include_str!("../../../../scenes/lowalbedo.toml"),
-            _ => return None,
-        };
+        let text = scene_registry::find_kind(name, SceneKind::Render)?.toml?;
         // The built-in files are tested to parse (see the tests below).
         let mut s = Self::from_toml_str(text, Path::new(".")).ok()?;
         s.name = name.to_string();
         Some(s)
     }
 
-    /// A built-in name or a scene file path.
+    /// A built-in name or a scene file path. A built-in solve scene's name (`checkerboard`,
+    /// …) is refused with a message naming `pn solve`.
     pub fn load(arg: &str) -> anyhow::Result<RenderScene> {
         let path = Path::new(arg);
         if arg.ends_with(".toml") || path.is_file() {
             return Self::from_path(path);
         }
+        if let Some(e) = scene_registry::wrong_kind_error(arg, SceneKind::Render) {
+            return Err(e);
+        }
         Self::builtin(arg).with_context(|| {
             format!(
                 "{arg:?} is neither a scene file nor a built-in scene ({})",
-                BUILTIN_SCENES.join(", ")
+                builtin_names().join(", ")
             )
         })
     }
@@ -722,13 +736,21 @@ height = 8
 
     #[test]
     fn builtin_scenes_parse() {
-        for name in BUILTIN_SCENES {
+        for name in builtin_names() {
             let s = RenderScene::builtin(name).unwrap_or_else(|| panic!("{name}"));
             assert_eq!(s.name, name);
             let g = s.density_grid().unwrap();
             assert!(g.max_density() > 0.0, "{name}");
         }
         assert!(RenderScene::builtin("nope").is_none());
+        assert!(RenderScene::builtin("checkerboard").is_none());
+        let e = format!("{:#}", RenderScene::load("checkerboard").unwrap_err());
+        assert!(
+            e.contains("`pn solve checkerboard`") && e.contains("built-in"),
+            "{e}"
+        );
+        let e = format!("{:#}", RenderScene::load("nope").unwrap_err());
+        assert!(e.contains("built-in") && e.contains("lowalbedo"), "{e}");
     }
 
     #[test]
@@ -769,6 +791,17 @@ height = 8
         assert!(e.contains("irradiance"), "{e}");
         let e = err(&MINIMAL.replace("fov = 40.0", "fov = \"wide\""));
         assert!(e.contains("line 15, column 7"), "{e}");
+    }
+
+    #[test]
+    fn a_solve_scene_file_points_to_pn_solve() {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/box.toml");
+        let e = format!("{:#}", RenderScene::from_path(&path).unwrap_err());
+        assert!(
+            e.contains("this is a solve scene file: run it with `pn solve "),
+            "{e}"
+        );
+        assert!(e.contains("unknown field"), "{e}");
     }
 
     #[test]
