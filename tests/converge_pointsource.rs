@@ -1,4 +1,4 @@
-//! Self-convergence on the point source with a Gaussian source (issue 10): a smooth solution,
+//! Self-convergence on the point source with a Gaussian source: a smooth solution,
 //! so the staggered P_1 discretization must show its design order 2 (DESIGN.md §3), and the
 //! Richardson estimate must match the true error against the semi-analytic solution
 //! (`pn_point_source(..).fluence_gaussian_world`, DESIGN.md §7).
@@ -152,7 +152,7 @@ fn point_source_order_two_and_richardson_matches_true_error() {
             "error ratio {ratio} (errors {e:?})"
         );
     }
-    // The issue's acceptance criterion: the Richardson estimate is within a factor 2 of the
+    // The acceptance criterion: the Richardson estimate is within a factor 2 of the
     // true error, at the finest level (observed p) and at 24³ (assumed p = 2).
     for (est, truth, what) in [(est3.rel_l2, true3, "48³"), (est2.rel_l2, true2, "24³")] {
         let q = est / truth;

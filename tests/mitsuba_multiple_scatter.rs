@@ -1,4 +1,4 @@
-//! Issue 7, "What it must show": on a high-albedo medium with vacuum around it, FLD and P_N
+//! Multiple scattering against Mitsuba: on a high-albedo medium with vacuum around it, FLD and P_N
 //! (N ≥ 3) are closer to Mitsuba's path-traced reference than CDA (RMSE), and the absorbing
 //! layer around the solve grid (render::solve_setup::add_absorbing_layer) is what lets P_N
 //! keep its multiple scattering.

@@ -1,4 +1,4 @@
-//! Issue 7, item 4: our renderer and Mitsuba 3 agree on single scattering.
+//! Our renderer and Mitsuba 3 agree on single scattering.
 //!
 //! Scene: the built-in "lowalbedo" (scenes/lowalbedo.toml: a 32³ procedural cloud, albedo
 //! 0.15, HG g = 0.4, an off-axis directional light and a point light, a 64×48 camera off the

@@ -1,4 +1,4 @@
-//! Issue 5: the 3D point source end to end (DESIGN.md §7 "Point source, 3D").
+//! The 3D point source end to end (DESIGN.md §7 "Point source, 3D").
 //!
 //! * P_1 and CDA on the same grid agree (the paper's claim);
 //! * with a Gaussian source, discrete P_1, P_3 and P_5 converge to the

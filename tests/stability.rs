@@ -1,4 +1,4 @@
-//! Issue 9: the stability matrix — σ_t from vacuum to optically huge cells, albedo up to
+//! The stability matrix — σ_t from vacuum to optically huge cells, albedo up to
 //! exactly 1, Henyey–Greenstein g from −0.9 to 0.99, P_N orders 1…15 (compiled ≤ 5,
 //! interpreted above) and grids from one cell to a non-cubic 64×8×3 box.
 //!

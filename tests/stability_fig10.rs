@@ -1,4 +1,4 @@
-//! Issue 9 / the paper's Figure 10 as data: CGNR iterations against the σ_t threshold on a
+//! The paper's Figure 10 as data: CGNR iterations against the σ_t threshold on a
 //! cloud surrounded by vacuum. Ignored by default (a few seconds); run with
 //! `cargo test --release --test stability_fig10 -- --ignored --nocapture`.
 //!

@@ -1,4 +1,4 @@
-//! Issue 9, property tests for the cas: random expression trees evaluate to the same
+//! Property tests for the cas: random expression trees evaluate to the same
 //! number before and after each value-preserving rewrite pass.
 //!
 //! The cas has no numeric evaluator for whole trees (only `Surd::to_f64` for numbers), so

@@ -1,4 +1,4 @@
-//! Tests of placement, 2D reduction, discretization and code generation (issue 3).
+//! Tests of placement, 2D reduction, discretization and code generation.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
 mod stencil_support;

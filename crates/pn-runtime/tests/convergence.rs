@@ -1,5 +1,5 @@
 //! Restriction, block averages, observed orders and Richardson estimates
-//! (`pn_runtime::convergence`, issue 10) on fields with known answers.
+//! (`pn_runtime::convergence`) on fields with known answers.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
 use pn_runtime::convergence::{

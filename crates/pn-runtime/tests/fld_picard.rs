@@ -114,7 +114,7 @@ fn cda_converges_in_one_step() {
     assert!(relative_residual(&p, &params, &sol.fld.phi).unwrap() < params.tol);
 }
 
-/// Issue 6: the Gauss–Seidel route and the Picard route agree on a sphere of σ_t = 10 in
+/// The Gauss–Seidel route and the Picard route agree on a sphere of σ_t = 10 in
 /// vacuum with σ_ε = 1e-3/L, for Levermore–Pomraning and CDA, and with both linear solvers.
 #[test]
 fn picard_matches_gauss_seidel_on_sphere_in_vacuum() {

@@ -1,4 +1,4 @@
-//! Issue 9, fuzzing with proptest: the `.vol` and `.npy` readers and the TOML scene parser
+//! Fuzzing with proptest: the `.vol` and `.npy` readers and the TOML scene parser
 //! return errors on malformed input and never panic (a panic fails the property).
 //!
 //! Arbitrary bytes rarely get past a magic number, so each reader is also fed inputs with a

@@ -18,7 +18,7 @@ fn assert_close(got: f64, want: f64, tol: f64, what: &str) {
 /// The rows of the reference README (α = 0.9, isotropic). The README prints 8 decimals, so
 /// its rounding error is ≤ 5e-9; 1e-7 leaves room for nothing but that.
 #[test]
-fn reproduces_readme_rows() {
+fn matches_the_tabulated_reference_rows() {
     let p1 = pn_point_source(1, 0.9, 0.0).unwrap();
     assert_eq!(p1.kappa.len(), 1);
     assert_close(p1.kappa[0], 0.54772256, 1e-7, "P1 kappa");

@@ -1,5 +1,5 @@
 //! The renderer's single scattering against an independent 1D quadrature of the
-//! single-scattering integral along one ray (issue 7 item 3), for a homogeneous box with a
+//! single-scattering integral along one ray, for a homogeneous box with a
 //! directional and a point light: camera outside, camera inside the medium, point light
 //! inside the medium. Plus: a vacuum scene renders exactly 0.
 //!
