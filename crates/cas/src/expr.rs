@@ -18,8 +18,11 @@ use crate::number::Surd;
 /// A spatial axis.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Axis {
+    /// The x axis (index 0).
     X,
+    /// The y axis (index 1).
     Y,
+    /// The z axis (index 2).
     Z,
 }
 
@@ -40,7 +43,9 @@ impl Axis {
 /// direction `ω` of the RTE or the incoming direction `ω'` of the scattering integral.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum DirVar {
+    /// The outgoing direction `ω`.
     Omega,
+    /// The incoming direction `ω'` of the scattering integral.
     OmegaPrime,
 }
 
@@ -48,7 +53,9 @@ pub enum DirVar {
 /// DESIGN.md §2.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum ShKind {
+    /// Complex spherical harmonics `Y_l^m` with the Condon–Shortley phase.
     Complex,
+    /// The real basis.
     Real,
 }
 
@@ -102,29 +109,47 @@ pub enum Expr {
     DirComp(DirVar, Axis),
     /// Spherical-harmonic basis function `Y_l^m(dir)`, possibly conjugated.
     Sh {
+        /// Complex or real basis.
         kind: ShKind,
+        /// The band `l`.
         l: Box<Expr>,
+        /// The order `m` (`−l ≤ m ≤ l`).
         m: Box<Expr>,
+        /// The direction it is evaluated at.
         dir: DirVar,
+        /// Whether it is conjugated.
         conj: bool,
     },
     /// A spherical-harmonic coefficient field `name_l^m(x)`, e.g. the unknown `L_l^m(x)`
     /// (`name = "L"`) or the source `Q_l^m(x)` (`name = "Q"`), in the basis `kind`.
     Coeff {
+        /// The field's name, e.g. `"L"` or `"Q"`.
         name: String,
+        /// The basis of the expansion.
         kind: ShKind,
+        /// The band `l`.
         l: Box<Expr>,
+        /// The order `m`.
         m: Box<Expr>,
     },
     /// `Σ_{index = lo}^{hi} body`; `hi = None` means ∞.
     Sum {
+        /// The summation index.
         index: String,
+        /// The lower bound (inclusive).
         lo: Box<Expr>,
+        /// The upper bound (inclusive); `None` means ∞.
         hi: Option<Box<Expr>>,
+        /// The summand.
         body: Box<Expr>,
     },
     /// `∫_{S²} body dvar`.
-    Integral { var: DirVar, body: Box<Expr> },
+    Integral {
+        /// The direction integrated over.
+        var: DirVar,
+        /// The integrand.
+        body: Box<Expr>,
+    },
     /// Partial derivative `∂_axis body` with respect to position.
     Deriv(Axis, Box<Expr>),
 }

@@ -29,6 +29,7 @@
 //! assert!((e.as_number().unwrap().to_f64() - 1.0 / 3f64.sqrt()).abs() < 1e-15);
 //! assert_eq!(cas::print::latex::latex(&e), r"\frac{\sqrt{3}}{3}");
 //! ```
+#![warn(missing_docs)]
 
 pub mod expr;
 pub mod index;

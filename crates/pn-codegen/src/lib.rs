@@ -10,6 +10,37 @@
 //!
 //! The independent check of the derivation (sphere quadrature, real spherical harmonics) is
 //! `pn_stencil::quadrature` (docs/design.md §2.3).
+//!
+//! # Example
+//!
+//! Derive the real P_1 equations, place and discretize them on a staggered 3D grid, and
+//! generate the Rust source of the stencil:
+//!
+//! ```
+//! use pn_codegen::codegen::generate_source;
+//! use pn_codegen::derive::real_pn_system;
+//! use pn_codegen::discretize::pn_ir;
+//! use pn_stencil::{Dim, Staggering};
+//!
+//! // (N+1)² = 4 moments, one equation each.
+//! let sys = real_pn_system(1).unwrap();
+//! assert_eq!(sys.equations.len(), 4);
+//!
+//! // One stencil row per moment; L_0^0 at the cell centre, the three l = 1 moments each
+//! // half a cell off along one axis (on the faces).
+//! let ir = pn_ir(&sys, Dim::Three, Staggering::Staggered).unwrap();
+//! assert_eq!(ir.name, "p1_3d_staggered");
+//! assert_eq!(ir.rows.len(), 4);
+//! assert_eq!(ir.moments[0].shift, [0, 0, 0]);
+//! for m in ir.moments.iter().filter(|m| m.l == 1) {
+//!     assert_eq!(m.shift.iter().sum::<u8>(), 1);
+//! }
+//!
+//! // The generated module, as build.rs of pn-kernels writes it.
+//! let src = generate_source(&[ir]).unwrap();
+//! assert!(src.contains("pub mod p1_3d_staggered"));
+//! ```
+#![warn(missing_docs)]
 
 pub mod codegen;
 pub mod derive;

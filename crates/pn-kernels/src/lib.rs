@@ -13,6 +13,7 @@
 //! assert!(p1.compiled);
 //! assert_eq!(p1.kernel.moments().len(), 4); // (N+1)² moments
 //! ```
+#![warn(missing_docs)]
 
 use std::sync::Arc;
 

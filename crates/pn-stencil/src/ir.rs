@@ -63,7 +63,12 @@ pub enum FieldRef {
     /// λ_l p_l, the Funk–Hecke factor of the phase function for band l.
     PhaseMoment(u32),
     /// The real-basis source coefficient Q_l^m.
-    Source { l: u32, m: i32 },
+    Source {
+        /// The band `l`.
+        l: u32,
+        /// The order `m`.
+        m: i32,
+    },
     /// A diffusion coefficient field D (CDA/FLD Picard steps).
     Diffusion,
 }
@@ -76,7 +81,12 @@ pub enum Weight {
     /// 1 / h_axis (axis index 0, 1, 2).
     InvH(usize),
     /// A field evaluated at `offset` (half cells) from the row position.
-    Field { field: FieldRef, offset: HalfOffset },
+    Field {
+        /// The field.
+        field: FieldRef,
+        /// Where it is evaluated, in half cells from the row position.
+        offset: HalfOffset,
+    },
     /// Sum.
     Add(Vec<Weight>),
     /// Product.

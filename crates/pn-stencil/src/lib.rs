@@ -23,6 +23,7 @@
 //! assert_eq!(Dim::Three.axes(), 3);
 //! assert_eq!(Staggering::Staggered.as_str(), "staggered");
 //! ```
+#![warn(missing_docs)]
 
 mod interpret;
 mod ir;
