@@ -78,10 +78,12 @@ pub fn assemble(
     let mut indices = Vec::with_capacity(nnz);
     let mut data = Vec::with_capacity(nnz);
     let mut rhs = Vec::with_capacity(n);
-    indptr.push(0usize);
+    let mut row_end = 0usize;
+    indptr.push(row_end);
     for c in chunks {
         for k in c.row_nnz {
-            indptr.push(indptr.last().unwrap() + k);
+            row_end += k;
+            indptr.push(row_end);
         }
         indices.extend(c.cols);
         data.extend(c.vals);
@@ -137,11 +139,13 @@ pub(crate) fn assemble_chunk(
         entries.sort_unstable_by_key(|e| e.0);
         let start = out.cols.len();
         for &(col, w) in &entries {
-            if out.cols.len() > start && *out.cols.last().unwrap() == col {
-                *out.vals.last_mut().unwrap() += w;
-            } else {
-                out.cols.push(col);
-                out.vals.push(w);
+            // Entries are sorted by column: a repeat of this row's last column adds to it.
+            match (out.cols[start..].last(), out.vals[start..].last_mut()) {
+                (Some(&last), Some(v)) if last == col => *v += w,
+                _ => {
+                    out.cols.push(col);
+                    out.vals.push(w);
+                }
             }
         }
         // Drop exact zeros (e.g. a difference whose two ends were clamped to one unknown).

@@ -23,7 +23,8 @@ impl Layout {
     /// Builds the layout of `moments` on `grid`.
     pub fn new(grid: &Grid, moments: &[MomentPlacement]) -> anyhow::Result<Self> {
         let mut extents = Vec::with_capacity(moments.len());
-        let mut offsets = vec![0usize];
+        let mut total = 0usize;
+        let mut offsets = vec![total];
         for mp in moments {
             anyhow::ensure!(
                 mp.shift.iter().all(|&s| s <= 1),
@@ -41,7 +42,8 @@ impl Layout {
             }
             let e: [usize; 3] = std::array::from_fn(|d| grid.res[d] + mp.shift[d] as usize);
             let n: usize = e.iter().product();
-            offsets.push(offsets.last().unwrap() + n);
+            total += n;
+            offsets.push(total);
             extents.push(e);
         }
         Ok(Self {
@@ -53,7 +55,8 @@ impl Layout {
 
     /// Total number of unknowns.
     pub fn len(&self) -> usize {
-        *self.offsets.last().unwrap()
+        // `offsets` starts with 0 and ends with the total (see `new`).
+        self.offsets.last().copied().unwrap_or(0)
     }
 
     /// Whether there are no unknowns.
