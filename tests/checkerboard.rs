@@ -3,9 +3,12 @@
 //! energy balance, the collocated artefact and the Dirichlet closure.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
+mod support;
+
 use pn_runtime::npy::read_npy;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::Command;
+use support::{rel_diff, starmap_reference};
 
 fn out_dir(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("pn-checkerboard-{}-{name}", std::process::id()));
@@ -36,41 +39,13 @@ fn solve(name: &str, args: &[&str]) -> (Vec<usize>, Vec<f64>, serde_json::Value)
     (f.shape, f.data, report)
 }
 
-/// A StaRMAP reference from `tests/data/checkerboard` (a missing file fails the test).
-fn reference(file: &str) -> Vec<f64> {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/data/checkerboard")
-        .join(file);
-    let text = std::fs::read_to_string(&path)
-        .unwrap_or_else(|e| panic!("reference data {} is missing: {e}", path.display()));
-    text.lines()
-        .filter(|l| !l.trim().is_empty())
-        .flat_map(|l| {
-            l.split(',')
-                .map(|v| v.trim().parse::<f64>().unwrap())
-                .collect::<Vec<_>>()
-        })
-        .collect()
-}
-
-/// max|a − b| / max|b|.
-fn rel_diff(a: &[f64], b: &[f64]) -> f64 {
-    assert_eq!(a.len(), b.len());
-    let m = b.iter().fold(0.0f64, |x, y| x.max(y.abs()));
-    a.iter()
-        .zip(b)
-        .map(|(x, y)| (x - y).abs())
-        .fold(0.0, f64::max)
-        / m
-}
-
 /// Row i of the CSV is the x index, as is the first axis of fluence.npy. StaRMAP's steady
 /// states are converged to ~1e-8 relative and printed with 11 digits (reference README),
 /// so 1e-6 of the maximum is a safe bound for identical discretizations; any error in
 /// coefficients, placement, closure or field evaluation shows up far above it.
 #[test]
 fn p1_matches_starmap() {
-    let r = reference("starmap_p1_n71.csv");
+    let r = starmap_reference("starmap_p1_n71.csv");
     let (shape, f, rep) = solve("p1", &["checkerboard", "--order", "1"]);
     assert_eq!(shape, vec![71, 71]);
     let d = rel_diff(&f, &r);
@@ -84,7 +59,7 @@ fn p1_matches_starmap() {
 /// The main job: `pn solve checkerboard` = P_5, 71×71, Neumann, residual 1e-10.
 #[test]
 fn p5_main_job_matches_starmap_and_is_symmetric() {
-    let r = reference("starmap_p5_n71.csv");
+    let r = starmap_reference("starmap_p5_n71.csv");
     let (shape, f, rep) = solve("p5", &["checkerboard"]);
     assert_eq!(shape, vec![71, 71]);
     assert_eq!(rep["order"], 5);

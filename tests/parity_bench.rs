@@ -1,9 +1,11 @@
 //! `parity-cg` against CGNR on the checkerboard with the real (generated) stencils.
 //!
 //! The fast test checks the same answer and the work ratio on a small grid; the ignored
-//! one prints the issue-8 table for 71² P_1/P_3/P_5 at residual 1e-10:
+//! one prints the table of operator applications and times for 71² P_1/P_3/P_5 at residual 1e-10:
 //! `cargo test --release --test parity_bench -- --ignored --nocapture`.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
+
+mod support;
 
 use pn_kernels::{pn_kernel, Dim, Staggering};
 use pn_runtime::assemble::{assemble, System};
@@ -11,12 +13,12 @@ use pn_runtime::layout::Layout;
 use pn_runtime::problem::Problem;
 use pn_runtime::scenes::{builtin, BuiltinOptions};
 use pn_runtime::solver::cgnr::Cgnr;
-use pn_runtime::solver::parity::{
-    cell_blocks, even_mask, KrylovMethod, ParityCg, ParityReport, Precond, ReducedMode,
-};
+use pn_runtime::solver::parity::{KrylovMethod, ParityCg, ParityReport, Precond, ReducedMode};
+use pn_runtime::solver::pn_layout::{cell_blocks, even_mask};
 use pn_runtime::solver::{LinearSolver, SolveStats, SolverOptions};
 use pn_runtime::unstagger::unstagger;
 use std::time::Instant;
+use support::rel_diff;
 
 fn checkerboard(res: usize) -> Problem {
     let o = BuiltinOptions {
@@ -50,16 +52,6 @@ fn fluence(problem: &Problem, layout: &Layout, u: &[f64]) -> Vec<f64> {
         .into_iter()
         .map(|v| v * s)
         .collect()
-}
-
-/// max|a − b| / max|b|.
-fn rel_diff(a: &[f64], b: &[f64]) -> f64 {
-    let m = b.iter().fold(0.0f64, |x, y| x.max(y.abs()));
-    a.iter()
-        .zip(b)
-        .map(|(x, y)| (x - y).abs())
-        .fold(0.0, f64::max)
-        / m
 }
 
 /// CGNR's solution, statistics and seconds.
@@ -121,7 +113,7 @@ fn generated_stencils_same_answer_less_work() {
     }
 }
 
-/// The issue-8 table: checkerboard 71², P_1/P_3/P_5, residual 1e-10.
+/// Applications and times against CGNR: checkerboard 71², P_1/P_3/P_5, residual 1e-10.
 #[test]
 #[ignore]
 fn checkerboard_71_table() {

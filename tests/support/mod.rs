@@ -1,5 +1,6 @@
-//! Shared by the integration tests: running the `pn` binary, finding Mitsuba's Python and
-//! scratch folders.
+//! Shared by the integration tests: running the `pn` binary, finding Mitsuba's Python,
+//! scratch folders, the StaRMAP references of `tests/data` and the relative difference the
+//! validation tests bound.
 #![allow(dead_code)]
 
 use pn_runtime::render::mitsuba;
@@ -10,7 +11,10 @@ use std::process::{Command, Output};
 /// PN_REQUIRE_MITSUBA is not 1.
 pub fn mitsuba_python() -> Option<PathBuf> {
     let required = std::env::var("PN_REQUIRE_MITSUBA").is_ok_and(|v| v == "1");
-    let found = mitsuba::find_python(None).and_then(|p| {
+    let chosen = std::env::var_os(mitsuba::PYTHON_ENV)
+        .filter(|p| !p.is_empty())
+        .map(PathBuf::from);
+    let found = mitsuba::find_python(chosen.as_deref()).and_then(|p| {
         let version = mitsuba::check_python(&p)?;
         eprintln!("using Mitsuba {version} from {}", p.display());
         Ok(p)
@@ -37,6 +41,26 @@ pub fn pn(args: &[&str]) -> Output {
         .args(args)
         .output()
         .unwrap()
+}
+
+/// A StaRMAP reference from `tests/data/checkerboard` as x-slowest values, read by
+/// `pn_runtime::reference::starmap::read_csv`; a missing or malformed file fails the test.
+pub fn starmap_reference(file: &str) -> Vec<f64> {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data/checkerboard")
+        .join(file);
+    pn_runtime::reference::starmap::read_csv(&path).unwrap_or_else(|e| panic!("{e:#}"))
+}
+
+/// max|a − b| / max|b| over all entries; the two must have the same length.
+pub fn rel_diff(a: &[f64], b: &[f64]) -> f64 {
+    assert_eq!(a.len(), b.len());
+    let m = b.iter().fold(0.0f64, |x, y| x.max(y.abs()));
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f64::max)
+        / m
 }
 
 /// Asserts that a `pn` run succeeded, showing its output otherwise.

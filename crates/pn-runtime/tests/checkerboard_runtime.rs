@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{coupling_matrices, read_csv, reference_dir, QuadKernel};
+use common::{coupling_matrices, read_csv, reference_dir, rel_diff, QuadKernel};
 use pn_runtime::pipeline::{solve_problem, Solution};
 use pn_runtime::problem::{Boundary, Problem};
 use pn_runtime::scenes::{builtin, BuiltinOptions};
@@ -36,17 +36,6 @@ fn solve(problem: &Problem, order: i32, staggered: bool, tol: f64) -> Solution {
     sol
 }
 
-/// max|ours − ref| / max(ref).
-fn compare(ours: &[f64], reference: &[f64]) -> f64 {
-    assert_eq!(ours.len(), reference.len());
-    let max_ref = reference.iter().fold(0.0f64, |a, b| a.max(b.abs()));
-    ours.iter()
-        .zip(reference)
-        .map(|(a, b)| (a - b).abs())
-        .fold(0.0, f64::max)
-        / max_ref
-}
-
 #[test]
 fn quadrature_p1_matches_hand_check() {
     // DESIGN.md §2.2: the (0,0)–(1,1) x-coupling is 1/√3.
@@ -64,7 +53,7 @@ fn quadrature_p1_matches_hand_check() {
 fn p1_checkerboard_matches_starmap() {
     let dir = reference_dir();
     let sol = solve(&checkerboard(Dim::Two, vec![71]), 1, true, 1e-10);
-    let err = compare(&sol.l00(), &read_csv(&dir.join("starmap_p1_n71.csv")));
+    let err = rel_diff(&sol.l00(), &read_csv(&dir.join("starmap_p1_n71.csv")));
     eprintln!(
         "P1: {} iterations, {:.2}s, max rel diff {err:.3e}",
         sol.stats.iterations, sol.seconds_solve
@@ -76,7 +65,7 @@ fn p1_checkerboard_matches_starmap() {
 fn p5_checkerboard_matches_starmap() {
     let dir = reference_dir();
     let sol = solve(&checkerboard(Dim::Two, vec![71]), 5, true, 1e-10);
-    let err = compare(&sol.l00(), &read_csv(&dir.join("starmap_p5_n71.csv")));
+    let err = rel_diff(&sol.l00(), &read_csv(&dir.join("starmap_p5_n71.csv")));
     eprintln!(
         "P5: {} iterations, {:.2}s, max rel diff {err:.3e}",
         sol.stats.iterations, sol.seconds_solve
@@ -90,7 +79,7 @@ fn p5_checkerboard_matches_starmap() {
 fn three_d_with_one_z_cell_equals_two_d() {
     let two = solve(&checkerboard(Dim::Two, vec![21]), 3, true, 1e-11);
     let three = solve(&checkerboard(Dim::Three, vec![21, 21, 1]), 3, true, 1e-11);
-    let err = compare(&three.l00(), &two.l00());
+    let err = rel_diff(&three.l00(), &two.l00());
     assert!(err < 1e-8, "3D(nz=1) vs 2D: {err:.3e}");
 }
 
@@ -131,7 +120,7 @@ fn dirichlet_differs_from_neumann() {
     let neu = solve(&p, 1, true, 1e-11);
     p.boundary = Boundary::Dirichlet;
     let dir = solve(&p, 1, true, 1e-11);
-    let d = compare(&dir.l00(), &neu.l00());
+    let d = rel_diff(&dir.l00(), &neu.l00());
     assert!(d > 1e-3, "Dirichlet and Neumann agree to {d:.3e}");
     let (en, ed) = (neu.energy.clone().unwrap(), dir.energy.clone().unwrap());
     assert!(

@@ -15,8 +15,8 @@ use pn_stencil::Dim;
 use pn_stencil::InterpretedKernel;
 use pn_stencil::Staggering;
 
-mod fld_support;
-use fld_support::sphere_in_vacuum;
+mod common;
+use common::fld::sphere_in_vacuum;
 
 /// The diffusion stencil with D as a field, interpreted from its IR (the root crate passes
 /// the compiled `diffusion_3d`; both evaluate the same IR).

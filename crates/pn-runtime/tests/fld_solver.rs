@@ -7,8 +7,8 @@ use pn_runtime::fld::{
     FldSolution, Limiter,
 };
 
-mod fld_support;
-use fld_support::sphere_in_vacuum;
+mod common;
+use common::fld::sphere_in_vacuum;
 
 /// CDA Green's function of the infinite medium, normalised: `4πφ/σ_t² = 3 e^{−√(3(1−α))τ}/τ`
 /// (DESIGN.md §7).

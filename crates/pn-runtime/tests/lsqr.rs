@@ -3,6 +3,9 @@
 //! source), assembled and matrix-free.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
+mod common;
+
+use common::rel_diff;
 use nalgebra::DMatrix;
 use pn_codegen::discretize::pn_ir_for_order;
 use pn_runtime::pipeline::solve_problem;
@@ -115,14 +118,6 @@ fn solve_l00(problem: &Problem, order: usize, kind: SolverKind, tol: f64) -> (Ve
     (sol.l00(), sol.stats.iterations)
 }
 
-fn max_rel(a: &[f64], b: &[f64]) -> f64 {
-    let s = b.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-    a.iter()
-        .zip(b)
-        .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()))
-        / s
-}
-
 /// Every solver gives parity-cg's answer. At relative residual 1e-10 the solutions differ
 /// by at most cond(A)·2e-10 relative; these small systems have cond(A) ≲ 1e3, so 1e-6
 /// bounds the difference (a wrong operator or solver differs at O(1e-2) or more).
@@ -137,7 +132,7 @@ fn same_answer(problem: &Problem, order: usize) {
         SolverKind::LsmrMf,
     ] {
         let (l00, it) = solve_l00(problem, order, kind, tol);
-        let d = max_rel(&l00, &reference);
+        let d = rel_diff(&l00, &reference);
         eprintln!("{kind:?}: {it} iterations (parity-cg {pit}), difference {d:.2e}");
         assert!(d < 1e-6, "{kind:?} differs from parity-cg by {d:.3e}");
     }

@@ -4,6 +4,9 @@
 //! non-cubic grids (so that an axis mix-up in the index arithmetic shows).
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
+mod common;
+
+use common::rel_diff;
 use pn_codegen::discretize::{cda_ir, pn_ir_for_order};
 use pn_runtime::assemble::assemble;
 use pn_runtime::layout::Layout;
@@ -41,16 +44,6 @@ fn scene(name: &str, dim: Dim, res: &[usize], bc: Boundary) -> Problem {
     p
 }
 
-/// `max|a − b| / max|b|`.
-fn rel(a: &[f64], b: &[f64]) -> f64 {
-    let scale = b.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-    let d = a
-        .iter()
-        .zip(b)
-        .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
-    d / scale
-}
-
 /// Compares the two operators on `problem` with `kernel`; returns the stored weights.
 fn check(problem: &Problem, kernel: &dyn StencilKernel, what: &str) -> usize {
     let layout = Layout::new(&problem.grid, kernel.moments()).unwrap();
@@ -70,12 +63,12 @@ fn check(problem: &Problem, kernel: &dyn StencilKernel, what: &str) -> usize {
         // of ~100 while any wrong index or weight gives O(1).
         spmv(&sys.matrix, &x, &mut want);
         op.apply(&x, &mut got);
-        let e = rel(&got, &want);
+        let e = rel_diff(&got, &want);
         assert!(e < 1e-12, "{what}: A x differs by {e:.3e}");
         spmv(&at, &x, &mut want);
         got.fill(f64::NAN);
         op.apply_transpose(&x, &mut got);
-        let e = rel(&got, &want);
+        let e = rel_diff(&got, &want);
         assert!(e < 1e-12, "{what}: Aᵀ x differs by {e:.3e}");
     }
     op.stored_weights()

@@ -1,12 +1,18 @@
-//! Test support: an independent P_N stencil built from quadrature, not from the CAS.
+//! The one support module of the runtime's integration tests: an independent P_N stencil
+//! built from quadrature, not from the CAS ([`QuadKernel`]); the built-in problems, solver
+//! options, the StaRMAP references and the relative difference the tests bound; the FLD
+//! test problems ([`fld`]).
 //!
-//! The equations are DESIGN.md §2.2, `Σ_d M^d ∂_d L + (σ_t − σ_s λ_l p_l) L_l^m = Q_l^m`,
-//! with `M^d_{(l,m),(l',m')} = ∫ ω_d Y_l^m Y_l'^m' dω` computed by Gauss–Legendre × uniform-φ
+//! The quadrature stencil's equations are DESIGN.md §2.2,
+//! `Σ_d M^d ∂_d L + (σ_t − σ_s λ_l p_l) L_l^m = Q_l^m`, with
+//! `M^d_{(l,m),(l',m')} = ∫ ω_d Y_l^m Y_l'^m' dω` computed by Gauss–Legendre × uniform-φ
 //! quadrature (DESIGN.md §2.3) in the real basis of DESIGN.md §2. Placement follows the rule
 //! of DESIGN.md §3; a derivative along d becomes `(u[+½e_d] − u[−½e_d])/h_d` (staggered) or
 //! `(u[+e_d] − u[−e_d])/(2h_d)` (collocated). For P_1 this is exactly the hand check of
 //! DESIGN.md §2.2.
 #![allow(dead_code)]
+
+pub mod fld;
 
 use pn_stencil::{Dim, FieldContext, FieldRef, MomentPlacement, StencilKernel, TermPattern};
 use std::f64::consts::PI;
@@ -235,17 +241,10 @@ impl StencilKernel for QuadKernel {
     }
 }
 
-/// Reads a StaRMAP CSV (rows = x index, columns = y index) as x-slowest values.
+/// A StaRMAP CSV (rows = x index, columns = y index) as x-slowest values, read by
+/// `pn_runtime::reference::starmap::read_csv`; a missing or malformed file fails the test.
 pub fn read_csv(path: &std::path::Path) -> Vec<f64> {
-    let text = std::fs::read_to_string(path).expect("read reference csv");
-    text.lines()
-        .filter(|l| !l.trim().is_empty())
-        .flat_map(|l| {
-            l.split(',')
-                .map(|v| v.trim().parse::<f64>().expect("number"))
-                .collect::<Vec<_>>()
-        })
-        .collect()
+    pn_runtime::reference::starmap::read_csv(path).unwrap_or_else(|e| panic!("{e:#}"))
 }
 
 /// The checkerboard reference folder `tests/data/checkerboard` of the repository; a missing
@@ -291,8 +290,9 @@ pub fn opts(tol: f64) -> pn_runtime::solver::SolverOptions {
     }
 }
 
-/// max|a − b| / max|b| over all unknowns.
+/// max|a − b| / max|b| over all entries; the two must have the same length.
 pub fn rel_diff(a: &[f64], b: &[f64]) -> f64 {
+    assert_eq!(a.len(), b.len());
     let m = b.iter().fold(0.0f64, |x, y| x.max(y.abs()));
     a.iter()
         .zip(b)

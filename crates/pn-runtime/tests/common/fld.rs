@@ -1,4 +1,4 @@
-//! Shared FLD test problems.
+//! FLD test problems shared by the FLD tests.
 
 use pn_runtime::fld::{FldGrid, FldProblem};
 
