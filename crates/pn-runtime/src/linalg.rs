@@ -118,6 +118,21 @@ pub fn spmv<I: sprs::SpIndex>(a: &sprs::CsMatI<f64, I, usize>, x: &[f64], y: &mu
         });
 }
 
+/// `y = Aᵀ x` for a CSR matrix with any column-index type (a serial scatter over the rows;
+/// for repeated transposed products store the transpose, [`transpose_csr`]).
+pub fn spmv_transpose<I: sprs::SpIndex>(a: &sprs::CsMatI<f64, I, usize>, x: &[f64], y: &mut [f64]) {
+    assert!(a.is_csr(), "spmv_transpose needs a CSR matrix");
+    assert_eq!(a.rows(), x.len());
+    assert_eq!(a.cols(), y.len());
+    y.iter_mut().for_each(|v| *v = 0.0);
+    for (r, row) in a.outer_iterator().enumerate() {
+        let xr = x[r];
+        for (c, &v) in row.iter() {
+            y[c] += v * xr;
+        }
+    }
+}
+
 /// Euclidean dot product.
 pub fn dot(a: &[f64], b: &[f64]) -> f64 {
     if a.len() < SERIAL_BELOW {
@@ -187,6 +202,9 @@ mod tests {
         let mut z = vec![0.0; 3];
         spmv(&at, &[1.0, 1.0], &mut z);
         assert_eq!(z, vec![1.0, 5.0, 4.0]);
+        let mut zt = vec![0.0; 3];
+        spmv_transpose(&a, &[1.0, 1.0], &mut zt);
+        assert_eq!(zt, z);
         let c = CompactCsr::from_csr(&at).unwrap();
         let mut w = vec![0.0; 3];
         c.mul(&[1.0, 1.0], &mut w);

@@ -1,6 +1,13 @@
-//! The [`LinearOperator`] trait: what a Krylov solver needs from `A` (products with `A` and
-//! `Aᵀ`), implemented for the assembled CSR matrix ([`AssembledOperator`], and plain
-//! `CsMat` for one-off use) and for the matrix-free operator of [`crate::matfree`].
+//! What the iterative methods of [`crate::solver`] need from a system: the
+//! [`LinearOperator`] trait (products with `A` and `Aᵀ`) and the [`Preconditioner`] trait
+//! (`z = M⁻¹ r`).
+//!
+//! Operators: the assembled CSR matrix ([`AssembledOperator`], and plain `CsMat` for one-off
+//! use), the matrix-free operator of [`crate::matfree`], the reduced parity operator
+//! ([`crate::solver::parity::reduced::ReducedOperator`]) and [`Counted`], which counts the
+//! products taken with any of them. Preconditioners: [`Identity`], [`Jacobi`], and in
+//! [`crate::solver::parity::precond`] ILU(0), block-Jacobi and the multigrid cycle
+//! ([`crate::solver::multigrid::Multigrid::with_fine`]).
 
 use crate::linalg::{transpose_csr, CsrOperator};
 use sprs::CsMat;
@@ -15,6 +22,59 @@ pub trait LinearOperator: Send + Sync {
     fn apply(&self, x: &[f64], y: &mut [f64]);
     /// `y = Aᵀ x` (`y` is overwritten).
     fn apply_transpose(&self, x: &[f64], y: &mut [f64]);
+}
+
+/// A preconditioner: `z ≈ A⁻¹ r`, a fixed linear map (the Krylov methods of
+/// [`crate::solver`] apply it once or twice per iteration).
+pub trait Preconditioner: Send + Sync {
+    /// `z = M⁻¹ r` (`z` is overwritten).
+    fn apply(&self, r: &[f64], z: &mut [f64]);
+}
+
+/// No preconditioning: `z = r`.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Identity;
+
+impl Preconditioner for Identity {
+    fn apply(&self, r: &[f64], z: &mut [f64]) {
+        z.copy_from_slice(r);
+    }
+}
+
+/// Jacobi preconditioning `z = D⁻¹ r` with `D` the diagonal of `A`.
+#[derive(Clone, Debug)]
+pub struct Jacobi {
+    inv_diag: Vec<f64>,
+}
+
+impl Jacobi {
+    /// From the diagonal of `A`; `Err(row)` for the first zero or non-finite entry.
+    pub fn from_diagonal(diag: &[f64]) -> Result<Self, usize> {
+        match diag.iter().position(|v| *v == 0.0 || !v.is_finite()) {
+            Some(row) => Err(row),
+            None => Ok(Self {
+                inv_diag: diag.iter().map(|v| 1.0 / v).collect(),
+            }),
+        }
+    }
+
+    /// From the diagonal of a CSR matrix (missing entries are zero, hence an error).
+    pub fn for_matrix(a: &CsMat<f64>) -> Result<Self, usize> {
+        let mut d = vec![0.0; a.rows()];
+        for (i, row) in a.outer_iterator().enumerate() {
+            d[i] = row.get(i).copied().unwrap_or(0.0);
+        }
+        Self::from_diagonal(&d)
+    }
+}
+
+impl Preconditioner for Jacobi {
+    fn apply(&self, r: &[f64], z: &mut [f64]) {
+        use rayon::prelude::*;
+        z.par_iter_mut()
+            .zip(r.par_iter().zip(self.inv_diag.par_iter()))
+            .for_each(|(zi, (ri, di))| *zi = ri * di);
+    }
 }
 
 /// An operator that counts the products taken with it (`A x` and `Aᵀ x` alike), so that
@@ -150,5 +210,22 @@ mod tests {
         LinearOperator::apply_transpose(&a, &[1.0, 2.0], &mut z2);
         assert_eq!(z1, vec![1.0, 8.0, 8.0]);
         assert_eq!(z1, z2);
+        let counted = Counted::new(&op);
+        counted.apply(&[1.0, -1.0, 2.0], &mut y);
+        counted.apply_transpose(&[1.0, 2.0], &mut z1);
+        assert_eq!(counted.count(), 2);
+    }
+
+    #[test]
+    fn jacobi_divides_by_the_diagonal_and_refuses_zeros() {
+        let a = CsMat::new((2, 2), vec![0, 1, 2], vec![0, 1], vec![2.0, 4.0]);
+        let j = Jacobi::for_matrix(&a).unwrap();
+        let mut z = vec![0.0; 2];
+        j.apply(&[1.0, 1.0], &mut z);
+        assert_eq!(z, vec![0.5, 0.25]);
+        let singular = CsMat::new((2, 2), vec![0, 1, 1], vec![0], vec![2.0]);
+        assert_eq!(Jacobi::for_matrix(&singular).err(), Some(1));
+        Identity.apply(&[3.0, 4.0], &mut z);
+        assert_eq!(z, vec![3.0, 4.0]);
     }
 }

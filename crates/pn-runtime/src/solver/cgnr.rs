@@ -1,11 +1,8 @@
-//! CG on the normal equations (CGLS form): AᵀA u = Aᵀb without forming AᵀA (DESIGN.md §5).
+//! `--solver cgnr`: [CGLS](super::cgls) on the assembled matrix.
 //!
-//! Per iteration one product with A and one with Aᵀ (kept as its own CSR matrix so both
-//! products are row-parallel; both stored with 32-bit column indices, see
-//! [`crate::linalg::CsrOperator`], since the products are memory-bound). CGLS minimises ‖b − Au‖₂ over
-//! the Krylov space, so the recurrence residual decreases monotonically; when it meets the tolerance the true
-//! residual is recomputed and, if it is still above the tolerance (rounding drift), the
-//! iteration restarts from the true residual (at most a few times, then "stagnated").
+//! `A` and `Aᵀ` are each kept as CSR so that both products are row-parallel, both with
+//! 32-bit column indices ([`crate::linalg::CsrOperator`]), since the products are
+//! memory-bound.
 
 use super::{LinearSolver, SolveStats, SolverOptions};
 use crate::operator::AssembledOperator;
@@ -19,10 +16,10 @@ impl LinearSolver for Cgnr {
         "cgnr"
     }
 
-    /// The CGLS iteration of [`super::cgnr_mf::cgls`] on the assembled matrix and its
+    /// The CGLS iteration of [`super::cgls::cgls`] on the assembled matrix and its
     /// transpose (both compact CSR, see [`AssembledOperator`]).
     fn solve(&self, a: &CsMat<f64>, b: &[f64], opts: &SolverOptions) -> (Vec<f64>, SolveStats) {
-        super::cgnr_mf::cgls(&AssembledOperator::new(a), b, opts, self.name())
+        super::cgls::cgls(&AssembledOperator::new(a), b, opts, self.name())
     }
 }
 

@@ -5,11 +5,11 @@
 //!
 //! ‖r_k‖ is estimated by the paper's recurrence (§3.3, without damping); the solver stops when
 //! the estimate over ‖b‖₂ is ≤ tol and the recomputed true residual confirms it (re-checks
-//! as in [`super::lsqr`]).
+//! as in [`super::lsqr`], [`super::control::Control::confirm`]). No damping, no parameters
+//! beyond the controller's; the info is [`SolveStats`].
 
-use super::cgnr_mf::{run_from_zero, status_of};
-use super::lsqr::{bidiag_step, golub_kahan_start, scale_inv, Recheck};
-use super::parity::krylov::Outcome;
+use super::control::{run_from_zero, Outcome};
+use super::lsqr::{bidiag_step, golub_kahan_start, scale_inv, true_residual_norm};
 use super::{LinearSolver, SolveStats, SolveStatus, SolverOptions};
 use crate::linalg::{axpy, xpby};
 use crate::operator::{AssembledOperator, LinearOperator};
@@ -44,7 +44,7 @@ pub fn lsmr(
     opts: &SolverOptions,
     name: &str,
 ) -> (Vec<f64>, SolveStats) {
-    run_from_zero(a, b, opts, name, |a, bnorm, x, mon| {
+    run_from_zero(a, b, opts, name, |a, bnorm, x, ctl| {
         let (m, n) = (a.rows(), a.cols());
         let (mut u, mut v, mut alpha) = golub_kahan_start(a, b, bnorm);
 
@@ -65,9 +65,8 @@ pub fn lsmr(
         let mut av = vec![0.0; m];
         let mut atu = vec![0.0; n];
         let mut r = vec![0.0; m];
-        let mut recheck = Recheck::new(mon.target());
         let mut status = SolveStatus::MaxIterations;
-        while mon.iterations() < opts.max_iter {
+        while ctl.iterations < opts.max_iter {
             if alpha == 0.0 {
                 status = SolveStatus::Stagnated;
                 break;
@@ -113,18 +112,15 @@ pub fn lsmr(
             let taud = (zeta - thetatilde * tautildeold) / rhodold;
             let normr = ((betad - taud).powi(2) + betadd * betadd).sqrt();
 
-            match mon.record(normr) {
-                None => {}
+            let stop = match ctl.record(normr) {
                 Some(Outcome::Reached) => {
-                    if let Some(st) = recheck.check(normr, a, x, b, &mut r, mon.target()) {
-                        status = st;
-                        break;
-                    }
+                    ctl.confirm(normr, || true_residual_norm(a, x, b, &mut r))
                 }
-                Some(o) => {
-                    status = status_of(o);
-                    break;
-                }
+                o => o,
+            };
+            if let Some(o) = stop {
+                status = o.status();
+                break;
             }
         }
         status

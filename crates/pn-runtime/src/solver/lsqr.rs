@@ -6,10 +6,11 @@
 //! The recurrence gives ‖b − A u_k‖₂ = φ̄_k for free; the solver stops when φ̄_k/‖b‖₂ ≤ tol,
 //! then recomputes the true residual. If rounding drift left it above the tolerance it
 //! iterates on and re-checks each time φ̄ has fallen by another factor 2 (at most
-//! [`MAX_REPLACEMENTS`] re-checks, then "stagnated" with the residual reached).
+//! [`super::control::MAX_RESTARTS`] re-checks, then "stagnated" with the residual reached;
+//! [`super::control::Control::confirm`]). No damping, no parameters beyond the controller's; the info is
+//! [`SolveStats`].
 
-use super::cgnr_mf::{run_from_zero, status_of, MAX_REPLACEMENTS};
-use super::parity::krylov::Outcome;
+use super::control::{run_from_zero, Outcome};
 use super::{LinearSolver, SolveStats, SolveStatus, SolverOptions};
 use crate::linalg::{axpy, norm, xpby};
 use crate::operator::{op_residual, AssembledOperator, LinearOperator};
@@ -60,46 +61,15 @@ pub(crate) fn scale_inv(v: &mut [f64], s: f64) {
     }
 }
 
-/// Re-check of the true residual once a recurrence estimate met the target.
-pub(crate) struct Recheck {
-    below: f64,
-    checks: usize,
-}
-
-impl Recheck {
-    /// First check when the estimate reaches `target`.
-    pub(crate) fn new(target: f64) -> Self {
-        Self {
-            below: target,
-            checks: 0,
-        }
-    }
-
-    /// With the estimate `est` at or below the target: `None` to iterate on (not yet due,
-    /// or the true residual is still above the target), `Some(status)` to stop.
-    pub(crate) fn check(
-        &mut self,
-        est: f64,
-        a: &dyn LinearOperator,
-        x: &[f64],
-        b: &[f64],
-        r: &mut [f64],
-        target: f64,
-    ) -> Option<SolveStatus> {
-        if est > self.below {
-            return None;
-        }
-        op_residual(a, x, b, r);
-        if norm(r) <= target {
-            return Some(SolveStatus::Converged);
-        }
-        self.checks += 1;
-        if self.checks > MAX_REPLACEMENTS {
-            return Some(SolveStatus::Stagnated);
-        }
-        self.below = est * 0.5;
-        None
-    }
+/// `‖b − A x‖₂`, with `r` as work space.
+pub(crate) fn true_residual_norm(
+    a: &dyn LinearOperator,
+    x: &[f64],
+    b: &[f64],
+    r: &mut [f64],
+) -> f64 {
+    op_residual(a, x, b, r);
+    norm(r)
 }
 
 /// LSQR on `a u = b` from u = 0 (no damping), reported as solver `name`.
@@ -109,7 +79,7 @@ pub fn lsqr(
     opts: &SolverOptions,
     name: &str,
 ) -> (Vec<f64>, SolveStats) {
-    run_from_zero(a, b, opts, name, |a, bnorm, x, mon| {
+    run_from_zero(a, b, opts, name, |a, bnorm, x, ctl| {
         let (m, n) = (a.rows(), a.cols());
         let (mut u, mut v, mut alpha) = golub_kahan_start(a, b, bnorm);
         let mut w = v.clone();
@@ -118,9 +88,8 @@ pub fn lsqr(
         let mut av = vec![0.0; m];
         let mut atu = vec![0.0; n];
         let mut r = vec![0.0; m];
-        let mut recheck = Recheck::new(mon.target());
         let mut status = SolveStatus::MaxIterations;
-        while mon.iterations() < opts.max_iter {
+        while ctl.iterations < opts.max_iter {
             if alpha == 0.0 {
                 // Aᵀr = 0: the least-squares minimum is reached (b − Au ≠ 0 unless converged).
                 status = SolveStatus::Stagnated;
@@ -143,18 +112,14 @@ pub fn lsqr(
             axpy(phi / rho, &w, x);
             // w = v − (θ/ρ) w.
             xpby(&v, -theta / rho, &mut w);
-            match mon.record(phibar.abs()) {
-                None => {}
-                Some(Outcome::Reached) => {
-                    if let Some(st) = recheck.check(phibar.abs(), a, x, b, &mut r, mon.target()) {
-                        status = st;
-                        break;
-                    }
-                }
-                Some(o) => {
-                    status = status_of(o);
-                    break;
-                }
+            let est = phibar.abs();
+            let stop = match ctl.record(est) {
+                Some(Outcome::Reached) => ctl.confirm(est, || true_residual_norm(a, x, b, &mut r)),
+                o => o,
+            };
+            if let Some(o) = stop {
+                status = o.status();
+                break;
             }
         }
         status

@@ -1,17 +1,37 @@
 //! Linear solvers for `A u = b`, behind a small trait so faster ones can be added.
 //!
+//! * The iterative methods, one file each, generic over the operator and preconditioner
+//!   traits of [`crate::operator`] and stopped by the one controller of [`control`]:
+//!   [`cg`], [`bicgstab`], [`gmres`] (square systems, chosen by name through [`krylov`]),
+//!   [`cgls`], [`lsqr`], [`lsmr`] (least squares, on any operator with a transpose).
+//! * The P_N-specific solvers: [`parity`] (eliminate the odd moments, Krylov on the reduced
+//!   operator) and [`multigrid`] (aggregation multigrid preconditioner); they take the
+//!   unknowns' classes and positions as plain data.
+//! * [`pn_layout`]: the one module here that reads the P_N layout ([`crate::layout`]) and
+//!   turns it into that data; [`SolverKind`] picks a solver by `--solver` name.
+//!
+//! Nothing here reads the environment: expert settings come in [`SolverOptions::tuning`].
+//!
 //! **Tolerance.** Every solver stops on the *relative* residual of the original system,
 //! `‖b − A u‖₂ / ‖b‖₂ ≤ tol` (Euclidean norms over all unknowns). The absolute value
 //! `‖b − A u‖₂` is reported too. The final residual in [`SolveStats`] is recomputed from
 //! the returned solution, not taken from a recurrence.
 
+pub mod bicgstab;
+pub mod cg;
+pub mod cgls;
 pub mod cgnr;
 pub mod cgnr_mf;
+pub mod control;
+pub mod gmres;
+pub mod krylov;
 pub mod lsmr;
 pub mod lsqr;
 pub mod multigrid;
 pub mod parity;
+pub mod pn_layout;
 
+pub(crate) use control::progress_bar;
 use sprs::CsMat;
 
 /// Which solver to use (`--solver`).
@@ -25,7 +45,7 @@ pub enum SolverKind {
     #[serde(rename = "parity-cg")]
     ParityCg,
     /// `parity-cg` with the aggregation multigrid preconditioner ([`multigrid`]); needs the
-    /// layout ([`SolverKind::solver_for`]). Systems without the parity structure (CDA)
+    /// layout (`SolverKind::solver_for`, [`pn_layout`]). Systems without the parity structure (CDA)
     /// are solved with multigrid-preconditioned CG on the matrix itself.
     #[serde(rename = "parity-mg")]
     ParityMg,
@@ -74,7 +94,7 @@ impl SolverKind {
         match self {
             SolverKind::Cgnr => Box::new(cgnr::Cgnr),
             // The parity classes are detected from the matrix; with a `Layout` at hand,
-            // `parity::ParityCg::for_layout(&layout)` gives the same solver without the detection.
+            // `SolverKind::solver_for` gives the same solver without the detection.
             SolverKind::ParityCg => Box::new(parity::ParityCg::auto(parity::Precond::Auto)),
             // Without a layout there are no positions to aggregate: parity-cg's default.
             SolverKind::ParityMg | SolverKind::ParityIlu => {
@@ -85,40 +105,6 @@ impl SolverKind {
             SolverKind::Lsqr | SolverKind::LsqrMf => Box::new(lsqr::Lsqr),
             SolverKind::Lsmr | SolverKind::LsmrMf => Box::new(lsmr::Lsmr),
             SolverKind::CgnrMf => Box::new(cgnr_mf::CgnrMf),
-        }
-    }
-
-    /// The solver for a system assembled on `layout`: the parity solvers take the even/odd
-    /// classes from the layout (no detection pass over the matrix) and the unknowns'
-    /// positions for multigrid (`parity-cg` picks it automatically for large systems,
-    /// [`parity::MG_MIN_NONZEROS`]); the other kinds are as [`SolverKind::solver`].
-    pub fn solver_for(self, layout: &crate::layout::Layout) -> Box<dyn LinearSolver> {
-        match self.parity_solver_for(layout) {
-            Some(s) => Box::new(s),
-            None => self.solver(),
-        }
-    }
-
-    /// For the parity kinds (`parity-cg`, `parity-mg`, `parity-ilu`), the layout solver
-    /// [`SolverKind::solver_for`] uses, which can also solve from the parity blocks alone
-    /// ([`multigrid::solve::LayoutSolver::solve_split`]); `None` for the other kinds.
-    pub fn parity_solver_for(
-        self,
-        layout: &crate::layout::Layout,
-    ) -> Option<multigrid::solve::LayoutSolver> {
-        match self {
-            SolverKind::ParityCg => Some(multigrid::solve::LayoutSolver::new(
-                parity::ParityCg::for_layout(layout),
-                layout,
-            )),
-            SolverKind::ParityMg => Some(multigrid::solve::LayoutSolver::new(
-                parity::ParityCg::for_layout(layout).with_precond(parity::Precond::Multigrid),
-                layout,
-            )),
-            SolverKind::ParityIlu => Some(multigrid::solve::LayoutSolver::without_multigrid(
-                parity::ParityCg::new(parity::even_mask(layout), parity::Precond::Auto),
-            )),
-            _ => None,
         }
     }
 
@@ -181,16 +167,28 @@ pub struct SolverTuning {
 }
 
 impl SolverTuning {
-    /// The settings from named variables (`get("PN_MG_RATIO")` etc.; unparsable values are
-    /// ignored): `PN_MG_FINE_DEGREE`, `PN_MG_COARSE_DEGREE`, `PN_MG_COARSE_DEGREE_2D`,
-    /// `PN_MG_RATIO`, `PN_MG_FINE_RATIO`, `PN_MG_POWER_STEPS`, `PN_MG_COARSE_MAX`,
-    /// `PN_MG_SCALE`, `PN_MG_ADDITIVE`, `PN_PARITY_METHOD=cg|bicgstab|gmres`,
-    /// `PN_SOLVER_PROFILE` (set: profile).
+    /// The settings from named variables (`get("PN_MG_RATIO")` etc.; unset or unparsable
+    /// values leave the default): `PN_MG_FINE_DEGREE`, `PN_MG_COARSE_DEGREE`,
+    /// `PN_MG_COARSE_DEGREE_2D`, `PN_MG_RATIO`, `PN_MG_FINE_RATIO`, `PN_MG_POWER_STEPS`,
+    /// `PN_MG_COARSE_MAX`, `PN_MG_SCALE` (see [`multigrid::MgOptions`]; `PN_MG_ADDITIVE=ω`
+    /// with `ω > 0` forces [`multigrid::FineCycle::Additive`], `PN_MG_ADDITIVE=0`
+    /// [`multigrid::FineCycle::Multiplicative`]), `PN_PARITY_METHOD=cg|bicgstab|gmres`,
+    /// `PN_SOLVER_PROFILE` (set, to anything: profile). With none of them set it is
+    /// [`SolverTuning::default`].
     pub fn from_vars(get: impl Fn(&str) -> Option<String>) -> Self {
-        // Filled in by the runtime clean-up (issue 15); until then the solvers still read
-        // the environment themselves.
-        let _ = &get;
-        Self::default()
+        let mg = multigrid::MgOptions::from_vars(&get);
+        Self {
+            multigrid: (mg != multigrid::MgOptions::default()).then_some(mg),
+            krylov: get("PN_PARITY_METHOD")
+                .as_deref()
+                .and_then(krylov::KrylovMethod::from_name),
+            profile: get("PN_SOLVER_PROFILE").is_some(),
+        }
+    }
+
+    /// The multigrid parameters to use: the given ones, or the tuned defaults.
+    pub fn multigrid_options(&self) -> multigrid::MgOptions {
+        self.multigrid.clone().unwrap_or_default()
     }
 }
 
@@ -266,28 +264,71 @@ pub trait LinearSolver: Send + Sync {
     fn solve(&self, a: &CsMat<f64>, b: &[f64], opts: &SolverOptions) -> (Vec<f64>, SolveStats);
 }
 
-/// The progress callback of the Krylov loops: every 16 iterations, the iteration count and
-/// the relative residual on `pb`.
-pub(crate) fn report_progress(pb: &indicatif::ProgressBar) -> impl Fn(usize, f64) + '_ {
-    move |it, rel| {
-        if it.is_multiple_of(16) {
-            pb.set_position(it as u64);
-            pb.set_message(format!("relative residual {rel:.3e}"));
-        }
-    }
-}
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::collections::HashMap;
 
-/// An indicatif progress bar that is hidden unless stderr is a terminal.
-pub(crate) fn progress_bar(len: usize, enabled: bool) -> indicatif::ProgressBar {
-    use std::io::IsTerminal;
-    if !enabled || !std::io::stderr().is_terminal() {
-        return indicatif::ProgressBar::hidden();
+    fn tuning(vars: &[(&str, &str)]) -> SolverTuning {
+        let map: HashMap<String, String> = vars
+            .iter()
+            .map(|(k, v)| (k.to_string(), v.to_string()))
+            .collect();
+        SolverTuning::from_vars(|k| map.get(k).cloned())
     }
-    let pb = indicatif::ProgressBar::new(len as u64);
-    if let Ok(style) = indicatif::ProgressStyle::with_template(
-        "{spinner} [{elapsed_precise}] {pos} it  {msg}  ({per_sec})",
-    ) {
-        pb.set_style(style);
+
+    #[test]
+    fn no_variables_give_the_defaults() {
+        assert_eq!(tuning(&[]), SolverTuning::default());
+        assert_eq!(
+            SolverTuning::default().multigrid_options(),
+            multigrid::MgOptions::default()
+        );
+        // Unparsable values and unknown methods are ignored.
+        assert_eq!(
+            tuning(&[
+                ("PN_MG_RATIO", "ten"),
+                ("PN_PARITY_METHOD", "minres"),
+                ("PN_MG_ADDITIVE", "-1")
+            ]),
+            SolverTuning::default()
+        );
     }
-    pb
+
+    #[test]
+    fn variables_set_the_fields() {
+        let t = tuning(&[
+            ("PN_MG_FINE_DEGREE", "3"),
+            ("PN_MG_COARSE_DEGREE", "4"),
+            ("PN_MG_COARSE_DEGREE_2D", "5"),
+            ("PN_MG_RATIO", "12.5"),
+            ("PN_MG_FINE_RATIO", "20"),
+            ("PN_MG_POWER_STEPS", "6"),
+            ("PN_MG_COARSE_MAX", "100"),
+            ("PN_MG_SCALE", "1.2"),
+            ("PN_MG_ADDITIVE", "0.5"),
+            ("PN_PARITY_METHOD", "gmres"),
+            ("PN_SOLVER_PROFILE", ""),
+        ]);
+        let want = multigrid::MgOptions {
+            fine_degree: 3,
+            coarse_degree: 4,
+            coarse_degree_2d: 5,
+            ratio: 12.5,
+            fine_ratio: 20.0,
+            power_steps: 6,
+            coarse_max: 100,
+            correction_scale: Some(1.2),
+            fine_cycle: multigrid::FineCycle::Additive { omega: 0.5 },
+            ..multigrid::MgOptions::default()
+        };
+        assert_eq!(t.multigrid, Some(want));
+        assert_eq!(t.krylov, Some(krylov::KrylovMethod::Gmres));
+        assert!(t.profile);
+        let m = tuning(&[("PN_MG_ADDITIVE", "0")]).multigrid_options();
+        assert_eq!(m.fine_cycle, multigrid::FineCycle::Multiplicative);
+        let b = tuning(&[("PN_PARITY_METHOD", "bicgstab")]);
+        assert_eq!(b.krylov, Some(krylov::KrylovMethod::BiCgStab));
+        assert_eq!(b.multigrid, None);
+    }
 }

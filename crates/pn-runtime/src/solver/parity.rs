@@ -16,15 +16,18 @@
 //! * [`split`]: checks the block structure and extracts `D_e`, `D_o`, `B`, `D_o⁻¹C`.
 //! * [`reduced`]: applies `S` (matrix-free or formed), the reduced rhs, back-substitution.
 //! * [`precond`]: Jacobi, block-Jacobi (per cell) and ILU(0) preconditioners.
-//! * [`krylov`]: PCG, BiCGSTAB and GMRES with the stopping rules of [`SolverOptions`].
+//! * [`galerkin`]: the first multigrid coarse operator `PᵀSP` from the blocks.
+//! * The Krylov methods are [`crate::solver::cg`], [`crate::solver::bicgstab`] and
+//!   [`crate::solver::gmres`], with the stopping rules of [`SolverOptions`]
+//!   ([`crate::solver::control::Control`]).
 //! * [`crate::solver::multigrid`]: the aggregation multigrid preconditioner
-//!   ([`Precond::Multigrid`]); it needs the layout ([`ParityCg::for_layout`]), and
-//!   `Precond::Auto` picks it from [`MG_MIN_NONZEROS`] stored entries on. With multigrid a
-//!   nonsymmetric `S` is solved with GMRES (one cycle per iteration) instead of BiCGSTAB.
+//!   ([`Precond::Multigrid`]); it needs the unknowns' positions ([`ParityCg::with_geometry`],
+//!   from the layout in [`crate::solver::pn_layout`]), and `Precond::Auto` picks it from
+//!   [`MG_MIN_NONZEROS`] stored entries on. With multigrid a nonsymmetric `S` is solved
+//!   with GMRES (one cycle per iteration) instead of BiCGSTAB.
 //!
-//! `PN_SOLVER_PROFILE=1` prints the time of each phase (split, setup, probes, iterations);
-//! `PN_PARITY_METHOD` forces the Krylov method and `PN_MG_*` tune multigrid
-//! ([`crate::solver::multigrid::MgOptions::from_env`]) for experiments.
+//! For experiments, [`SolverOptions::tuning`] prints the time of each phase (split, setup,
+//! probes, iterations), forces the Krylov method and sets the multigrid parameters.
 //!
 //! **Tolerance.** With the exact back-substitution, the odd rows of `b − A u` vanish and the
 //! even rows equal the reduced residual, so the reduced iteration stops on
@@ -40,30 +43,23 @@
 //! fraction of an `S` application, ILU(0) about one (compare seconds for those).
 
 pub mod coloring;
-pub mod krylov;
+pub mod galerkin;
 pub mod precond;
 pub mod reduced;
 pub mod split;
 
-pub use krylov::KrylovMethod;
+pub use crate::solver::krylov::{KrylovMethod, SYMMETRY_TOL};
 pub use precond::Precond;
 pub use reduced::ReducedMode;
 pub use split::ParityError;
 
-use super::{progress_bar, report_progress, LinearSolver, SolveStats, SolveStatus, SolverOptions};
-use crate::layout::Layout;
+use super::{LinearSolver, SolveStats, SolveStatus, SolverOptions};
 use crate::linalg::norm;
-use krylov::{Control, Outcome};
+use crate::operator::Counted;
+use crate::solver::control::{Control, Outcome};
+use crate::solver::multigrid::{Geometry, COARSE_SYMMETRY_TOL};
 use sprs::CsMat;
 use std::time::Instant;
-
-/// `S` counts as symmetric when the random-probe asymmetry is below this. Rounding in the
-/// probe's dot products is ~√n·ε ≈ 1e-14 for n ≤ 1e6; a genuine boundary asymmetry of the
-/// Neumann closure is orders of magnitude larger (≥ 1e-6 of the scale on the checkerboard).
-pub const SYMMETRY_TOL: f64 = 1e-12;
-
-/// How many times the reduced iteration may be restarted from the true residual.
-const MAX_RESTARTS: usize = 3;
 
 /// Random probe pairs for the symmetry check (each costs two applications of `S`).
 const PROBE_PAIRS: usize = 2;
@@ -77,7 +73,7 @@ pub struct ParityCg {
     mode: ReducedMode,
     method: Option<KrylovMethod>,
     /// Class and position of every unknown (from the layout), for multigrid.
-    geometry: Option<crate::solver::multigrid::Geometry>,
+    geometry: Option<Geometry>,
 }
 
 /// Everything a parity solve did, beyond [`SolveStats`].
@@ -122,7 +118,7 @@ impl ParityReport {
 
 impl ParityCg {
     /// A parity solver for matrices whose unknown `g` is even-l iff `even[g]`
-    /// (see [`even_mask`]), with the preconditioner `precond`.
+    /// (see [`crate::solver::pn_layout::even_mask`]), with the preconditioner `precond`.
     pub fn new(even: Vec<bool>, precond: Precond) -> Self {
         Self {
             even: Some(even),
@@ -146,23 +142,12 @@ impl ParityCg {
         }
     }
 
-    /// The solver for `layout` with [`Precond::Auto`] (ILU(0) up to [`ILU_MAX_NONZEROS`],
-    /// which needs the fewest iterations and time on the 71² checkerboard; else Jacobi).
-    /// For very large systems, `Precond::BlockJacobi { block_of: cell_blocks(layout) }`
-    /// is a cheaper alternative with somewhat fewer iterations than Jacobi.
-    ///
-    /// The layout also gives the unknowns' positions, so [`Precond::Auto`] resolves to
-    /// multigrid for systems with at least [`MG_MIN_NONZEROS`] stored entries.
-    pub fn for_layout(layout: &Layout) -> Self {
-        Self::new(even_mask(layout), Precond::Auto).with_layout_geometry(layout)
-    }
-
-    /// Records the unknowns' classes and positions from `layout` (needed by
-    /// [`Precond::Multigrid`]).
-    pub fn with_layout_geometry(mut self, layout: &Layout) -> Self {
-        self.geometry = Some(crate::solver::multigrid::Geometry::from_layout(
-            layout, None,
-        ));
+    /// Records the class and grid position of every unknown (needed by
+    /// [`Precond::Multigrid`]; with them [`Precond::Auto`] resolves to multigrid for
+    /// systems with at least [`MG_MIN_NONZEROS`] stored entries). From a layout:
+    /// `ParityCg::with_layout_geometry` ([`crate::solver::pn_layout`]).
+    pub fn with_geometry(mut self, geometry: Geometry) -> Self {
+        self.geometry = Some(geometry);
         self
     }
 
@@ -252,9 +237,10 @@ impl ParityCg {
         };
         let op = reduced::ReducedOperator::new(sp, mode);
         let t_form = t_split + t0.elapsed().as_secs_f64();
+        let tuning = &opts.tuning;
         let built = match (&precond_used, &self.geometry) {
             (Precond::Multigrid, Some(g)) => {
-                precond::Built::multigrid(sp, g, &crate::solver::multigrid::MgOptions::from_env())
+                precond::Built::multigrid(sp, g, &tuning.multigrid_options())
             }
             _ => precond::Built::new(&precond_used, sp, op.formed()),
         };
@@ -268,13 +254,14 @@ impl ParityCg {
             Err(e) => return Err(e),
         };
         let t_pre = t_split + t0.elapsed().as_secs_f64();
+        if let (true, precond::Built::Multigrid(mg)) = (tuning.profile, &pre) {
+            eprintln!("profile mg setup: {}", mg.describe_setup());
+        }
         // With multigrid, an asymmetric first Galerkin operator PᵀSP proves S asymmetric
         // (PᵀSP is symmetric whenever S is), so the random probes, 2·PROBE_PAIRS
         // applications of S, are skipped and its asymmetry is reported instead.
         let coarse_asymmetry = match &pre {
-            precond::Built::Multigrid(mg)
-                if mg.first_coarse_asymmetry() > crate::solver::multigrid::COARSE_SYMMETRY_TOL =>
-            {
+            precond::Built::Multigrid(mg) if mg.first_coarse_asymmetry() > COARSE_SYMMETRY_TOL => {
                 Some(mg.first_coarse_asymmetry())
             }
             _ => None,
@@ -290,7 +277,7 @@ impl ParityCg {
         // S applications, GMRES needs one per iteration and as many iterations (80³ P_3).
         let method = self
             .method
-            .or_else(method_from_env)
+            .or(tuning.krylov)
             .unwrap_or(if asymmetry <= SYMMETRY_TOL {
                 KrylovMethod::Cg
             } else if matches!(pre, precond::Built::Multigrid(_)) {
@@ -305,28 +292,17 @@ impl ParityCg {
         let (b_e, b_o) = sp.gather(b);
         let f = op.rhs(&b_e, &b_o);
         let mut x = vec![0.0; op.len()];
-        let pb = progress_bar(opts.max_iter, opts.progress);
-        let show = report_progress(&pb);
         let scale = if bnorm > 0.0 { bnorm } else { 1.0 };
-        let mut ctl = Control::for_options(opts, bnorm, &show);
+        let mut ctl = Control::for_options(opts, bnorm);
         // Every application of S, by the Krylov method and inside the multigrid cycle.
-        let s_apps = std::sync::atomic::AtomicUsize::new(0);
-        let apply = |v: &[f64], out: &mut [f64]| {
-            s_apps.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-            op.apply(v, out)
-        };
-        let prec = |r: &[f64], z: &mut [f64]| pre.apply_with(&apply, r, z);
+        let s_apps = Counted::new(&op);
+        let prec = pre.with_fine(&s_apps);
         let mut full_applications = 0usize;
-        let mut restarts = 0usize;
         let (u, status, rel, abs) = loop {
             let outcome = if bnorm == 0.0 {
                 Outcome::Reached
             } else {
-                match method {
-                    KrylovMethod::Cg => krylov::pcg(&apply, &prec, &f, &mut x, &mut ctl),
-                    KrylovMethod::BiCgStab => krylov::bicgstab(&apply, &prec, &f, &mut x, &mut ctl),
-                    KrylovMethod::Gmres => krylov::gmres(&apply, &prec, &f, &mut x, &mut ctl),
-                }
+                method.run(&s_apps, &prec, &f, &mut x, &mut ctl)
             };
             let u_o = op.recover_odd(&x, &b_o);
             let abs = sp.residual_norm(&x, &u_o, &b_e, &b_o);
@@ -338,11 +314,10 @@ impl ParityCg {
                 Outcome::Diverged => SolveStatus::Diverged,
                 Outcome::MaxIterations => SolveStatus::MaxIterations,
                 Outcome::Reached | Outcome::Stagnated
-                    if restarts < MAX_RESTARTS && ctl.iterations < opts.max_iter =>
+                    if ctl.iterations < opts.max_iter && ctl.may_restart() =>
                 {
                     // Rounding drift (or a BiCGSTAB breakdown): continue from the true
                     // residual with a reduced target tightened by the observed gap.
-                    restarts += 1;
                     if outcome == Outcome::Reached {
                         ctl.target *= 0.5 * opts.tol / rel;
                     }
@@ -352,8 +327,8 @@ impl ParityCg {
             };
             break (u, status, rel, abs);
         };
-        pb.finish_and_clear();
-        if profile_enabled() {
+        ctl.finish();
+        if tuning.profile {
             let it = t1.elapsed().as_secs_f64();
             if let precond::Built::Multigrid(mg) = &pre {
                 eprintln!("profile mg: {}", mg.describe());
@@ -367,7 +342,7 @@ impl ParityCg {
                 t_pre - t_form,
                 seconds_setup - t_pre,
                 ctl.iterations,
-                s_apps.load(std::sync::atomic::Ordering::Relaxed),
+                s_apps.count(),
                 it / ctl.iterations.max(1) as f64,
                 method.name(),
             );
@@ -396,9 +371,7 @@ impl ParityCg {
             formed: op.is_formed(),
             even_unknowns: sp.even.len(),
             odd_unknowns: sp.odd.len(),
-            reduced_applications: s_apps.load(std::sync::atomic::Ordering::Relaxed)
-                + 2 * probes
-                + pre.setup_applications(),
+            reduced_applications: s_apps.count() + 2 * probes + pre.setup_applications(),
             full_applications,
             seconds_setup,
             seconds_iterate: t1.elapsed().as_secs_f64(),
@@ -435,57 +408,7 @@ impl LinearSolver for ParityCg {
 /// iterations where ILU(0)/Jacobi need 53–342 (P_1–P_5).
 pub const MG_MIN_NONZEROS: usize = 1_000_000;
 
-/// `PN_PARITY_METHOD=cg|bicgstab|gmres` forces the Krylov method (for experiments).
-fn method_from_env() -> Option<KrylovMethod> {
-    match std::env::var("PN_PARITY_METHOD").ok()?.as_str() {
-        "cg" => Some(KrylovMethod::Cg),
-        "bicgstab" => Some(KrylovMethod::BiCgStab),
-        "gmres" => Some(KrylovMethod::Gmres),
-        _ => None,
-    }
-}
-
-/// Whether `PN_SOLVER_PROFILE` is set: the solvers then print a per-phase timing line.
-pub fn profile_enabled() -> bool {
-    std::env::var_os("PN_SOLVER_PROFILE").is_some()
-}
-
 /// `Precond::Auto` uses ILU(0) when `A` has at most this many stored entries. Its factors
 /// (and the formed `S` they reuse) hold about 1–1.5 nnz(A) entries (measured on the 2D
 /// checkerboard P_3/P_5), i.e. up to ~0.5 GB each here; beyond, Jacobi (no fill, parallel).
 pub const ILU_MAX_NONZEROS: usize = 30_000_000;
-
-/// `true` for the unknowns of even-l moments, in the storage order of `layout`.
-pub fn even_mask(layout: &Layout) -> Vec<bool> {
-    let mut mask = Vec::with_capacity(layout.len());
-    for (q, mp) in layout.moments.iter().enumerate() {
-        let n = layout.offsets[q + 1] - layout.offsets[q];
-        mask.extend(std::iter::repeat_n(mp.l % 2 == 0, n));
-    }
-    mask
-}
-
-/// Block id of every unknown: the grid cell it belongs to (a face or corner position at
-/// index `s` belongs to cell `s`, the last one on an axis to the last cell), so that
-/// block-Jacobi groups the even moments of one cell.
-pub fn cell_blocks(layout: &Layout) -> Vec<usize> {
-    let mut res = [1usize; 3];
-    if let (Some(e), Some(mp)) = (layout.extents.first(), layout.moments.first()) {
-        for d in 0..3 {
-            res[d] = (e[d] - mp.shift[d] as usize).max(1);
-        }
-    }
-    let mut out = Vec::with_capacity(layout.len());
-    for (q, e) in layout.extents.iter().enumerate() {
-        for i in 0..e[0] {
-            for j in 0..e[1] {
-                for k in 0..e[2] {
-                    let c = [i.min(res[0] - 1), j.min(res[1] - 1), k.min(res[2] - 1)];
-                    out.push((c[0] * res[1] + c[1]) * res[2] + c[2]);
-                }
-            }
-        }
-        debug_assert_eq!(out.len(), layout.offsets[q + 1]);
-    }
-    out
-}

@@ -2,13 +2,12 @@
 //! form one coarse unknown.
 //!
 //! Every unknown of the staggered layout is a moment (its *class*) at an integer position
-//! of that moment's grid (`pn_runtime::layout`). Grouping positions `2c, 2c+1` per axis
+//! of that moment's grid (`pn_runtime::layout`; [`Geometry`] is built from the layout by
+//! [`crate::solver::pn_layout`]). Grouping positions `2c, 2c+1` per axis
 //! of the same class gives the tentative (piecewise-constant) prolongation `P`: column
 //! `I` is 1 on the members of aggregate `I`. The near-null space of the diffusion-like
 //! even-parity operator is locally constant per moment (DESIGN.md §5: for P_1 it is CDA),
 //! which `P` reproduces exactly. Axes with a single position are not coarsened.
-
-use crate::layout::Layout;
 
 /// Class and grid position of every unknown of one level.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -20,20 +19,6 @@ pub struct Geometry {
 }
 
 impl Geometry {
-    /// The geometry of the unknowns `subset` of `layout` (global indices, in the order of
-    /// the operator's rows), or of all unknowns when `subset` is `None`.
-    pub fn from_layout(layout: &Layout, subset: Option<&[usize]>) -> Self {
-        let locate = |g: usize| {
-            let (q, idx) = layout.locate(g);
-            (q as u32, idx.map(|v| v as u32))
-        };
-        let (class, coords) = match subset {
-            Some(s) => s.iter().map(|&g| locate(g)).unzip(),
-            None => (0..layout.len()).map(locate).unzip(),
-        };
-        Self { class, coords }
-    }
-
     /// Number of unknowns.
     pub fn len(&self) -> usize {
         self.class.len()

@@ -12,8 +12,14 @@
 //!   level joined additively, `M⁻¹ = ω D⁻¹ + P M_c⁻¹ Pᵀ`, which applies the finest
 //!   operator not at all (the Krylov method's own products do the fine-level smoothing).
 //!
-//! The finest operator is not stored here: every application takes it as a closure, so
-//! the same hierarchy serves the matrix-free `S` and an assembled matrix.
+//! The finest operator is not stored here: every application takes it as a closure (or,
+//! as a [`Preconditioner`], bound to a [`LinearOperator`] with [`Multigrid::with_fine`]),
+//! so the same hierarchy serves the matrix-free `S` and an assembled matrix.
+//!
+//! Nothing here knows the P_N layout or the parity split: the unknowns' classes and
+//! positions come as a [`Geometry`] (built from the layout by [`super::pn_layout`]), and
+//! the finest Galerkin operator as a closure (from the parity blocks in
+//! [`super::parity::galerkin`]).
 
 pub mod aggregate;
 pub mod galerkin;
@@ -24,6 +30,7 @@ pub mod vcycle;
 pub use aggregate::Geometry;
 
 use crate::linalg::spmv;
+use crate::operator::{LinearOperator, Preconditioner};
 use aggregate::{aggregate, Aggregation};
 use smoother::Chebyshev;
 use sprs::CsMat;
@@ -106,8 +113,10 @@ pub struct MgOptions {
     /// At most this many levels.
     pub max_levels: usize,
     /// The coarse correction is added as `x += scale · P x_c` (over-correction makes up
-    /// for the energy that piecewise-constant interpolation loses; 1 = plain).
-    pub correction_scale: f64,
+    /// for the energy that piecewise-constant interpolation loses; 1 = plain). `None`:
+    /// 1 on the parity systems ([`Multigrid::build`]), [`SCALAR_CORRECTION_SCALE`] on
+    /// scalar ones ([`Multigrid::for_matrix`]).
+    pub correction_scale: Option<f64>,
     /// How the finest level enters the preconditioner.
     pub fine_cycle: FineCycle,
 }
@@ -167,36 +176,37 @@ impl Default for MgOptions {
             coarse_max: 300,
             dense_max: 6000,
             max_levels: 25,
-            correction_scale: 1.0,
+            correction_scale: None,
             fine_cycle: FineCycle::AdditiveIfSymmetric,
         }
     }
 }
 
 impl MgOptions {
-    /// The defaults with overrides from the environment (`PN_MG_FINE_DEGREE`,
-    /// `PN_MG_COARSE_DEGREE`, `PN_MG_COARSE_DEGREE_2D`, `PN_MG_RATIO`, `PN_MG_FINE_RATIO`,
-    /// `PN_MG_POWER_STEPS`, `PN_MG_COARSE_MAX`, `PN_MG_SCALE`; `PN_MG_ADDITIVE=ω` forces
-    /// [`FineCycle::Additive`], `PN_MG_ADDITIVE=0` [`FineCycle::Multiplicative`]), for
-    /// tuning experiments; unparsable values are ignored.
-    pub fn from_env() -> Self {
-        fn get<T: std::str::FromStr>(name: &str, default: T) -> T {
-            std::env::var(name)
-                .ok()
-                .and_then(|v| v.parse().ok())
-                .unwrap_or(default)
+    /// The defaults with overrides from named variables (`get("PN_MG_RATIO")` etc.):
+    /// `PN_MG_FINE_DEGREE`, `PN_MG_COARSE_DEGREE`, `PN_MG_COARSE_DEGREE_2D`, `PN_MG_RATIO`,
+    /// `PN_MG_FINE_RATIO`, `PN_MG_POWER_STEPS`, `PN_MG_COARSE_MAX`, `PN_MG_SCALE`;
+    /// `PN_MG_ADDITIVE=ω` (ω > 0) forces [`FineCycle::Additive`], `PN_MG_ADDITIVE=0`
+    /// [`FineCycle::Multiplicative`]. Unset or unparsable values leave the default. The
+    /// command line passes the environment ([`crate::solver::SolverTuning::from_vars`]).
+    pub fn from_vars(get: &dyn Fn(&str) -> Option<String>) -> Self {
+        fn parse<T: std::str::FromStr>(
+            get: &dyn Fn(&str) -> Option<String>,
+            name: &str,
+        ) -> Option<T> {
+            get(name).and_then(|v| v.parse().ok())
         }
         let d = Self::default();
         Self {
-            fine_degree: get("PN_MG_FINE_DEGREE", d.fine_degree),
-            coarse_degree: get("PN_MG_COARSE_DEGREE", d.coarse_degree),
-            coarse_degree_2d: get("PN_MG_COARSE_DEGREE_2D", d.coarse_degree_2d),
-            ratio: get("PN_MG_RATIO", d.ratio),
-            fine_ratio: get("PN_MG_FINE_RATIO", d.fine_ratio),
-            power_steps: get("PN_MG_POWER_STEPS", d.power_steps),
-            coarse_max: get("PN_MG_COARSE_MAX", d.coarse_max),
-            correction_scale: get("PN_MG_SCALE", d.correction_scale),
-            fine_cycle: match get("PN_MG_ADDITIVE", f64::NAN) {
+            fine_degree: parse(get, "PN_MG_FINE_DEGREE").unwrap_or(d.fine_degree),
+            coarse_degree: parse(get, "PN_MG_COARSE_DEGREE").unwrap_or(d.coarse_degree),
+            coarse_degree_2d: parse(get, "PN_MG_COARSE_DEGREE_2D").unwrap_or(d.coarse_degree_2d),
+            ratio: parse(get, "PN_MG_RATIO").unwrap_or(d.ratio),
+            fine_ratio: parse(get, "PN_MG_FINE_RATIO").unwrap_or(d.fine_ratio),
+            power_steps: parse(get, "PN_MG_POWER_STEPS").unwrap_or(d.power_steps),
+            coarse_max: parse(get, "PN_MG_COARSE_MAX").unwrap_or(d.coarse_max),
+            correction_scale: parse(get, "PN_MG_SCALE").or(d.correction_scale),
+            fine_cycle: match parse(get, "PN_MG_ADDITIVE").unwrap_or(f64::NAN) {
                 w if w > 0.0 && w.is_finite() => FineCycle::Additive { omega: w },
                 w if w.is_nan() || w < 0.0 || w.is_infinite() => d.fine_cycle,
                 _ => FineCycle::Multiplicative,
@@ -213,6 +223,26 @@ impl MgOptions {
         } else {
             self.ratio
         }
+    }
+}
+
+/// Over-correction of the coarse-grid step for scalar diffusion: piecewise-constant
+/// aggregation underestimates the coarse correction of smooth modes, and with the plain
+/// step MG-CG on the 7-point CDA operator needed 8/10/14 iterations at 16³/32³/64³,
+/// with 1.4 it needs 9/10/11 (`tests/multigrid.rs`). On the P_N even-parity systems the
+/// plain step is better (80³… 40³ P_3: 12 vs 15 iterations), so it stays 1 there.
+pub const SCALAR_CORRECTION_SCALE: f64 = 1.4;
+
+/// The multigrid cycle bound to its finest operator ([`Multigrid::with_fine`]).
+pub struct MgCycle<'a> {
+    mg: &'a Multigrid,
+    fine: &'a dyn LinearOperator,
+}
+
+impl Preconditioner for MgCycle<'_> {
+    fn apply(&self, r: &[f64], z: &mut [f64]) {
+        let fine = |x: &[f64], y: &mut [f64]| self.fine.apply(x, y);
+        self.mg.apply(&fine, r, z);
     }
 }
 
@@ -245,6 +275,9 @@ pub struct Multigrid {
     additive: bool,
     /// [`csr_asymmetry`] of the first Galerkin operator `PᵀAP`.
     first_coarse_asymmetry: f64,
+    /// Seconds of the setup phases (aggregate, first Galerkin, symmetry check, power
+    /// iteration, coarser levels), for [`Multigrid::describe_setup`].
+    setup_seconds: [f64; 5],
     /// Cycles applied and nanoseconds spent in them (for the profile line).
     cycle_stats: [std::sync::atomic::AtomicU64; 2],
     work: Mutex<Vec<Work>>,
@@ -411,15 +444,13 @@ impl Multigrid {
             });
             a = next;
         }
-        if crate::solver::parity::profile_enabled() {
-            eprintln!(
-                "profile mg setup: aggregate {t_agg:.3} s, first Galerkin {:.3} s, symmetry check {:.3} s, power {:.3} s, coarser levels {:.3} s",
-                t_first - t_agg,
-                t_sym - t_first,
-                t_power - t_sym,
-                t0.elapsed().as_secs_f64() - t_power
-            );
-        }
+        let setup_seconds = [
+            t_agg,
+            t_first - t_agg,
+            t_sym - t_first,
+            t_power - t_sym,
+            t0.elapsed().as_secs_f64() - t_power,
+        ];
         let n = a.rows();
         if n > opts.dense_max {
             return Err(MgError::CoarsestTooLarge {
@@ -458,7 +489,8 @@ impl Multigrid {
             coarsest: lu,
             coarsest_len: n,
             coarse_nnz,
-            scale: opts.correction_scale,
+            scale: opts.correction_scale.unwrap_or(1.0),
+            setup_seconds,
             setup_apps: if additive { 0 } else { opts.power_steps.max(1) },
             additive,
             first_coarse_asymmetry,
@@ -467,7 +499,8 @@ impl Multigrid {
         })
     }
 
-    /// The hierarchy for an assembled matrix `a` (for example CDA) with unknowns `geom`.
+    /// The hierarchy for an assembled matrix `a` (for example CDA) with unknowns `geom`;
+    /// an unset [`MgOptions::correction_scale`] is [`SCALAR_CORRECTION_SCALE`] here.
     pub fn for_matrix(a: &CsMat<f64>, geom: &Geometry, opts: &MgOptions) -> Result<Self, MgError> {
         if geom.len() != a.rows() {
             return Err(MgError::GeometryLength {
@@ -487,6 +520,7 @@ impl Multigrid {
             },
             fine_ratio: opts.ratio,
             coarse_degree_2d: opts.coarse_degree,
+            correction_scale: Some(opts.correction_scale.unwrap_or(SCALAR_CORRECTION_SCALE)),
             ..opts.clone()
         };
         Self::build(
@@ -538,6 +572,19 @@ impl Multigrid {
     /// nonsymmetric without a single application of `A`.
     pub fn first_coarse_asymmetry(&self) -> f64 {
         self.first_coarse_asymmetry
+    }
+
+    /// The multigrid cycle as a [`Preconditioner`], with `fine` the finest operator.
+    pub fn with_fine<'a>(&'a self, fine: &'a dyn LinearOperator) -> MgCycle<'a> {
+        MgCycle { mg: self, fine }
+    }
+
+    /// One line with the seconds of the setup phases (for the solvers' profile output).
+    pub fn describe_setup(&self) -> String {
+        let [agg, first, sym, power, coarse] = self.setup_seconds;
+        format!(
+            "aggregate {agg:.3} s, first Galerkin {first:.3} s, symmetry check {sym:.3} s, power {power:.3} s, coarser levels {coarse:.3} s"
+        )
     }
 
     /// One line describing the hierarchy (sizes, non-zeros, smoother bounds, and the

@@ -5,8 +5,13 @@
 //! * Jacobi: `diag(S)⁻¹`.
 //! * Block-Jacobi: the dense blocks of `S` over groups of even unknowns (by default the even
 //!   moments belonging to one grid cell), each inverted once.
+//! * ILU(0) of the formed `S`, and the multigrid cycle.
+//!
+//! [`Built`] and [`Ilu0`] are [`Preconditioner`]s; [`Built::with_fine`] binds a multigrid
+//! hierarchy to the finest operator it needs.
 
 use super::split::{ParityError, Split};
+use crate::operator::{LinearOperator, Preconditioner};
 use rayon::prelude::*;
 use sprs::CsMat;
 
@@ -18,7 +23,7 @@ pub enum Precond {
     /// Jacobi: the exact diagonal of `S`.
     Jacobi,
     /// Block-Jacobi: `block_of[g]` is the block id of global unknown `g` (odd unknowns are
-    /// ignored). Build it per cell with [`super::cell_blocks`].
+    /// ignored). Build it per cell with [`crate::solver::pn_layout::cell_blocks`].
     BlockJacobi {
         /// Block id of every global unknown.
         block_of: Vec<usize>,
@@ -38,8 +43,8 @@ pub enum Precond {
     /// where that wins, see [`super::MG_MIN_NONZEROS`]).
     Auto,
     /// Aggregation multigrid V-cycle ([`crate::solver::multigrid`]); needs the unknowns'
-    /// positions, so only a solver built from a layout ([`super::ParityCg::for_layout`])
-    /// can use it.
+    /// positions, so only a solver given them ([`super::ParityCg::with_geometry`], or
+    /// `ParityCg::for_layout` in [`crate::solver::pn_layout`]) can use it.
     Multigrid,
 }
 
@@ -173,7 +178,7 @@ impl Built {
         geometry: &crate::solver::multigrid::Geometry,
         opts: &crate::solver::multigrid::MgOptions,
     ) -> Result<Self, ParityError> {
-        use crate::solver::multigrid::{galerkin, Geometry, Multigrid};
+        use crate::solver::multigrid::{Geometry, Multigrid};
         let n = split.even.len() + split.odd.len();
         if geometry.len() != n {
             return Err(ParityError::BlockMapLength {
@@ -191,7 +196,7 @@ impl Built {
             &apply,
             &diagonal(split),
             &even,
-            |agg| galerkin::coarse_from_split(split, agg),
+            |agg| super::galerkin::coarse_from_split(split, agg),
             opts,
         )?;
         Ok(Built::Multigrid(mg))
@@ -212,6 +217,12 @@ impl Built {
             Built::Multigrid(mg) => mg.apply(fine, r, z),
             other => other.apply(r, z),
         }
+    }
+
+    /// As a [`Preconditioner`], with `fine` the reduced operator (used by multigrid's
+    /// finest level; the other kinds ignore it).
+    pub fn with_fine<'a>(&'a self, fine: &'a dyn LinearOperator) -> WithFine<'a> {
+        WithFine { built: self, fine }
     }
 
     /// `z = M⁻¹ r` (for [`Built::Multigrid`] use [`Built::apply_with`]).
@@ -247,6 +258,35 @@ impl Built {
                 }
             }
         }
+    }
+}
+
+/// A [`Built`] preconditioner bound to the reduced operator ([`Built::with_fine`]).
+pub struct WithFine<'a> {
+    built: &'a Built,
+    fine: &'a dyn LinearOperator,
+}
+
+impl Preconditioner for WithFine<'_> {
+    fn apply(&self, r: &[f64], z: &mut [f64]) {
+        match self.built {
+            Built::Multigrid(mg) => mg.with_fine(self.fine).apply(r, z),
+            other => other.apply(r, z),
+        }
+    }
+}
+
+/// Without the finest operator, a multigrid hierarchy applies only its finest-level
+/// Jacobi scaling ([`Built::apply`]); use [`Built::with_fine`] for the cycle.
+impl Preconditioner for Built {
+    fn apply(&self, r: &[f64], z: &mut [f64]) {
+        Built::apply(self, r, z);
+    }
+}
+
+impl Preconditioner for Ilu0 {
+    fn apply(&self, r: &[f64], z: &mut [f64]) {
+        self.solve(r, z);
     }
 }
 

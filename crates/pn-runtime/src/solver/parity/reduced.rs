@@ -10,7 +10,8 @@
 //! touch the off-diagonal entries of `A` once) or from a CSR matrix formed once.
 
 use super::split::Split;
-use crate::linalg::{dot, norm, spmv};
+use crate::linalg::{dot, norm, spmv, spmv_transpose};
+use crate::operator::LinearOperator;
 use rayon::prelude::*;
 use sprs::CsMat;
 
@@ -127,6 +128,33 @@ impl<'a> ReducedOperator<'a> {
     }
 }
 
+/// `S` as an operator for the Krylov methods; the transposed product
+/// `Sᵀ y = D_e y − C̃ᵀ (Bᵀ y)` (or with the formed `S`) is a serial scatter, for occasional
+/// use only.
+impl LinearOperator for ReducedOperator<'_> {
+    fn rows(&self) -> usize {
+        self.len()
+    }
+    fn cols(&self) -> usize {
+        self.len()
+    }
+    fn apply(&self, x: &[f64], y: &mut [f64]) {
+        ReducedOperator::apply(self, x, y);
+    }
+    fn apply_transpose(&self, x: &[f64], y: &mut [f64]) {
+        if let Some(s) = &self.formed {
+            spmv_transpose(s, x, y);
+            return;
+        }
+        let mut t = vec![0.0; self.split.odd.len()];
+        spmv_transpose(&self.split.b, x, &mut t);
+        spmv_transpose(&self.split.c_scaled, &t, y);
+        y.iter_mut()
+            .zip(x.iter().zip(&self.split.d_e))
+            .for_each(|(yi, (xi, di))| *yi = di * xi - *yi);
+    }
+}
+
 /// Rows of `S` per parallel task in [`form`].
 const FORM_CHUNK: usize = 1024;
 
@@ -157,11 +185,13 @@ pub fn form(split: &Split) -> CsMat<f64> {
                 row.sort_unstable_by_key(|e| e.0);
                 let start = cols.len();
                 for &(j, v) in &row {
-                    if cols.len() > start && *cols.last().unwrap() == j {
-                        *vals.last_mut().unwrap() += v;
-                    } else {
-                        cols.push(j);
-                        vals.push(v);
+                    match vals.last_mut() {
+                        // A duplicate column within this row: sum.
+                        Some(last) if cols.len() > start && cols.last() == Some(&j) => *last += v,
+                        _ => {
+                            cols.push(j);
+                            vals.push(v);
+                        }
                     }
                 }
                 nnz.push(cols.len() - start);
@@ -173,9 +203,11 @@ pub fn form(split: &Split) -> CsMat<f64> {
     let mut indptr = Vec::with_capacity(n + 1);
     let (mut indices, mut data) = (Vec::with_capacity(total), Vec::with_capacity(total));
     indptr.push(0);
+    let mut end = 0usize;
     for (nnz, cols, vals) in chunks {
         for k in nnz {
-            indptr.push(indptr.last().unwrap() + k);
+            end += k;
+            indptr.push(end);
         }
         indices.extend(cols);
         data.extend(vals);
@@ -242,5 +274,39 @@ mod tests {
             );
         }
         assert!(free.asymmetry(3) < 1e-15);
+    }
+
+    #[test]
+    fn transposed_product_matches_the_formed_transpose() {
+        // A nonsymmetric variant (C ≠ −Bᵀ), so that Sᵀ ≠ S.
+        let mut a = system().to_dense();
+        a[[1, 0]] = -2.0;
+        let a = CsMat::csr_from_dense(a.view(), 0.0);
+        let s = split(&a, &[true, false, true, false, true]).unwrap();
+        let x = [0.3, -1.0, 2.0];
+        let st = form(&s).transpose_view().to_csr();
+        let mut want = vec![0.0; 3];
+        spmv(&st, &x, &mut want);
+        for mode in [ReducedMode::MatrixFree, ReducedMode::Formed] {
+            let op = ReducedOperator::new(&s, mode);
+            let mut got = vec![0.0; 3];
+            LinearOperator::apply_transpose(&op, &x, &mut got);
+            for i in 0..3 {
+                assert!(
+                    (got[i] - want[i]).abs() < 1e-14,
+                    "{mode:?}: {got:?} vs {want:?}"
+                );
+            }
+        }
+        let mut sx = vec![0.0; 3];
+        LinearOperator::apply(
+            &ReducedOperator::new(&s, ReducedMode::MatrixFree),
+            &x,
+            &mut sx,
+        );
+        assert!(
+            sx.iter().zip(&want).any(|(a, b)| (a - b).abs() > 1e-3),
+            "S is symmetric"
+        );
     }
 }

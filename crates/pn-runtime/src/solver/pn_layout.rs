@@ -1,0 +1,220 @@
+//! The one module of the solvers that reads the P_N unknown layout ([`crate::layout`]):
+//! it turns the layout into the plain data the parity and multigrid solvers take (the
+//! even/odd mask, the cell of every unknown, the classes and grid positions of
+//! [`Geometry`]) and builds the solvers for a layout ([`SolverKind::solver_for`],
+//! [`LayoutSolver`]).
+
+use super::cgnr::Cgnr;
+use super::multigrid::solve::mg_krylov;
+use super::multigrid::Geometry;
+use super::parity::split::Split;
+use super::parity::{ParityCg, Precond};
+use super::{LinearSolver, SolveStats, SolveStatus, SolverKind, SolverOptions};
+use crate::layout::Layout;
+use sprs::CsMat;
+
+impl Geometry {
+    /// The geometry of the unknowns `subset` of `layout` (global indices, in the order of
+    /// the operator's rows), or of all unknowns when `subset` is `None`.
+    pub fn from_layout(layout: &Layout, subset: Option<&[usize]>) -> Self {
+        let locate = |g: usize| {
+            let (q, idx) = layout.locate(g);
+            (q as u32, idx.map(|v| v as u32))
+        };
+        let (class, coords) = match subset {
+            Some(s) => s.iter().map(|&g| locate(g)).unzip(),
+            None => (0..layout.len()).map(locate).unzip(),
+        };
+        Self { class, coords }
+    }
+}
+
+impl ParityCg {
+    /// The solver for `layout` with [`Precond::Auto`] (ILU(0) up to
+    /// [`super::parity::ILU_MAX_NONZEROS`], which needs the fewest iterations and time on
+    /// the 71² checkerboard; else Jacobi). For very large systems,
+    /// `Precond::BlockJacobi { block_of: cell_blocks(layout) }` is a cheaper alternative
+    /// with somewhat fewer iterations than Jacobi.
+    ///
+    /// The layout also gives the unknowns' positions, so [`Precond::Auto`] resolves to
+    /// multigrid for systems with at least [`super::parity::MG_MIN_NONZEROS`] stored
+    /// entries.
+    pub fn for_layout(layout: &Layout) -> Self {
+        Self::new(even_mask(layout), Precond::Auto).with_layout_geometry(layout)
+    }
+
+    /// Records the unknowns' classes and positions from `layout` (needed by
+    /// [`Precond::Multigrid`]; [`ParityCg::with_geometry`]).
+    pub fn with_layout_geometry(self, layout: &Layout) -> Self {
+        self.with_geometry(Geometry::from_layout(layout, None))
+    }
+}
+
+impl SolverKind {
+    /// The solver for a system assembled on `layout`: the parity solvers take the even/odd
+    /// classes from the layout (no detection pass over the matrix) and the unknowns'
+    /// positions for multigrid (`parity-cg` picks it automatically for large systems,
+    /// [`super::parity::MG_MIN_NONZEROS`]); the other kinds are as [`SolverKind::solver`].
+    pub fn solver_for(self, layout: &Layout) -> Box<dyn LinearSolver> {
+        match self.parity_solver_for(layout) {
+            Some(s) => Box::new(s),
+            None => self.solver(),
+        }
+    }
+
+    /// For the parity kinds (`parity-cg`, `parity-mg`, `parity-ilu`), the layout solver
+    /// [`SolverKind::solver_for`] uses, which can also solve from the parity blocks alone
+    /// ([`LayoutSolver::solve_split`]); `None` for the other kinds.
+    pub fn parity_solver_for(self, layout: &Layout) -> Option<LayoutSolver> {
+        match self {
+            SolverKind::ParityCg => Some(LayoutSolver::new(ParityCg::for_layout(layout), layout)),
+            SolverKind::ParityMg => Some(LayoutSolver::new(
+                ParityCg::for_layout(layout).with_precond(Precond::Multigrid),
+                layout,
+            )),
+            SolverKind::ParityIlu => Some(LayoutSolver::without_multigrid(ParityCg::new(
+                even_mask(layout),
+                Precond::Auto,
+            ))),
+            _ => None,
+        }
+    }
+}
+
+/// A [`ParityCg`] built for one layout. When the matrix lacks the parity structure and
+/// the layout has a single moment (a scalar diffusion system such as CDA), it solves
+/// with multigrid-preconditioned CG (BiCGSTAB if nonsymmetric) on the matrix itself;
+/// otherwise it falls back to CGNR like [`ParityCg`].
+pub struct LayoutSolver {
+    parity: ParityCg,
+    geometry: Option<Geometry>,
+}
+
+impl LayoutSolver {
+    /// Wraps `parity` (built from `layout`).
+    pub fn new(parity: ParityCg, layout: &Layout) -> Self {
+        let geometry = (layout.moments.len() == 1).then(|| Geometry::from_layout(layout, None));
+        Self { parity, geometry }
+    }
+
+    /// Wraps `parity` without the multigrid fallback (non-parity systems go to CGNR).
+    pub fn without_multigrid(parity: ParityCg) -> Self {
+        Self {
+            parity,
+            geometry: None,
+        }
+    }
+}
+
+impl LayoutSolver {
+    /// Solves the system given by its parity blocks (no `A` to fall back on): when the
+    /// chosen preconditioner cannot be built (multigrid on a degenerate grid, a singular
+    /// block), says so and solves with the Jacobi preconditioner instead.
+    pub fn solve_split(
+        &self,
+        split: &Split,
+        b: &[f64],
+        opts: &SolverOptions,
+    ) -> (Vec<f64>, SolveStats) {
+        match self.parity.solve_split(split, b, opts) {
+            Ok((u, report)) => (u, report.stats),
+            Err(e) => {
+                eprintln!("note: the parity preconditioner could not be built ({e}); using Jacobi");
+                let jacobi = self.parity.clone().with_precond(Precond::Jacobi);
+                match jacobi.solve_split(split, b, opts) {
+                    Ok((u, report)) => (u, report.stats),
+                    Err(e) => {
+                        eprintln!("note: Jacobi could not be built either ({e}); unpreconditioned");
+                        match jacobi
+                            .with_precond(Precond::None)
+                            .solve_split(split, b, opts)
+                        {
+                            Ok((u, report)) => (u, report.stats),
+                            // Unreachable: `Precond::None` builds nothing that can fail.
+                            Err(e) => failed_solve(b.len(), opts, &e.to_string()),
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// A `Diverged` result for a solve that could not start.
+fn failed_solve(n: usize, opts: &SolverOptions, why: &str) -> (Vec<f64>, SolveStats) {
+    eprintln!("error: the parity solve could not start: {why}");
+    (
+        vec![0.0; n],
+        SolveStats {
+            solver: "parity-cg".into(),
+            status: SolveStatus::Diverged,
+            iterations: 0,
+            relative_residual: f64::NAN,
+            absolute_residual: f64::NAN,
+            rhs_norm: f64::NAN,
+            tolerance: opts.tol,
+            history: Vec::new(),
+            operator_applications: 0,
+        },
+    )
+}
+
+impl LinearSolver for LayoutSolver {
+    fn name(&self) -> &'static str {
+        "parity-cg"
+    }
+
+    fn solve(&self, a: &CsMat<f64>, b: &[f64], opts: &SolverOptions) -> (Vec<f64>, SolveStats) {
+        match self.parity.solve_detailed(a, b, opts) {
+            Ok((u, report)) => (u, report.stats),
+            Err(e) => match &self.geometry {
+                Some(g) if g.len() == a.rows() => match mg_krylov(a, b, g, opts) {
+                    Ok(r) => r,
+                    Err(err) => {
+                        eprintln!("note: multigrid does not apply ({err}); falling back to cgnr");
+                        Cgnr.solve(a, b, opts)
+                    }
+                },
+                _ => {
+                    eprintln!("note: parity-cg does not apply ({e}); falling back to cgnr");
+                    Cgnr.solve(a, b, opts)
+                }
+            },
+        }
+    }
+}
+
+/// `true` for the unknowns of even-l moments, in the storage order of `layout`.
+pub fn even_mask(layout: &Layout) -> Vec<bool> {
+    let mut mask = Vec::with_capacity(layout.len());
+    for (q, mp) in layout.moments.iter().enumerate() {
+        let n = layout.offsets[q + 1] - layout.offsets[q];
+        mask.extend(std::iter::repeat_n(mp.l % 2 == 0, n));
+    }
+    mask
+}
+
+/// Block id of every unknown: the grid cell it belongs to (a face or corner position at
+/// index `s` belongs to cell `s`, the last one on an axis to the last cell), so that
+/// block-Jacobi groups the even moments of one cell.
+pub fn cell_blocks(layout: &Layout) -> Vec<usize> {
+    let mut res = [1usize; 3];
+    if let (Some(e), Some(mp)) = (layout.extents.first(), layout.moments.first()) {
+        for d in 0..3 {
+            res[d] = (e[d] - mp.shift[d] as usize).max(1);
+        }
+    }
+    let mut out = Vec::with_capacity(layout.len());
+    for (q, e) in layout.extents.iter().enumerate() {
+        for i in 0..e[0] {
+            for j in 0..e[1] {
+                for k in 0..e[2] {
+                    let c = [i.min(res[0] - 1), j.min(res[1] - 1), k.min(res[2] - 1)];
+                    out.push((c[0] * res[1] + c[1]) * res[2] + c[2]);
+                }
+            }
+        }
+        debug_assert_eq!(out.len(), layout.offsets[q + 1]);
+    }
+    out
+}
