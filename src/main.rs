@@ -1,6 +1,16 @@
-//! The `pn` command-line tool.
+//! The `pn` command-line tool: per subcommand its arguments (`cli`) and one call into
+//! `pn_drivers`.
+//!
+//! Output goes through one `std::io::Write` handle on stdout. When the reader of a pipe
+//! goes away (`pn equations --order 6 --json | head -c 20`), the write fails with
+//! `BrokenPipe` and `pn` ends quietly with status 141 (128 + SIGPIPE), the status a shell
+//! reports for a Unix tool killed by SIGPIPE, so that `set -o pipefail` scripts see the
+//! same as with `cat` or `grep`.
+
+mod cli;
+
 use clap::{Parser, Subcommand};
-use pn_drivers as cli;
+use std::io::Write;
 
 /// pnsolver: deterministic multiple scattering (P_N, diffusion, flux-limited diffusion).
 #[derive(Parser, Debug)]
@@ -13,17 +23,17 @@ struct Cli {
 #[derive(Subcommand, Debug)]
 enum Command {
     /// Print the derived real P_N equations as LaTeX.
-    Latex(cli::derive_cmds::LatexArgs),
+    Latex(cli::derive::LatexArgs),
     /// Print the expanded P_N system (JSON with --json).
-    Equations(cli::derive_cmds::EquationsArgs),
+    Equations(cli::derive::EquationsArgs),
     /// Write the generated derivation document (LaTeX).
-    Supplemental(cli::derive_cmds::SupplementalArgs),
+    Supplemental(cli::derive::SupplementalArgs),
     /// Print a discretized stencil.
     Stencil(cli::stencil::StencilArgs),
     /// Solve a scene and write fluence, moments, images and a report.
     Solve(cli::solve::SolveArgs),
     /// Self-convergence study: solve at several nested resolutions, tabulate and plot.
-    Converge(cli::converge::ConvergeArgs),
+    Converge(cli::solve::ConvergeArgs),
     /// Run the fixed benchmark suite (cgnr vs parity-cg side by side); writes bench.csv/md.
     Bench(cli::bench::BenchArgs),
     /// Error vs time on the point source for method × resolution × tolerance;
@@ -39,23 +49,46 @@ enum Command {
     Compare(cli::compare::CompareArgs),
 }
 
+/// Runs `command`, printing to `out`.
+fn run(command: &Command, env: &cli::Env, out: &mut dyn Write) -> anyhow::Result<()> {
+    use pn_drivers as d;
+    match command {
+        Command::Latex(a) => d::derive_cmds::latex(&a.request(), out),
+        Command::Equations(a) => d::derive_cmds::equations(&a.request(), out),
+        Command::Supplemental(a) => d::derive_cmds::supplemental(&a.request(), out),
+        Command::Stencil(a) => d::stencil::run(&a.request(), out),
+        Command::Solve(a) => d::solve::run(&a.request(env), out),
+        Command::Converge(a) => d::converge::run(&a.request(env), out),
+        Command::Bench(a) => d::bench::run(&a.request(env), out),
+        Command::Tradeoff(a) => d::tradeoff::run(&a.request(env), out),
+        Command::Render(a) => d::render::run(&a.request(env), out),
+        Command::Figure(a) => d::figure::run(&a.request(env), out),
+        Command::ExportMitsuba(a) => d::export_mitsuba::run(&a.request(env), out),
+        Command::Compare(a) => d::compare::run(&a.request(), out),
+    }?;
+    out.flush()?;
+    Ok(())
+}
+
+/// Whether `err` comes from writing to a closed pipe.
+fn is_broken_pipe(err: &anyhow::Error) -> bool {
+    err.chain().any(|e| {
+        e.downcast_ref::<std::io::Error>()
+            .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
+    })
+}
+
+/// The exit status after a closed pipe: 128 + SIGPIPE (13).
+const BROKEN_PIPE_STATUS: i32 = 141;
+
 fn main() {
-    let cli = Cli::parse();
-    let result = match &cli.command {
-        Command::Latex(a) => cli::derive_cmds::latex(a),
-        Command::Equations(a) => cli::derive_cmds::equations(a),
-        Command::Supplemental(a) => cli::derive_cmds::supplemental(a),
-        Command::Stencil(a) => cli::stencil::run(a),
-        Command::Solve(a) => cli::solve::run(a),
-        Command::Converge(a) => cli::converge::run(a),
-        Command::Bench(a) => cli::bench::run(a),
-        Command::Tradeoff(a) => cli::tradeoff::run(a),
-        Command::Render(a) => cli::render::run(a),
-        Command::Figure(a) => cli::figure::run(a),
-        Command::ExportMitsuba(a) => cli::export_mitsuba::run(a),
-        Command::Compare(a) => cli::compare::run(a),
-    };
-    if let Err(err) = result {
+    let args = Cli::parse();
+    let env = cli::Env::from_process();
+    let mut stdout = std::io::stdout();
+    if let Err(err) = run(&args.command, &env, &mut stdout) {
+        if is_broken_pipe(&err) {
+            std::process::exit(BROKEN_PIPE_STATUS);
+        }
         eprintln!("error: {err:#}");
         std::process::exit(1);
     }

@@ -3,12 +3,21 @@
 //! as the theory says; bad input gives one clear error.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
-use pn_drivers::render::render_scene;
+use pn_drivers::render::{render_scene, RenderOptions};
 use pn_runtime::render::image_io::read_exr_gray;
 use pn_runtime::render::scene::RenderMethod;
 use pn_runtime::render::RenderScene;
 use std::path::{Path, PathBuf};
 use std::process::Command;
+
+/// One thread, the default memory limit, no progress bars.
+fn one_thread() -> RenderOptions {
+    RenderOptions {
+        threads: Some(1),
+        progress: false,
+        ..Default::default()
+    }
+}
 
 /// A homogeneous isotropic ball (radius 0.8 of the half extent) with a directional and a
 /// point light; 16³ density, solve grid 8 cells across the box (cropped + margin 2).
@@ -74,8 +83,8 @@ fn pn(args: &[&str]) -> std::process::Output {
 /// difference). Tolerance 1e-5 relative to the image maximum.
 #[test]
 fn p1_equals_cda_for_isotropic_scattering() {
-    let a = render_scene(&scene(RenderMethod::Pn, 1), Some(1), None, false).unwrap();
-    let b = render_scene(&scene(RenderMethod::Cda, 1), Some(1), None, false).unwrap();
+    let a = render_scene(&scene(RenderMethod::Pn, 1), &one_thread()).unwrap();
+    let b = render_scene(&scene(RenderMethod::Cda, 1), &one_thread()).unwrap();
     let max = a.image.data.iter().fold(0.0f32, |m, v| m.max(*v)) as f64;
     assert!(max > 0.0);
     for (x, y) in a.image.data.iter().zip(&b.image.data) {
@@ -92,7 +101,7 @@ fn p1_equals_cda_for_isotropic_scattering() {
 /// transport on an optically thick ball, mean free path 1/6 against a radius 0.8).
 #[test]
 fn multiple_scattering_adds_light_and_methods_agree_roughly() {
-    let none = render_scene(&scene(RenderMethod::None, 1), Some(1), None, false).unwrap();
+    let none = render_scene(&scene(RenderMethod::None, 1), &one_thread()).unwrap();
     let mean = |r: &pn_drivers::render::RenderRun| r.report.mean_radiance;
     let ss = mean(&none);
     assert!(ss > 0.0);
@@ -102,7 +111,7 @@ fn multiple_scattering_adds_light_and_methods_agree_roughly() {
         (RenderMethod::Pn, 3),
         (RenderMethod::Fld, 1),
     ] {
-        let r = render_scene(&scene(m, o), Some(1), None, false).unwrap();
+        let r = render_scene(&scene(m, o), &one_thread()).unwrap();
         let u = r.report.unknowns.as_ref().unwrap();
         // Cropping: the ball covers 0.8 of the box, the margin keeps 2 cells: 12³ cells
         // solved against (8 + 4)³ uncropped — equal here; at the density resolution more.

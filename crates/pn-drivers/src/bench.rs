@@ -7,89 +7,50 @@
 //!   (CDA) and Grosjean's transport approximation (FLD), as the largest relative deviation of
 //!   the normalised fluence 4πφ/σ_t² at the cells nearest τ = 1, 2, 4 along +x.
 
+use crate::bench_rows::{
+    fld_point_source, peak_memory, profile_error, reset_peak_memory, row_from, Row, CSV_HEADER,
+};
 use anyhow::Context;
-use clap::Args;
 use pn_kernels::{cda_kernel, pn_kernel, Dim, Staggering};
-use pn_runtime::fld::{solve_fld, FldGrid, FldParams, FldProblem, Limiter};
+use pn_runtime::fld::{solve_fld, FldParams, Limiter};
 use pn_runtime::pipeline::{solve_problem, Solution};
 use pn_runtime::reference::{cda_point_source, grosjean, pn_point_source};
 use pn_runtime::scenes::{builtin, BuiltinOptions, PointSourceParams};
-use pn_runtime::solver::{SolverKind, SolverOptions};
+use pn_runtime::solver::{SolverKind, SolverOptions, SolverTuning};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-/// Arguments of `pn bench`.
-#[derive(Args, Debug)]
-pub struct BenchArgs {
+/// The options of `pn bench`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BenchRequest {
     /// A subset that runs in about a minute (checkerboard P_1/P_3, point source at 40³).
-    #[arg(long)]
     pub quick: bool,
-    /// Output directory for bench.csv and bench.md.
-    #[arg(long, default_value = "out/bench")]
+    /// Output directory for `bench.csv` and `bench.md`.
     pub out: PathBuf,
     /// Folder with the reference data (`checkerboard/starmap_p{1,5}_n71.csv`).
-    #[arg(long, default_value = "tests/data")]
     pub reference: PathBuf,
-    /// Point-source resolution (default 80, the paper's; 40 with --quick).
-    #[arg(long)]
+    /// Point-source resolution (default 80, the paper's; 40 with `quick`).
     pub pointsource_res: Option<usize>,
     /// Skip the baseline CGNR runs on problems with more unknowns than this.
-    #[arg(long, default_value_t = 3_000_000)]
     pub cgnr_max_unknowns: usize,
+    /// Expert solver settings (the `pn` binary reads them from the environment).
+    pub tuning: SolverTuning,
 }
 
-/// One row of bench.csv.
-pub(super) struct Row {
-    problem: String,
-    method: String,
-    solver: String,
-    order: usize,
-    resolution: String,
-    unknowns: usize,
-    iterations: usize,
-    seconds_assemble: f64,
-    seconds_solve: f64,
-    peak_memory_bytes: u64,
-    error: Option<f64>,
-    reference: &'static str,
-    converged: bool,
-    /// Products with `A` or their equivalent ([`pn_runtime::solver::SolveStats::operator_applications`]).
-    operator_applications: usize,
-}
-
-pub(super) const CSV_HEADER: &str = "problem,method,solver,order,resolution,unknowns,iterations,seconds_assemble,seconds_solve,peak_memory_bytes,error,reference,converged,operator_applications";
-
-impl Row {
-    pub(super) fn csv(&self) -> String {
-        format!(
-            "{},{},{},{},{},{},{},{:.6},{:.6},{},{},{},{},{}",
-            self.problem,
-            self.method,
-            self.solver,
-            self.order,
-            self.resolution,
-            self.unknowns,
-            self.iterations,
-            self.seconds_assemble,
-            self.seconds_solve,
-            self.peak_memory_bytes,
-            self.error.map_or("".into(), |e| format!("{e:.3e}")),
-            self.reference,
-            self.converged,
-            self.operator_applications
-        )
+impl Default for BenchRequest {
+    /// The full suite into `out/bench`, references from `tests/data`, CGNR up to 3 000 000
+    /// unknowns.
+    fn default() -> Self {
+        Self {
+            quick: false,
+            out: PathBuf::from("out/bench"),
+            reference: PathBuf::from("tests/data"),
+            pointsource_res: None,
+            cgnr_max_unknowns: 3_000_000,
+            tuning: SolverTuning::default(),
+        }
     }
-}
-
-/// Resets the kernel's peak-RSS counter so that each problem's peak is its own
-/// (`/proc/self/clear_refs`, Linux ≥ 4.0); returns false where that is not possible.
-pub(super) fn reset_peak_memory() -> bool {
-    std::fs::write("/proc/self/clear_refs", "5").is_ok()
-}
-
-fn peak_memory() -> u64 {
-    pn_runtime::memory::peak_memory_bytes().unwrap_or(0)
 }
 
 /// Reads a StaRMAP reference CSV (rows = x index, columns = y index).
@@ -122,28 +83,8 @@ fn max_rel_diff(a: &[f64], b: &[f64]) -> Option<f64> {
     Some(diff / scale)
 }
 
-/// Largest relative deviation of `values(k)` (normalised fluence at k cells along +x from
-/// the source) from `exact(τ_k)` at the cells nearest τ = 1, 2, 4.
-pub(super) fn profile_error(
-    tau_per_cell: f64,
-    max_k: usize,
-    values: impl Fn(usize) -> f64,
-    exact: impl Fn(f64) -> f64,
-) -> Option<f64> {
-    let mut worst: Option<f64> = None;
-    for tau in [1.0, 2.0, 4.0] {
-        let k = (tau / tau_per_cell).round() as usize;
-        if k == 0 || k > max_k {
-            continue;
-        }
-        let t = k as f64 * tau_per_cell;
-        let e = (values(k) / exact(t) - 1.0).abs();
-        worst = Some(worst.map_or(e, |w: f64| w.max(e)));
-    }
-    worst
-}
-
 fn run_pipeline(
+    tuning: &SolverTuning,
     scene_name: &str,
     opts: &BuiltinOptions,
     method: &str,
@@ -161,6 +102,7 @@ fn run_pipeline(
     let sopts = SolverOptions {
         tol,
         progress: false,
+        tuning: tuning.clone(),
         ..Default::default()
     };
     let sol = solve_problem(&scene.problem, choice.kernel.as_ref(), solver, &sopts)?;
@@ -173,38 +115,11 @@ fn run_pipeline(
     Ok((sol, res))
 }
 
-pub(super) fn row_from(
-    problem: &str,
-    method: &str,
-    order: usize,
-    res: String,
-    sol: &Solution,
-    error: Option<f64>,
-    reference: &'static str,
-) -> Row {
-    Row {
-        problem: problem.into(),
-        method: method.into(),
-        solver: sol.stats.solver.clone(),
-        order,
-        resolution: res,
-        unknowns: sol.unknowns,
-        iterations: sol.stats.iterations,
-        seconds_assemble: sol.seconds_assembly,
-        seconds_solve: sol.seconds_solve,
-        peak_memory_bytes: peak_memory(),
-        error,
-        reference,
-        converged: sol.stats.converged(),
-        operator_applications: sol.stats.operator_applications,
-    }
-}
-
 /// The least-squares solvers and the matrix-free baseline, run next to cgnr and parity-cg
 /// (and skipped with cgnr on problems above `--cgnr-max-unknowns`).
 const LS_SOLVERS: [SolverKind; 3] = [SolverKind::Lsqr, SolverKind::Lsmr, SolverKind::CgnrMf];
 
-fn checkerboard_rows(args: &BenchArgs, rows: &mut Vec<Row>) -> anyhow::Result<()> {
+fn checkerboard_rows(args: &BenchRequest, rows: &mut Vec<Row>) -> anyhow::Result<()> {
     let orders: &[usize] = if args.quick { &[1, 3] } else { &[1, 3, 5] };
     let opts = BuiltinOptions::default();
     for &order in orders {
@@ -226,7 +141,15 @@ fn checkerboard_rows(args: &BenchArgs, rows: &mut Vec<Row>) -> anyhow::Result<()
         .chain(LS_SOLVERS)
         {
             reset_peak_memory();
-            let (sol, res) = run_pipeline("checkerboard", &opts, "pn", order, solver, 1e-10)?;
+            let (sol, res) = run_pipeline(
+                &args.tuning,
+                "checkerboard",
+                &opts,
+                "pn",
+                order,
+                solver,
+                1e-10,
+            )?;
             let err = reference.as_ref().and_then(|r| max_rel_diff(&sol.l00(), r));
             let row = row_from(
                 "checkerboard",
@@ -244,7 +167,7 @@ fn checkerboard_rows(args: &BenchArgs, rows: &mut Vec<Row>) -> anyhow::Result<()
     Ok(())
 }
 
-fn pointsource_rows(args: &BenchArgs, rows: &mut Vec<Row>) -> anyhow::Result<()> {
+fn pointsource_rows(args: &BenchRequest, rows: &mut Vec<Row>) -> anyhow::Result<()> {
     let n = args
         .pointsource_res
         .unwrap_or(if args.quick { 40 } else { 80 });
@@ -281,7 +204,15 @@ fn pointsource_rows(args: &BenchArgs, rows: &mut Vec<Row>) -> anyhow::Result<()>
                 continue;
             }
             reset_peak_memory();
-            let (sol, res) = run_pipeline("pointsource", &opts, "pn", order, solver, 1e-6)?;
+            let (sol, res) = run_pipeline(
+                &args.tuning,
+                "pointsource",
+                &opts,
+                "pn",
+                order,
+                solver,
+                1e-6,
+            )?;
             let l00 = sol.l00();
             let err = profile_error(
                 tau_per_cell,
@@ -301,7 +232,7 @@ fn pointsource_rows(args: &BenchArgs, rows: &mut Vec<Row>) -> anyhow::Result<()>
             continue;
         }
         reset_peak_memory();
-        let (sol, res) = run_pipeline("pointsource", &opts, "cda", 0, solver, 1e-6)?;
+        let (sol, res) = run_pipeline(&args.tuning, "pointsource", &opts, "cda", 0, solver, 1e-6)?;
         let l00 = sol.l00();
         let err = profile_error(
             tau_per_cell,
@@ -347,23 +278,6 @@ fn pointsource_rows(args: &BenchArgs, rows: &mut Vec<Row>) -> anyhow::Result<()>
     eprintln!("bench: {}", row.csv());
     rows.push(row);
     Ok(())
-}
-
-/// The point source of `params` on `n³` cells for FLD: a unit-power source in cell
-/// (n/2, n/2, n/2), like the `pointsource` scene.
-pub(super) fn fld_point_source(n: usize, params: &PointSourceParams) -> anyhow::Result<FldProblem> {
-    let grid = FldGrid::cube(n, 2.0 * params.half_width)?;
-    let h = 2.0 * params.half_width / n as f64;
-    let cells = grid.len();
-    let c = n / 2;
-    let mut source = vec![0.0; cells];
-    source[grid.index(c, c, c)] = 1.0 / (h * h * h);
-    Ok(FldProblem {
-        grid,
-        sigma_t: vec![params.sigma_t; cells],
-        sigma_a: vec![params.sigma_t * (1.0 - params.albedo); cells],
-        source,
-    })
 }
 
 /// Markdown table plus the side-by-side speed-ups of parity-cg over cgnr.
@@ -594,12 +508,12 @@ fn solver_comparison(rows: &[Row]) -> String {
     md
 }
 
-/// Runs `pn bench`.
-pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
+/// Runs `pn bench`: writes `bench.csv` and `bench.md` and prints the Markdown to `stdout`.
+pub fn run(args: &BenchRequest, stdout: &mut dyn std::io::Write) -> anyhow::Result<()> {
     let mut rows = Vec::new();
     checkerboard_rows(args, &mut rows)?;
     pointsource_rows(args, &mut rows)?;
-    let model_md = super::bench_model::model_rows(args.quick, &mut rows)?;
+    let model_md = crate::bench_model::model_rows(args.quick, &args.tuning, &mut rows)?;
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
     let mut csv = String::from(CSV_HEADER);
@@ -615,7 +529,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     md.push_str(&work_comparison(&rows));
     md.push_str(&model_md);
     std::fs::write(args.out.join("bench.md"), &md)?;
-    println!("{md}");
+    writeln!(stdout, "{md}")?;
     eprintln!("wrote {}/bench.csv and bench.md", args.out.display());
     Ok(())
 }

@@ -10,19 +10,25 @@
 //!   `σ_t − λ_l p_l σ_s` on the diagonal, so a vanishing phase moment removes no entry; the
 //!   numbers show that the count does not depend on the phase function.
 
-use super::bench::{reset_peak_memory, row_from, Row};
+use crate::bench_rows::{reset_peak_memory, row_from, Row};
 use pn_kernels::{pn_kernel, Dim, Staggering};
 use pn_runtime::pipeline::{solve_problem, Solution};
 use pn_runtime::problem::{Phase, Problem};
 use pn_runtime::scenes::{builtin, BuiltinOptions};
-use pn_runtime::solver::{SolverKind, SolverOptions};
+use pn_runtime::solver::{SolverKind, SolverOptions, SolverTuning};
 use std::fmt::Write as _;
 
-fn solve(problem: &Problem, order: usize, tol: f64) -> anyhow::Result<Solution> {
+fn solve(
+    problem: &Problem,
+    order: usize,
+    tol: f64,
+    tuning: &SolverTuning,
+) -> anyhow::Result<Solution> {
     let k = pn_kernel(order, problem.grid.dim, Staggering::Staggered)?;
     let opts = SolverOptions {
         tol,
         progress: false,
+        tuning: tuning.clone(),
         ..Default::default()
     };
     solve_problem(problem, k.kernel.as_ref(), SolverKind::ParityCg, &opts)
@@ -49,7 +55,11 @@ fn max_rel(a: &[f64], b: &[f64]) -> f64 {
 /// Runs the measurements, appends their rows to `rows` (problem names
 /// `checkerboard-slab3d`, `pointsource-isotropic`, `pointsource-hg0`, `pointsource-hg0.5`)
 /// and returns the Markdown section.
-pub(super) fn model_rows(quick: bool, rows: &mut Vec<Row>) -> anyhow::Result<String> {
+pub(crate) fn model_rows(
+    quick: bool,
+    tuning: &SolverTuning,
+    rows: &mut Vec<Row>,
+) -> anyhow::Result<String> {
     let mut md = String::from("\n## Model only what the scene requires\n\n");
     let _ = writeln!(
         md,
@@ -82,9 +92,9 @@ pub(super) fn model_rows(quick: bool, rows: &mut Vec<Row>) -> anyhow::Result<Str
         )?
         .problem;
         reset_peak_memory();
-        let s2 = solve(&two, order, 1e-10)?;
+        let s2 = solve(&two, order, 1e-10, tuning)?;
         reset_peak_memory();
-        let s3 = solve(&slab, order, 1e-10)?;
+        let s3 = solve(&slab, order, 1e-10, tuning)?;
         let row = row_from(
             "checkerboard-slab3d",
             "pn",
@@ -141,7 +151,7 @@ pub(super) fn model_rows(quick: bool, rows: &mut Vec<Row>) -> anyhow::Result<Str
             .problem;
             p.phase = phase;
             reset_peak_memory();
-            let s = solve(&p, order, 1e-6)?;
+            let s = solve(&p, order, 1e-6, tuning)?;
             let row = row_from(
                 &format!("pointsource-{label}"),
                 "pn",

@@ -7,24 +7,12 @@
 //! `convergence.csv`, `convergence.json` and `convergence.png` (see
 //! `pn_runtime::convergence`).
 
-use super::error_estimate::solve_at;
-use super::solve::{SolveArgs, SolveFlags};
+use crate::error_estimate::solve_at;
+use crate::scene_setup::{Method, SolveRequest};
 use anyhow::{ensure, Context, Result};
-use clap::Args;
 use pn_runtime::convergence::{analyse, check_nesting, write_convergence_png, Level};
+use std::io::Write;
 use std::path::PathBuf;
-
-/// Arguments of `pn converge` (`--res` takes the list of resolutions, each one value for
-/// all axes; everything else as in `pn solve`).
-#[derive(Args, Debug)]
-pub struct ConvergeArgs {
-    /// A built-in scene (checkerboard, checkerboard3d, pointsource) or a .toml scene file.
-    pub scene: String,
-    /// The options of `pn solve`; here `--res R1,R2,...` lists the resolutions (coarsest
-    /// first, each an integer multiple of the first) and `--out` is the study's directory.
-    #[command(flatten)]
-    pub flags: Box<SolveFlags>,
-}
 
 /// Blocks per axis of the scenes that define blocks.
 fn scene_blocks(scene: &str, axes: usize) -> Option<[usize; 3]> {
@@ -34,9 +22,12 @@ fn scene_blocks(scene: &str, axes: usize) -> Option<[usize; 3]> {
     }
 }
 
-/// Runs `pn converge`.
-pub fn run(args: &ConvergeArgs) -> Result<()> {
-    let a = &*args.flags;
+/// Runs `pn converge`: `req` as for `pn solve`, except that `req.res` lists the
+/// resolutions (coarsest first, each one value for all axes and an integer multiple of the
+/// first) and `req.out` is the study's directory (default `out/converge-<scene>`). Prints
+/// the table to `stdout`.
+pub fn run(req: &SolveRequest, stdout: &mut dyn Write) -> Result<()> {
+    let a = req;
     ensure!(
         !a.error_estimate,
         "--error-estimate applies to pn solve; pn converge reports Richardson estimates per level"
@@ -58,17 +49,13 @@ pub fn run(args: &ConvergeArgs) -> Result<()> {
     let as3 = |r: usize| [r, r, r];
     check_nesting(&res.iter().map(|&r| as3(r)).collect::<Vec<_>>())
         .context("pn converge needs nested resolutions (e.g. 71,142,284)")?;
-    let solve_args = SolveArgs {
-        scene: args.scene.clone(),
-        flags: args.flags.clone(),
-    };
     let mut levels = Vec::new();
     let mut domain = None;
-    let mut name = args.scene.clone();
+    let mut name = req.scene.clone();
     let mut notes = Vec::new();
     let mut boundary = String::new();
     for &r in &res {
-        let lv = solve_at(&solve_args, vec![r])?;
+        let lv = solve_at(req, vec![r])?;
         eprintln!(
             "solved {r}: {} unknowns, {} iterations, {:.2} s",
             lv.sol.unknowns, lv.sol.stats.iterations, lv.seconds
@@ -89,10 +76,10 @@ pub fn run(args: &ConvergeArgs) -> Result<()> {
             fluence: lv.sol.l00(),
         });
     }
-    let domain = domain.expect("at least two levels were solved");
+    let domain = domain.context("internal: no level was solved")?;
     let axes = domain.dim.axes();
     let table = analyse(&levels, &domain, scene_blocks(&name, axes))?;
-    print!("{}", table.to_text());
+    write!(stdout, "{}", table.to_text())?;
     let out = a
         .out
         .clone()
@@ -101,7 +88,7 @@ pub fn run(args: &ConvergeArgs) -> Result<()> {
         .with_context(|| format!("cannot create output directory {}", out.display()))?;
     std::fs::write(out.join("convergence.csv"), table.to_csv())
         .with_context(|| format!("writing {}", out.join("convergence.csv").display()))?;
-    let what = if a.method == "cda" {
+    let what = if a.method == Method::Cda {
         "CDA".to_string()
     } else {
         format!("P_{}", a.order.map_or("default".into(), |o| o.to_string()))
@@ -109,7 +96,7 @@ pub fn run(args: &ConvergeArgs) -> Result<()> {
     let sampling = a.sampling.resolved(axes).name();
     let json = serde_json::json!({
         "scene": name,
-        "method": a.method,
+        "method": a.method.name(),
         "order": a.order,
         "sampling": sampling,
         "boundary": boundary,
@@ -126,6 +113,6 @@ pub fn run(args: &ConvergeArgs) -> Result<()> {
         domain.max[0] - domain.min[0],
         &title,
     )?;
-    println!("-> {}", out.display());
+    writeln!(stdout, "-> {}", out.display())?;
     Ok(())
 }

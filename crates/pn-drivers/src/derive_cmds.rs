@@ -1,52 +1,48 @@
 //! `pn latex`, `pn equations`, `pn supplemental`: the derived P_N equations.
+use std::io::Write;
 use std::path::PathBuf;
 
 use anyhow::{bail, Context};
-use clap::Args;
 use pn_codegen::derive::{self, general, render, MAX_ORDER};
 
-/// Arguments of `pn latex`.
-#[derive(Args, Debug)]
-#[command(group(clap::ArgGroup::new("what").required(true).args(["order", "general"])))]
-pub struct LatexArgs {
-    /// Order N of the expanded system to print (1 ≤ N ≤ 60).
-    #[arg(long, allow_negative_numbers = true)]
+/// What `pn latex` prints.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct LatexRequest {
+    /// Order N of the expanded system (1 ≤ N ≤ 60); give this or `general`.
     pub order: Option<i64>,
-    /// Print the general equations for symbolic (l, m) (cases m < 0, m = 0, m > 0).
-    #[arg(long)]
+    /// The general equations for symbolic (l, m) (cases m < 0, m = 0, m > 0).
     pub general: bool,
-    /// Print a complete LaTeX document instead of the equation blocks only.
-    #[arg(long)]
+    /// A complete LaTeX document instead of the equation blocks only.
     pub standalone: bool,
 }
 
-/// Arguments of `pn equations`.
+/// What `pn equations` prints.
 ///
-/// With `--json` the output is a list of equations `{"l", "m", "terms": [...]}`, one per
-/// moment in the order l(l+1)+m. Each equation reads **Σ terms = 0**: the sum over its terms
-/// of `coefficient · factor · [∂_axis] X_l^m` vanishes, with X = L for the kinds
-/// "derivative", "collision", "scattering" and X = Q for "source" (whose coefficient is −1,
-/// i.e. `lhs = Q_l^m`). A term has `kind`, `axis` (derivatives only), `l`, `m` (the moment it
-/// multiplies), `coefficient` (float), `exact` (text such as `-1/3*sqrt(6)`) and `factor`
-/// (`1`, `sigma_t`, or `sigma_s*lambda_l*p_l`).
-#[derive(Args, Debug)]
-#[command(verbatim_doc_comment)]
-pub struct EquationsArgs {
+/// With `json` the output is a list of equations `{"l", "m", "terms": [...]}`, one per
+/// moment in the order l(l+1)+m; each equation reads **Σ terms = 0** (see `pn equations
+/// --help` for the fields).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct EquationsRequest {
     /// Order N (1 ≤ N ≤ 60).
-    #[arg(long, allow_negative_numbers = true)]
     pub order: i64,
-    /// Print JSON (see the command help for the format: each equation is Σ terms = 0).
-    #[arg(long)]
+    /// JSON instead of one readable line per equation.
     pub json: bool,
 }
 
-/// Arguments of `pn supplemental`.
-#[derive(Args, Debug)]
-pub struct SupplementalArgs {
-    /// Output directory (created if missing); the document is written to
-    /// `<out>/supplemental.tex`.
-    #[arg(long, default_value = "supplemental")]
+/// Where `pn supplemental` writes.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct SupplementalRequest {
+    /// Output directory (created if missing); the document is `<out>/supplemental.tex`.
     pub out: PathBuf,
+}
+
+impl Default for SupplementalRequest {
+    /// `supplemental/`.
+    fn default() -> Self {
+        Self {
+            out: PathBuf::from("supplemental"),
+        }
+    }
 }
 
 /// Validates a user-given order.
@@ -60,8 +56,8 @@ fn order(n: i64) -> anyhow::Result<usize> {
     Ok(n as usize)
 }
 
-/// Runs `pn latex`.
-pub fn latex(args: &LatexArgs) -> anyhow::Result<()> {
+/// Runs `pn latex`, printing to `stdout`.
+pub fn latex(args: &LatexRequest, stdout: &mut dyn Write) -> anyhow::Result<()> {
     let (title, body) = match (args.general, args.order) {
         (true, Some(_)) => bail!("give either --order N or --general, not both"),
         (true, None) => (
@@ -78,36 +74,37 @@ pub fn latex(args: &LatexArgs) -> anyhow::Result<()> {
         (false, None) => bail!("give --order N or --general"),
     };
     if args.standalone {
-        print!("{}", render::standalone(&title, &body));
+        write!(stdout, "{}", render::standalone(&title, &body))?;
     } else {
-        print!("{body}");
+        write!(stdout, "{body}")?;
     }
     Ok(())
 }
 
-/// Runs `pn equations`.
-pub fn equations(args: &EquationsArgs) -> anyhow::Result<()> {
+/// Runs `pn equations`, printing to `stdout`.
+pub fn equations(args: &EquationsRequest, stdout: &mut dyn Write) -> anyhow::Result<()> {
     let sys = derive::real_pn_system(order(args.order)?)?;
     if args.json {
-        println!(
+        writeln!(
+            stdout,
             "{}",
             serde_json::to_string_pretty(&render::system_json(&sys))?
-        );
+        )?;
     } else {
         for eq in &sys.equations {
-            println!("{}", render::equation_text(eq));
+            writeln!(stdout, "{}", render::equation_text(eq))?;
         }
     }
     Ok(())
 }
 
-/// Runs `pn supplemental`.
-pub fn supplemental(args: &SupplementalArgs) -> anyhow::Result<()> {
+/// Runs `pn supplemental`, naming the written file on `stdout`.
+pub fn supplemental(args: &SupplementalRequest, stdout: &mut dyn Write) -> anyhow::Result<()> {
     let doc = pn_codegen::derive::supplemental::document()?;
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
     let path = args.out.join("supplemental.tex");
     std::fs::write(&path, doc).with_context(|| format!("writing {}", path.display()))?;
-    println!("wrote {}", path.display());
+    writeln!(stdout, "wrote {}", path.display())?;
     Ok(())
 }

@@ -9,10 +9,10 @@
 //! design order p = 2 (DESIGN.md §3: second-order staggered differences) is assumed and the
 //! report says so.
 
-use super::solve::{scene_from_args, SolveArgs, SolveFlags};
+use crate::scene_setup::{
+    check_memory_and_set_sigma_t_min, kernel_for, sampled_problem, scene_from_request, SolveRequest,
+};
 use anyhow::{ensure, Context, Result};
-use pn_kernels::{cda_kernel, pn_kernel, KernelChoice, Staggering};
-use pn_runtime::context::apply_sampling;
 use pn_runtime::convergence::{l2_diff, observed_order, rel_l2_diff, restrict, richardson};
 use pn_runtime::field::Sampling;
 use pn_runtime::output::cell_shape;
@@ -20,62 +20,8 @@ use pn_runtime::output::png::{write_png, Slice};
 use pn_runtime::pipeline::{solve_problem, Solution};
 use pn_runtime::problem::{Grid, Problem};
 use pn_runtime::scenes::Scene;
-use pn_runtime::solver::SolverOptions;
 use std::path::Path;
 use std::time::Instant;
-
-/// The problem to assemble: the scene's problem with `--sampling` applied for its grid.
-pub fn sampled_problem(problem: &Problem, sampling: Sampling) -> Problem {
-    apply_sampling(problem, sampling)
-}
-
-/// The stencil and P_N order the flags select (as `pn solve` does).
-pub fn kernel_for(a: &SolveFlags, scene: &Scene) -> Result<(KernelChoice, usize)> {
-    ensure!(
-        a.method == "pn" || a.method == "cda",
-        "--error-estimate and pn converge support --method pn and cda, not {}",
-        a.method
-    );
-    let dim = scene.problem.grid.dim;
-    let layout = if a.collocated {
-        Staggering::Collocated
-    } else {
-        Staggering::Staggered
-    };
-    if a.method == "cda" {
-        ensure!(!a.collocated, "--collocated applies to --method pn only");
-        ensure!(a.order.is_none(), "--order applies to --method pn only");
-        Ok((cda_kernel(dim)?, 0))
-    } else {
-        let order = a.order.unwrap_or(scene.default_order);
-        Ok((pn_kernel(order, dim, layout)?, order))
-    }
-}
-
-/// Refuses a problem whose estimated memory for `choice` exceeds `--max-memory` (issue 9),
-/// then sets the automatic σ_t threshold where part of the domain is vacuum. Returns that
-/// threshold, if one was set.
-pub fn check_memory_and_set_sigma_t_min(
-    a: &SolveFlags,
-    scene: &mut Scene,
-    choice: &KernelChoice,
-) -> Result<Option<f64>> {
-    let estimate = pn_runtime::memory_estimate::estimate_for_solver(
-        &scene.problem.grid,
-        choice.kernel.as_ref(),
-        a.solver,
-    );
-    pn_runtime::memory_estimate::check_limit(
-        &estimate,
-        a.max_memory
-            .unwrap_or_else(pn_runtime::memory_estimate::default_limit_bytes),
-    )?;
-    let auto = scene.problem.auto_sigma_t_min();
-    if let Some(t) = auto {
-        scene.problem.sigma_t_min = Some(t);
-    }
-    Ok(auto)
-}
 
 /// One solved resolution.
 pub struct LevelSolve {
@@ -89,28 +35,21 @@ pub struct LevelSolve {
     pub seconds: f64,
 }
 
-/// Builds the scene of `args` at `res` (cells per axis, one value or one per axis) and
-/// solves it with the flags' method, order, sampling and solver settings. A solve that does
+/// Builds the scene of `req` at `res` (cells per axis, one value or one per axis) and
+/// solves it with the request's method, order, sampling and solver settings. A solve that does
 /// not reach the tolerance is an error: a study of unconverged solutions measures the solver,
 /// not the discretization.
-pub fn solve_at(args: &SolveArgs, res: Vec<usize>) -> Result<LevelSolve> {
-    let a = &*args.flags;
-    let level_args = SolveArgs {
-        scene: args.scene.clone(),
-        flags: Box::new(SolveFlags {
-            res: Some(res),
-            ..(*args.flags).clone()
-        }),
+pub fn solve_at(req: &SolveRequest, res: Vec<usize>) -> Result<LevelSolve> {
+    let a = req;
+    let level = SolveRequest {
+        res: Some(res),
+        ..req.clone()
     };
-    let mut scene = scene_from_args(&level_args)?;
+    let mut scene = scene_from_request(&level)?;
     let (choice, _) = kernel_for(a, &scene)?;
     check_memory_and_set_sigma_t_min(a, &mut scene, &choice)?;
     let problem = sampled_problem(&scene.problem, a.sampling);
-    let opts = SolverOptions {
-        tol: a.tol,
-        max_iter: a.max_iter,
-        ..Default::default()
-    };
+    let opts = a.solver_options();
     let t0 = Instant::now();
     let kernel = choice.kernel.as_ref();
     let sol = pn_runtime::threads::with_threads(a.threads, || {
@@ -136,8 +75,8 @@ pub fn solve_at(args: &SolveArgs, res: Vec<usize>) -> Result<LevelSolve> {
 }
 
 /// Fails early (before the fine solve) when `--error-estimate` cannot work on this grid.
-pub fn check_args(args: &SolveArgs, grid: &Grid) -> Result<()> {
-    if !args.flags.error_estimate {
+pub fn check_request(req: &SolveRequest, grid: &Grid) -> Result<()> {
+    if !req.error_estimate {
         return Ok(());
     }
     let axes = grid.dim.axes();
@@ -177,8 +116,13 @@ struct EstimateReport {
 /// After a fine solve: records the sampling mode in `report.json` when it is not the default
 /// and, with `--error-estimate`, runs the coarse solve(s) and writes `error.npy`,
 /// `error.png` and the `"error_estimate"` entry. Leaves the outputs untouched otherwise.
-pub fn after_solve(args: &SolveArgs, problem: &Problem, sol: &Solution, out: &Path) -> Result<()> {
-    let a = &*args.flags;
+pub fn after_solve(
+    req: &SolveRequest,
+    problem: &Problem,
+    sol: &Solution,
+    out: &Path,
+) -> Result<()> {
+    let a = req;
     if !a.error_estimate && a.sampling == Sampling::Exact {
         return Ok(());
     }
@@ -189,13 +133,13 @@ pub fn after_solve(args: &SolveArgs, problem: &Problem, sol: &Solution, out: &Pa
         serde_json::Value::String(a.sampling.resolved(axes).name()),
     );
     if a.error_estimate {
-        if args.scene == "pointsource" {
+        if req.scene == "pointsource" {
             eprintln!(
                 "note: the pointsource scene centres its source on cell n/2, i.e. at w + w/n, \
                  which moves by h/2 between n and n/2 cells; the estimate includes that shift"
             );
         }
-        let est = estimate(args, problem, sol, out)?;
+        let est = estimate(req, problem, sol, out)?;
         eprintln!(
             "error estimate (Richardson, p = {:.2}, {}): relative L2 {:.3e}, max {:.3e} \
              ({:.3e} of max L_0^0); extra cost {:.3} s -> {}",
@@ -222,7 +166,7 @@ pub fn after_solve(args: &SolveArgs, problem: &Problem, sol: &Solution, out: &Pa
 }
 
 fn estimate(
-    args: &SolveArgs,
+    req: &SolveRequest,
     problem: &Problem,
     sol: &Solution,
     out: &Path,
@@ -230,7 +174,7 @@ fn estimate(
     let g = &problem.grid;
     let axes = g.dim.axes();
     let half: Vec<usize> = g.res[..axes].iter().map(|n| n / 2).collect();
-    let coarse = solve_at(args, half)?;
+    let coarse = solve_at(req, half)?;
     let mut extra_seconds = coarse.seconds;
     let fine_seconds = sol.seconds_assembly + sol.seconds_solve;
     let cg = coarse.problem.grid.clone();
@@ -241,7 +185,7 @@ fn estimate(
     let mut observed = None;
     if g.res[..axes].iter().all(|n| n.is_multiple_of(4)) {
         let quarter: Vec<usize> = g.res[..axes].iter().map(|n| n / 4).collect();
-        let q = solve_at(args, quarter)?;
+        let q = solve_at(req, quarter)?;
         extra_seconds += q.seconds;
         let qres = q.problem.grid.res;
         let f_q = restrict(&sol.l00(), g.res, qres)?;
@@ -275,7 +219,7 @@ fn estimate(
         out,
         &cg,
         &est.per_cell,
-        &format!("{} |error| estimate, p = {p:.2}", args.scene),
+        &format!("{} |error| estimate, p = {p:.2}", req.scene),
     )?;
     Ok(EstimateReport {
         quantity: "L_0^0 (fluence.npy) of the fine solution, on the half-resolution grid",

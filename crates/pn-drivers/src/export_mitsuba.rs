@@ -2,39 +2,50 @@
 //! `render_mitsuba.py`, see `pn_runtime::render::mitsuba`) and, with `--run`, renders it.
 
 use anyhow::Context;
-use clap::Args;
 use pn_runtime::render::mitsuba::{self, ExportOptions, RunOptions};
 use pn_runtime::render::RenderScene;
+use std::io::Write;
 use std::path::PathBuf;
 
-/// Arguments of `pn export-mitsuba`.
-#[derive(Args, Debug)]
-pub struct ExportMitsubaArgs {
+/// What `pn export-mitsuba` writes (and runs).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct ExportMitsubaRequest {
     /// Scene: a TOML file or a built-in name (cloud, nebula, sphere, lowalbedo).
     pub scene: String,
     /// Output folder.
-    #[arg(long, default_value = "out/mitsuba")]
     pub out: PathBuf,
-    /// Samples per pixel (default: the scene's [render] spp).
-    #[arg(long)]
+    /// Samples per pixel (default: the scene's `[render] spp`).
     pub spp: Option<usize>,
-    /// Sampler seed (default: the scene's [render] seed).
-    #[arg(long)]
+    /// Sampler seed (default: the scene's `[render] seed`).
     pub seed: Option<u64>,
-    /// volpath max_depth: -1 = all orders of scattering, 2 = single scattering only.
-    #[arg(long, default_value_t = -1, allow_negative_numbers = true)]
+    /// volpath `max_depth`: −1 = all orders of scattering, 2 = single scattering only.
     pub max_depth: i64,
-    /// Also run the script (writes OUT/mitsuba.exr).
-    #[arg(long)]
+    /// Also run the script (writes `OUT/mitsuba.exr`).
     pub run: bool,
-    /// Python interpreter with Mitsuba (default: $PN_MITSUBA_PYTHON, then
-    /// .venv-mitsuba/bin/python from scripts/mitsuba-venv.sh).
-    #[arg(long)]
+    /// The Python interpreter with Mitsuba chosen by the caller (`pn`: `--python`, else
+    /// `$PN_MITSUBA_PYTHON`); `None`: `.venv-mitsuba/bin/python` from
+    /// `scripts/mitsuba-venv.sh` ([`mitsuba::find_python`]).
     pub python: Option<PathBuf>,
 }
 
-/// Runs `pn export-mitsuba`.
-pub fn run(args: &ExportMitsubaArgs) -> anyhow::Result<()> {
+impl Default for ExportMitsubaRequest {
+    /// The `nebula` scene into `out/mitsuba`, the scene's samples and seed, all orders of
+    /// scattering, not run.
+    fn default() -> Self {
+        Self {
+            scene: "nebula".into(),
+            out: PathBuf::from("out/mitsuba"),
+            spp: None,
+            seed: None,
+            max_depth: -1,
+            run: false,
+            python: None,
+        }
+    }
+}
+
+/// Runs `pn export-mitsuba`, naming the written files (and the render) on `stdout`.
+pub fn run(args: &ExportMitsubaRequest, stdout: &mut dyn Write) -> anyhow::Result<()> {
     let scene = RenderScene::load(&args.scene)?;
     let mut opts = ExportOptions::from_scene(&scene);
     opts.spp = args.spp.unwrap_or(opts.spp);
@@ -42,24 +53,31 @@ pub fn run(args: &ExportMitsubaArgs) -> anyhow::Result<()> {
     opts.max_depth = args.max_depth;
     let e = mitsuba::export(&scene, &args.out, &opts)
         .with_context(|| format!("exporting {} for Mitsuba", scene.name))?;
-    println!("wrote {} and {}", e.density.display(), e.script.display());
+    writeln!(
+        stdout,
+        "wrote {} and {}",
+        e.density.display(),
+        e.script.display()
+    )?;
     if args.run {
         let python = mitsuba::find_python(args.python.as_deref())?;
         let r = mitsuba::run_mitsuba_with(&e.dir, &python, &RunOptions::default())?;
-        println!(
+        writeln!(
+            stdout,
             "mitsuba: {} ({} spp, max_depth {}) in {:.2} s",
             r.image.display(),
             opts.spp,
             opts.max_depth,
             r.seconds
-        );
+        )?;
     } else {
-        println!(
+        writeln!(
+            stdout,
             "render it with: {} {}",
             mitsuba::find_python(args.python.as_deref())
                 .map_or_else(|_| "python3".to_string(), |p| p.display().to_string()),
             e.script.display()
-        );
+        )?;
     }
     Ok(())
 }

@@ -10,48 +10,59 @@
 //! `table.md` (method, solve seconds, render seconds, unknowns, RMSE and relative MSE
 //! against the reference).
 
-use super::render::{render_scene, write_run, RenderRun};
+use crate::render::{render_scene, write_run, RenderOptions, RenderRun};
 use anyhow::{ensure, Context, Result};
-use clap::Args;
 use plotters::prelude::*;
 use pn_runtime::render::compare::{metrics, write_difference_png, GrayImage, Metrics};
 use pn_runtime::render::image_io::{exposure, read_exr_gray, srgb8};
 use pn_runtime::render::scene::RenderMethod;
 use pn_runtime::render::RenderScene;
+use pn_runtime::solver::SolverTuning;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-/// Arguments of `pn figure`.
-#[derive(Args, Debug, Clone)]
-pub struct FigureArgs {
-    /// The scene: a built-in name (default nebula) or a .toml file.
-    #[arg(default_value = "nebula")]
+/// The options of `pn figure`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FigureRequest {
+    /// The scene: a built-in name or a `.toml` file.
     pub scene: String,
-    /// Output directory (default out/figure-<scene>).
-    #[arg(long)]
+    /// Output directory (default `out/figure-<scene>`).
     pub out: Option<PathBuf>,
     /// Samples per pixel (default: the scene's).
-    #[arg(long)]
     pub spp: Option<usize>,
     /// Solve-grid cells per axis across the medium box (default: the scene's).
-    #[arg(long)]
     pub solve_res: Option<usize>,
-    /// Mitsuba reference EXR (default: <out>/mitsuba.exr when it exists).
-    #[arg(long)]
+    /// Mitsuba reference EXR (default: `<out>/mitsuba.exr` when it exists).
     pub reference: Option<PathBuf>,
-    /// Export the scene and render the reference with Mitsuba first (needs a Python with
-    /// the `mitsuba` package: --python or PN_PYTHON or the venv of README_mitsuba.md).
-    #[arg(long)]
+    /// Export the scene and render the reference with Mitsuba first.
     pub mitsuba: bool,
-    /// Samples per pixel of the Mitsuba reference (with --mitsuba; default 1024).
-    #[arg(long, default_value_t = 1024)]
+    /// Samples per pixel of the Mitsuba reference (with `mitsuba`).
     pub mitsuba_spp: usize,
-    /// Python interpreter for --mitsuba.
-    #[arg(long)]
+    /// The Python interpreter with Mitsuba chosen by the caller (`pn`: `--python`, else
+    /// `$PN_MITSUBA_PYTHON`); `None`: the venv of `scripts/mitsuba-venv.sh`.
     pub python: Option<PathBuf>,
     /// Worker threads (default: all cores).
-    #[arg(long)]
     pub threads: Option<usize>,
+    /// Expert solver settings (the `pn` binary reads them from the environment).
+    pub tuning: SolverTuning,
+}
+
+impl Default for FigureRequest {
+    /// The `nebula` figure with the scene's settings, no Mitsuba run, 1024 reference spp.
+    fn default() -> Self {
+        Self {
+            scene: "nebula".into(),
+            out: None,
+            spp: None,
+            solve_res: None,
+            reference: None,
+            mitsuba: false,
+            mitsuba_spp: 1024,
+            python: None,
+            threads: None,
+            tuning: SolverTuning::default(),
+        }
+    }
 }
 
 /// One column of the figure.
@@ -80,8 +91,9 @@ fn gray(run: &RenderRun) -> GrayImage {
     }
 }
 
-/// Runs `pn figure`.
-pub fn run(a: &FigureArgs) -> Result<()> {
+/// Runs `pn figure`: renders every method, writes the images, `figure.png` and the tables,
+/// and prints the table to `stdout`.
+pub fn run(a: &FigureRequest, stdout: &mut dyn std::io::Write) -> Result<()> {
     let mut scene = RenderScene::load(&a.scene)?;
     if let Some(s) = a.spp {
         scene.render.spp = s;
@@ -129,7 +141,13 @@ pub fn run(a: &FigureArgs) -> Result<()> {
         s.solve.method = method;
         s.solve.order = order;
         eprintln!("rendering {label} ...");
-        let run = render_scene(&s, a.threads, None, true)?;
+        let options = RenderOptions {
+            threads: a.threads,
+            max_memory: None,
+            progress: true,
+            tuning: a.tuning.clone(),
+        };
+        let run = render_scene(&s, &options)?;
         let dir = out.join(key);
         write_run(&dir, &run)?;
         let m = match &reference {
@@ -154,13 +172,13 @@ pub fn run(a: &FigureArgs) -> Result<()> {
     }
     write_tables(&out, &entries, ref_path.as_deref())?;
     write_figure(&out.join("figure.png"), &entries, reference.as_ref())?;
-    print!("{}", std::fs::read_to_string(out.join("table.md"))?);
-    println!("-> {}", out.display());
+    write!(stdout, "{}", std::fs::read_to_string(out.join("table.md"))?)?;
+    writeln!(stdout, "-> {}", out.display())?;
     Ok(())
 }
 
 /// Exports the scene and renders `<out>/mitsuba.exr` with Mitsuba (full transport).
-fn render_reference(scene: &RenderScene, out: &Path, a: &FigureArgs) -> Result<()> {
+fn render_reference(scene: &RenderScene, out: &Path, a: &FigureRequest) -> Result<()> {
     use pn_runtime::render::mitsuba;
     let dir = out.join("mitsuba");
     let opts = mitsuba::ExportOptions {

@@ -27,297 +27,19 @@
 mod plot;
 
 use anyhow::{bail, ensure, Context, Result};
-use pn_runtime::fld::{
-    solve_fld_from, solve_fld_picard, FldGrid, FldParams, FldProblem, FldSolution, Limiter,
-    PicardOptions,
-};
+use pn_kernels::{diffusion_kernel, Dim};
 use pn_runtime::layout::Layout;
 use pn_runtime::output::report::{Report, RunInfo};
 use pn_runtime::output::write_outputs;
 use pn_runtime::pipeline::Solution;
-use pn_runtime::problem::{Problem, Scattering};
 use pn_runtime::solver::{SolveStats, SolveStatus, SolverKind};
 use pn_runtime::unstagger::CellMoments;
-use std::path::{Path, PathBuf};
-use std::time::Instant;
-
-use super::solve::{scene_from_args, SolveArgs, SolveFlags};
-use pn_kernels::{diffusion_kernel, Dim, KernelChoice};
 use pn_stencil::MomentPlacement;
+use std::io::Write;
+use std::path::Path;
 
-/// `√(4π)`: `φ = √(4π) L_0^0` and `q = √(4π) Q_0^0` (DESIGN.md §1).
-pub const SQRT_4PI: f64 = 3.544_907_701_811_032;
-
-/// How the nonlinear FLD system is solved.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Route {
-    /// Nonlinear red–black Gauss–Seidel with SOR ([`pn_runtime::fld::solve_fld`]).
-    GaussSeidel,
-    /// Picard iteration, each step a linear solve through the `diffusion_3d` stencil
-    /// ([`pn_runtime::fld::solve_fld_picard`]).
-    Picard,
-}
-
-impl Route {
-    /// `gs` or `picard`.
-    pub fn name(self) -> &'static str {
-        match self {
-            Route::GaussSeidel => "gs",
-            Route::Picard => "picard",
-        }
-    }
-}
-
-impl std::str::FromStr for Route {
-    type Err = anyhow::Error;
-    fn from_str(s: &str) -> Result<Self> {
-        match s {
-            "gs" => Ok(Route::GaussSeidel),
-            "picard" => Ok(Route::Picard),
-            _ => bail!("unknown FLD solver {s:?} (expected gs or picard)"),
-        }
-    }
-}
-
-/// Refuses the FLD-only flags with `--method pn|cda`.
-pub fn reject_fld_flags(a: &SolveFlags) -> Result<()> {
-    for (set, flag) in [
-        (a.limiter.is_some(), "--limiter"),
-        (a.omega.is_some(), "--omega"),
-        (a.fld_solver.is_some(), "--fld-solver"),
-        (a.sigma_eps.is_some(), "--sigma-eps"),
-    ] {
-        ensure!(!set, "{flag} applies to --method fld only");
-    }
-    Ok(())
-}
-
-/// The FLD settings of a `pn solve` command line.
-#[derive(Clone, Debug, PartialEq)]
-pub struct FldSettings {
-    /// Limiter, ω, tolerance, σ_ε, ε, iteration limit.
-    pub params: FldParams,
-    /// The solver route.
-    pub route: Route,
-    /// The linear solver of the Picard steps.
-    pub linear_solver: SolverKind,
-}
-
-/// Reads and checks the FLD flags for `grid` (σ_ε defaults to `1e-3/L`). Flags that belong
-/// to other methods are refused with a message naming the FLD counterpart.
-pub fn settings_from_flags(a: &SolveFlags, grid: &FldGrid) -> Result<FldSettings> {
-    ensure!(!a.collocated, "--collocated applies to --method pn only");
-    ensure!(a.order.is_none(), "--order applies to --method pn only");
-    ensure!(
-        a.bc.is_none(),
-        "--bc does not apply to --method fld: FLD holds the outermost cell layer at the \
-         Dirichlet value φ = ε·j̄·h"
-    );
-    ensure!(
-        a.sigma_t_min.is_none(),
-        "--sigma-t-min does not apply to --method fld: use --sigma-eps (FLD uses \
-         max(σ_t, σ_ε) in the diffusion coefficient)"
-    );
-    let limiter: Limiter = match &a.limiter {
-        Some(name) => name.parse().context("--limiter")?,
-        None => Limiter::LevermorePomraning,
-    };
-    let route: Route = match &a.fld_solver {
-        Some(name) => name.parse()?,
-        None => Route::GaussSeidel,
-    };
-    ensure!(
-        !(route == Route::Picard && a.omega.is_some()),
-        "--omega (the SOR factor) applies to --fld-solver gs only"
-    );
-    if let Some(w) = a.omega {
-        ensure!(
-            w.is_finite() && w > 0.0 && w < 2.0,
-            "--omega must lie in the open interval (0, 2), got {w}"
-        );
-    }
-    if let Some(s) = a.sigma_eps {
-        ensure!(
-            s.is_finite() && s >= 0.0,
-            "--sigma-eps must be finite and non-negative, got {s}"
-        );
-    }
-    ensure!(
-        a.tol.is_finite() && a.tol > 0.0,
-        "--tol must be positive, got {}",
-        a.tol
-    );
-    ensure!(a.max_iter > 0, "--max-iter must be at least 1");
-    let d = FldParams::for_grid(limiter, grid);
-    let params = FldParams {
-        omega: a.omega.unwrap_or(d.omega),
-        sigma_eps: a.sigma_eps.unwrap_or(d.sigma_eps),
-        tol: a.tol,
-        max_iter: a.max_iter,
-        ..d
-    };
-    Ok(FldSettings {
-        params,
-        route,
-        linear_solver: a.solver,
-    })
-}
-
-/// The cubic-cell grid of a 3D scene grid (FLD uses one spacing h).
-pub fn fld_grid(problem: &Problem) -> Result<FldGrid> {
-    let g = &problem.grid;
-    ensure!(
-        g.dim == Dim::Three,
-        "--method fld is 3D only (the FLD solvers work on cubic cells in 3D); use --dim 3"
-    );
-    let h = g.h(0);
-    for d in 1..3 {
-        ensure!(
-            (g.h(d) - h).abs() <= 1e-9 * h,
-            "--method fld needs cubic cells, got h = ({}, {}, {}); choose --res proportional \
-             to the domain extents",
-            g.h(0),
-            g.h(1),
-            g.h(2)
-        );
-    }
-    FldGrid::new(g.res, h).context("--method fld")
-}
-
-/// The FLD problem of a scene: fields at the cell centres, transport extinction, fluence
-/// source `q = √(4π) Q_0^0` (see the module documentation).
-pub fn fld_problem(problem: &Problem) -> Result<FldProblem> {
-    problem.validate()?;
-    let grid = fld_grid(problem)?;
-    let g = &problem.grid;
-    let len = grid.len();
-    let (mut sigma_t, mut sigma_a, mut source) = (vec![0.0; len], vec![0.0; len], vec![0.0; len]);
-    let g1 = problem.phase.moment(1);
-    for (c, ((st, sa), q)) in sigma_t
-        .iter_mut()
-        .zip(sigma_a.iter_mut())
-        .zip(source.iter_mut())
-        .enumerate()
-    {
-        let cell = grid.cell(c);
-        let p = [0, 1, 2].map(|d| g.coord(d, 2 * cell[d] as i64 + 1));
-        let t = problem.sigma_t.eval(p);
-        let s = match &problem.scattering {
-            Scattering::SigmaS(f) => f.eval(p),
-            Scattering::Albedo(f) => f.eval(p) * t,
-        };
-        let at = || format!("at ({:.6}, {:.6}, {:.6})", p[0], p[1], p[2]);
-        ensure!(
-            t.is_finite() && t >= 0.0,
-            "σ_t = {t} {}: must be finite and non-negative",
-            at()
-        );
-        ensure!(
-            s.is_finite() && s >= 0.0,
-            "σ_s = {s} {}: must be finite and non-negative",
-            at()
-        );
-        ensure!(
-            s <= t * (1.0 + 1e-12),
-            "σ_s = {s} exceeds σ_t = {t} {} (albedo > 1)",
-            at()
-        );
-        let s = s.min(t);
-        *st = t - g1 * s;
-        *sa = t - s;
-        let q00 = problem.source(0, 0, p).map_err(anyhow::Error::from)?;
-        ensure!(q00 >= 0.0, "source Q_0^0 = {q00} {} is negative", at());
-        *q = SQRT_4PI * q00;
-    }
-    Ok(FldProblem {
-        grid,
-        sigma_t,
-        sigma_a,
-        source,
-    })
-}
-
-/// What an FLD solve by either route produced.
-#[derive(Clone, Debug, PartialEq)]
-pub struct FldRun {
-    /// φ, iterations (Gauss–Seidel iterations or Picard steps), residual history.
-    pub solution: FldSolution,
-    /// The route taken.
-    pub route: Route,
-    /// Linear iterations per Picard step (empty for Gauss–Seidel).
-    pub linear_iterations: Vec<usize>,
-    /// Linear solver of the Picard steps (None for Gauss–Seidel).
-    pub linear_solver: Option<String>,
-    /// Stored non-zeros of the operator (7-point stencil at the interior cells).
-    pub nonzeros: usize,
-    /// Seconds spent solving.
-    pub seconds: f64,
-}
-
-/// Solves `problem` by `settings.route`, from `initial` if given. For the Picard route
-/// `kernel` is the diffusion stencil.
-pub fn solve_fld_route(
-    problem: &FldProblem,
-    settings: &FldSettings,
-    kernel: &KernelChoice,
-    initial: Option<&[f64]>,
-) -> Result<FldRun> {
-    let t0 = Instant::now();
-    let run = match settings.route {
-        Route::GaussSeidel => {
-            let solution = solve_fld_from(problem, &settings.params, initial)?;
-            FldRun {
-                solution,
-                route: Route::GaussSeidel,
-                linear_iterations: Vec::new(),
-                linear_solver: None,
-                nonzeros: interior_nonzeros(problem.grid.n),
-                seconds: 0.0,
-            }
-        }
-        Route::Picard => {
-            let opts = PicardOptions {
-                solver: settings.linear_solver,
-                max_steps: settings.params.max_iter,
-                ..Default::default()
-            };
-            let p = solve_fld_picard(
-                problem,
-                &settings.params,
-                kernel.kernel.as_ref(),
-                &opts,
-                initial,
-            )?;
-            FldRun {
-                solution: p.fld,
-                route: Route::Picard,
-                linear_iterations: p.linear_iterations,
-                linear_solver: Some(p.solver),
-                nonzeros: if p.nonzeros > 0 {
-                    p.nonzeros
-                } else {
-                    interior_nonzeros(problem.grid.n)
-                },
-                seconds: 0.0,
-            }
-        }
-    };
-    Ok(FldRun {
-        seconds: t0.elapsed().as_secs_f64(),
-        ..run
-    })
-}
-
-/// Non-zeros of the 7-point operator on the interior cells (couplings to the boundary layer
-/// are known values, not unknowns).
-fn interior_nonzeros(n: [usize; 3]) -> usize {
-    let m = n.map(|v| v - 2);
-    let cells = m[0] * m[1] * m[2];
-    let links: usize = (0..3)
-        .map(|d| (m[d] - 1) * m[(d + 1) % 3] * m[(d + 2) % 3])
-        .sum();
-    cells + 2 * links
-}
+use crate::fld_setup::{fld_problem, settings_from_request, solve_fld_route, FldRun, SQRT_4PI};
+use crate::scene_setup::{scene_from_request, Route, SolveRequest};
 
 /// FLD-specific entries of `report.json` (the key `fld`).
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
@@ -422,10 +144,10 @@ fn as_solution(grid: &pn_runtime::problem::Grid, run: &FldRun, tol: f64) -> Resu
     })
 }
 
-/// Runs `pn solve … --method fld`.
-pub fn run(args: &SolveArgs) -> Result<()> {
-    let a = &*args.flags;
-    let scene = scene_from_args(args)?;
+/// Runs `pn solve … --method fld`: solves, writes the outputs and prints a summary line to
+/// `stdout`.
+pub fn run(a: &SolveRequest, stdout: &mut dyn Write) -> Result<()> {
+    let scene = scene_from_request(a)?;
     for n in &scene.notes {
         eprintln!("note: {n}");
     }
@@ -437,7 +159,7 @@ pub fn run(args: &SolveArgs) -> Result<()> {
     let sampled = pn_runtime::context::apply_sampling(&scene.problem, a.sampling);
     let problem = &sampled;
     let fp = fld_problem(problem)?;
-    let settings = settings_from_flags(a, &fp.grid)?;
+    let settings = settings_from_request(a, &fp.grid)?;
     settings
         .params
         .validate(&fp)
@@ -501,20 +223,18 @@ pub fn run(args: &SolveArgs) -> Result<()> {
                 .into(),
         },
     };
-    let out = a
-        .out
-        .clone()
-        .unwrap_or_else(|| PathBuf::from("out").join(&scene.name));
+    let out = a.out_dir(&scene.name);
     write_outputs(&out, &problem.grid, &sol, &report.base)
         .with_context(|| format!("writing results to {}", out.display()))?;
     write_report(&out, &report)?;
     if scene.name == "pointsource" {
-        plot::write_figure5(&out, a, &fp, &settings, &kernel, &run)
+        plot::write_figure5(&out, &a.pointsource_params(), &fp, &settings, &kernel, &run)
             .context("writing the FLD point-source profile")?;
     }
 
     let g = &problem.grid;
-    println!(
+    writeln!(
+        stdout,
         "{} FLD ({}, {} route) 3D {}×{}×{}: {} interior cells, {} {}, relative residual {:.3e}, \
          solve {:.3} s -> {}",
         scene.name,
@@ -535,7 +255,7 @@ pub fn run(args: &SolveArgs) -> Result<()> {
         s.final_residual(),
         run.seconds,
         out.display()
-    );
+    )?;
     if !s.converged {
         bail!(
             "FLD did not converge: relative residual {:.3e} after {} {}, tolerance {:.1e}; \

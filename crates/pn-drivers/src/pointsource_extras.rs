@@ -24,9 +24,8 @@ use pn_runtime::reference::{
 };
 use pn_runtime::scenes::{PointSourceParams, PointSourceShape};
 use std::f64::consts::PI;
+use std::io::Write;
 use std::path::Path;
-
-use super::solve::SolveFlags;
 
 /// Direction of a sampled ray through the source cell centre.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -35,19 +34,6 @@ pub enum Ray {
     Axis,
     /// The face diagonal (1,1,0)/√2: cells (c+k, c+k, c), r = k √(h_x² + h_y²).
     Diagonal,
-}
-
-/// The `pointsource` parameters `pn solve` used, rebuilt from its flags with the scene's
-/// defaults (the same rule as [`super::solve::scene_from_args`]).
-pub fn params_from_flags(a: &SolveFlags) -> PointSourceParams {
-    let d = PointSourceParams::default();
-    PointSourceParams {
-        sigma_t: a.sigma_t.unwrap_or(d.sigma_t),
-        albedo: a.albedo.unwrap_or(d.albedo),
-        g: a.g.unwrap_or(d.g),
-        half_width: a.half_width.unwrap_or(d.half_width),
-        source: a.source.unwrap_or(d.source),
-    }
 }
 
 /// The source cell of the `pointsource` scene: index n/2 on every axis (cell (40,40,40) for
@@ -186,22 +172,23 @@ pub fn interpolate(rows: &[ProfileRow], tau: f64, column: fn(&ProfileRow) -> f64
 }
 
 /// Writes `profile.csv`, `profile.png` and `profile_diagonal.csv` into `out` and prints the
-/// deviations at τ = 1, 2, 4. Called by `pn solve` for the `pointsource` scene; `order` is the
-/// P_N order (0 for `--method cda`). A 2D run (a line source) gets a note and no profile.
+/// deviations at τ = 1, 2, 4 to `stdout`. Called by `pn solve` for the `pointsource` scene
+/// solved with the parameters `p`; `order` is the P_N order (0 for `--method cda`). A 2D run
+/// (a line source) gets a note and no profile.
 pub fn write_extras(
     out: &Path,
-    flags: &SolveFlags,
+    p: &PointSourceParams,
     grid: &Grid,
     sol: &Solution,
     order: usize,
+    stdout: &mut dyn Write,
 ) -> Result<()> {
     if grid.dim != Dim::Three {
         eprintln!("note: no profile.csv for a 2D pointsource run (a line source, not the 3D Green's function)");
         return Ok(());
     }
-    let p = params_from_flags(flags);
     // No infinite-medium solution without absorption (α = 1): skip the profile, not the run.
-    let modes = match exact_modes(order, &p) {
+    let modes = match exact_modes(order, p) {
         Ok(m) => m,
         Err(e) => {
             eprintln!("note: no profile.csv: {e}");
@@ -209,8 +196,8 @@ pub fn write_extras(
         }
     };
     let l00 = sol.l00();
-    let axis = profile(grid, &l00, &p, &modes, Ray::Axis)?;
-    let diagonal = profile(grid, &l00, &p, &modes, Ray::Diagonal)?;
+    let axis = profile(grid, &l00, p, &modes, Ray::Axis)?;
+    let diagonal = profile(grid, &l00, p, &modes, Ray::Diagonal)?;
     if axis.is_empty() {
         eprintln!(
             "note: no profile.csv: the grid has no cell beyond the source cell along +x (use --res 3 or more)"
@@ -238,11 +225,12 @@ pub fn write_extras(
         ) else {
             continue;
         };
-        println!(
+        writeln!(
+            stdout,
             "profile τ={tau}: solved {s:.5e}, {what} exact {e:.5e} ({:+.2}%), Grosjean {gr:.5e} ({:+.2}%)",
             100.0 * (s / e - 1.0),
             100.0 * (s / gr - 1.0)
-        );
+        )?;
     }
     Ok(())
 }

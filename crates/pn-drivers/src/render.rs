@@ -7,9 +7,9 @@
 //! The pieces live in `pn_runtime::render`; this module only picks the stencil (P_N or
 //! CDA through `pn_kernels`, FLD through [`super::fld_method`]) and runs the chain.
 
-use super::fld_method::{fld_problem, solve_fld_route, FldSettings, Route, SQRT_4PI};
+use crate::fld_setup::{fld_problem, solve_fld_route, FldSettings, SQRT_4PI};
+use crate::scene_setup::Route;
 use anyhow::{ensure, Context, Result};
-use clap::Args;
 use pn_kernels::{cda_kernel, diffusion_kernel, pn_kernel, Dim, KernelChoice, Staggering};
 use pn_runtime::fld::{FldParams, Limiter};
 use pn_runtime::memory_estimate;
@@ -21,41 +21,74 @@ use pn_runtime::render::renderer::{Image, MsField, Renderer};
 use pn_runtime::render::scene::RenderMethod;
 use pn_runtime::render::solve_setup::solve_grid;
 use pn_runtime::render::{DensityGrid, RenderScene};
-use pn_runtime::solver::{SolverKind, SolverOptions};
+use pn_runtime::solver::{SolverKind, SolverOptions, SolverTuning};
 use pn_runtime::unstagger::CellMoments;
 use serde::Serialize;
+use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-/// Arguments of `pn render`.
-#[derive(Args, Debug, Clone)]
-pub struct RenderArgs {
-    /// A scene file (.toml) or a built-in scene: cloud, nebula, sphere, lowalbedo.
+/// The options of `pn render`: the scene and the overrides of its settings.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RenderRequest {
+    /// A scene file (`.toml`) or a built-in scene: cloud, nebula, sphere, lowalbedo.
     pub scene: String,
-    /// Multiple scattering: pn, cda, fld, or none (single scattering only).
-    #[arg(long)]
+    /// Multiple scattering: pn, cda, fld, or none (default: the scene's).
     pub method: Option<RenderMethod>,
-    /// P_N order (--method pn).
-    #[arg(long)]
+    /// P_N order (method pn; default: the scene's).
     pub order: Option<usize>,
-    /// Samples per pixel.
-    #[arg(long)]
+    /// Samples per pixel (default: the scene's).
     pub spp: Option<usize>,
-    /// Solve-grid cells across the medium box: one number for all axes or NX,NY,NZ.
-    #[arg(long, value_delimiter = ',')]
+    /// Solve-grid cells across the medium box: one number for all axes or three.
     pub solve_res: Option<Vec<usize>>,
-    /// Output directory (default out/render-<scene>).
-    #[arg(long)]
+    /// Output directory (default `out/render-<scene>`).
     pub out: Option<PathBuf>,
-    /// Worker threads (default: all cores).
-    #[arg(long)]
-    pub threads: Option<usize>,
     /// Print the unknowns with and without cropping and at the density resolution.
-    #[arg(long)]
     pub stats: bool,
-    /// Refuse solves whose estimated memory exceeds this (bytes, or with K/M/G/T).
-    #[arg(long, value_parser = memory_estimate::parse_size)]
+    /// Threads, memory limit, progress bars and solver tuning.
+    pub options: RenderOptions,
+}
+
+impl Default for RenderRequest {
+    /// The `nebula` scene with its own settings.
+    fn default() -> Self {
+        Self {
+            scene: "nebula".into(),
+            method: None,
+            order: None,
+            spp: None,
+            solve_res: None,
+            out: None,
+            stats: false,
+            options: RenderOptions::default(),
+        }
+    }
+}
+
+/// How [`render_scene`] runs (not what it renders).
+#[derive(Clone, Debug, PartialEq)]
+pub struct RenderOptions {
+    /// Worker threads (default: all cores).
+    pub threads: Option<usize>,
+    /// Refuse solves whose estimated memory exceeds this many bytes (default: 80% of the
+    /// physical memory).
     pub max_memory: Option<u64>,
+    /// Show progress bars (drawn only when stderr is a terminal).
+    pub progress: bool,
+    /// Expert solver settings (the `pn` binary reads them from the environment).
+    pub tuning: SolverTuning,
+}
+
+impl Default for RenderOptions {
+    /// All cores, the default memory limit, progress bars, tuned solver defaults.
+    fn default() -> Self {
+        Self {
+            threads: None,
+            max_memory: None,
+            progress: true,
+            tuning: SolverTuning::default(),
+        }
+    }
 }
 
 /// Unknowns of the solve (issue 8 item 5: what cropping and a coarse grid save).
@@ -160,8 +193,8 @@ pub struct RenderRun {
     pub report: RenderReport,
 }
 
-/// Applies the command-line overrides to `scene` and checks it again.
-pub fn apply_overrides(scene: &mut RenderScene, a: &RenderArgs) -> Result<()> {
+/// Applies the request's overrides to `scene` and checks it again.
+pub fn apply_overrides(scene: &mut RenderScene, a: &RenderRequest) -> Result<()> {
     if let Some(m) = a.method {
         scene.solve.method = m;
     }
@@ -219,12 +252,13 @@ fn unknowns_on(
 }
 
 /// Solves and renders `scene` (overrides already applied).
-pub fn render_scene(
-    scene: &RenderScene,
-    threads: Option<usize>,
-    max_memory: Option<u64>,
-    progress: bool,
-) -> Result<RenderRun> {
+pub fn render_scene(scene: &RenderScene, options: &RenderOptions) -> Result<RenderRun> {
+    let RenderOptions {
+        threads,
+        max_memory,
+        progress,
+        ref tuning,
+    } = *options;
     let t_all = Instant::now();
     let t0 = Instant::now();
     let density = scene.density_grid()?;
@@ -278,7 +312,7 @@ pub fn render_scene(
             timings.sources = fs.seconds_sources;
             let t1 = Instant::now();
             let (moments, report) = pn_runtime::threads::with_threads(threads, || {
-                solve_ms(scene, &fs.problem, kernel.as_ref(), progress)
+                solve_ms(scene, &fs.problem, kernel.as_ref(), progress, tuning)
             })??;
             timings.solve = t1.elapsed().as_secs_f64();
             solver = Some(SolverReport {
@@ -339,6 +373,7 @@ fn solve_ms(
     problem: &pn_runtime::problem::Problem,
     kernel: Option<&KernelChoice>,
     progress: bool,
+    tuning: &SolverTuning,
 ) -> Result<(CellMoments, SolverReport)> {
     let tol = scene.solve.tolerance;
     if scene.solve.method == RenderMethod::Fld {
@@ -395,6 +430,7 @@ fn solve_ms(
     let opts = SolverOptions {
         tol,
         progress,
+        tuning: tuning.clone(),
         ..Default::default()
     };
     let sol = solve_problem(problem, kernel.kernel.as_ref(), SolverKind::ParityCg, &opts)?;
@@ -428,22 +464,24 @@ pub fn write_run(dir: &Path, run: &RenderRun) -> Result<()> {
         .with_context(|| format!("cannot write {}", path.display()))
 }
 
-/// Runs `pn render`.
-pub fn run(a: &RenderArgs) -> Result<()> {
+/// Runs `pn render`: renders, writes `image.exr`, `image.png` and `report.json` and prints
+/// a summary to `stdout`.
+pub fn run(a: &RenderRequest, stdout: &mut dyn Write) -> Result<()> {
     let mut scene = RenderScene::load(&a.scene)?;
     apply_overrides(&mut scene, a)?;
     let out = a
         .out
         .clone()
         .unwrap_or_else(|| PathBuf::from("out").join(format!("render-{}", scene.name)));
-    let run = render_scene(&scene, a.threads, a.max_memory, true)?;
+    let run = render_scene(&scene, &a.options)?;
     write_run(&out, &run)?;
     let r = &run.report;
     let what = match r.order {
         Some(n) => format!("P_{n}"),
         None => r.method.to_uppercase(),
     };
-    println!(
+    writeln!(
+        stdout,
         "{} {what}: {}×{} px, {} spp; shadow maps {:.3} s, sources {:.3} s, solve {:.3} s, \
          render {:.3} s -> {}",
         r.scene,
@@ -455,19 +493,21 @@ pub fn run(a: &RenderArgs) -> Result<()> {
         r.seconds.solve,
         r.seconds.render,
         out.display()
-    );
+    )?;
     if let Some(s) = &r.solver {
-        println!(
+        writeln!(
+            stdout,
             "solver {}: {} iterations, relative residual {:.3e}{}",
             s.solver,
             s.iterations,
             s.relative_residual,
             if s.converged { "" } else { " (NOT converged)" }
-        );
+        )?;
     }
     if a.stats {
         match &r.unknowns {
-            Some(u) => println!(
+            Some(u) => writeln!(
+                stdout,
                 "unknowns: {} solved (cropped, solve grid {:?}); {} uncropped; at the density \
                  resolution {} cropped, {} uncropped",
                 u.solved,
@@ -475,8 +515,11 @@ pub fn run(a: &RenderArgs) -> Result<()> {
                 u.uncropped,
                 u.cropped_at_density_resolution,
                 u.uncropped_at_density_resolution
-            ),
-            None => println!("unknowns: none (single scattering only or an empty medium)"),
+            )?,
+            None => writeln!(
+                stdout,
+                "unknowns: none (single scattering only or an empty medium)"
+            )?,
         }
     }
     Ok(())

@@ -3,39 +3,47 @@
 //!
 //! Offsets are in half cells: 0 = cell centre, 1 = shifted half a cell toward +axis.
 use anyhow::Context;
-use clap::Args;
 use pn_codegen::discretize;
 use pn_stencil::{Dim, StencilIr};
 use serde_json::json;
+use std::io::Write;
 
 use pn_kernels::Staggering;
 
-/// Arguments of `pn stencil`.
-#[derive(Args, Debug)]
-pub struct StencilArgs {
+/// Which stencil `pn stencil` prints, and how.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct StencilRequest {
     /// P_N order.
-    #[arg(long, default_value_t = 1)]
     pub order: usize,
-    /// Spatial dimension (2 or 3).
-    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u8).range(2..=3))]
-    pub dim: u8,
+    /// Spatial dimension.
+    pub dim: Dim,
     /// Every moment at the cell centre (unknowns interpolated) instead of staggered.
-    #[arg(long)]
     pub collocated: bool,
     /// The classical-diffusion (CDA) stencil instead of P_N.
-    #[arg(long, conflicts_with_all = ["collocated", "diffusion"])]
     pub cda: bool,
     /// The diffusion stencil with D as a field (FLD Picard steps) instead of P_N.
-    #[arg(long, conflicts_with = "collocated")]
     pub diffusion: bool,
-    /// Print JSON: `{"moments":[{"l","m","offset":[x,y,z]}], "rows":[…]}`.
-    #[arg(long)]
+    /// JSON: `{"moments":[{"l","m","offset":[x,y,z]}], "rows":[…]}`.
     pub json: bool,
 }
 
+impl Default for StencilRequest {
+    /// The staggered 3D P_1 stencil, readable.
+    fn default() -> Self {
+        Self {
+            order: 1,
+            dim: Dim::Three,
+            collocated: false,
+            cda: false,
+            diffusion: false,
+            json: false,
+        }
+    }
+}
+
 /// The IR selected by the arguments.
-fn build_ir(args: &StencilArgs) -> anyhow::Result<StencilIr> {
-    let dim = if args.dim == 2 { Dim::Two } else { Dim::Three };
+fn build_ir(args: &StencilRequest) -> anyhow::Result<StencilIr> {
+    let dim = args.dim;
     if args.cda {
         return discretize::cda_ir(dim).context("building the CDA stencil");
     }
@@ -167,13 +175,13 @@ pub fn to_text(ir: &StencilIr) -> String {
     s
 }
 
-/// Runs `pn stencil`.
-pub fn run(args: &StencilArgs) -> anyhow::Result<()> {
+/// Runs `pn stencil`, printing to `stdout`.
+pub fn run(args: &StencilRequest, stdout: &mut dyn Write) -> anyhow::Result<()> {
     let ir = build_ir(args)?;
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&to_json(&ir))?);
+        writeln!(stdout, "{}", serde_json::to_string_pretty(&to_json(&ir))?)?;
     } else {
-        print!("{}", to_text(&ir));
+        write!(stdout, "{}", to_text(&ir))?;
     }
     Ok(())
 }

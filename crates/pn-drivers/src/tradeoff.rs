@@ -14,9 +14,8 @@
 //! * `error_transport`: against Grosjean's transport approximation for every method, so that
 //!   methods are compared with each other on one scale (it includes each model's error).
 
-use super::bench::{fld_point_source, profile_error};
+use crate::bench_rows::{fld_point_source, profile_error};
 use anyhow::Context;
-use clap::Args;
 use plotters::prelude::*;
 use pn_kernels::{cda_kernel, pn_kernel, Dim, Staggering};
 use pn_runtime::fld::{solve_fld, FldParams, Limiter};
@@ -24,26 +23,37 @@ use pn_runtime::pipeline::solve_problem;
 use pn_runtime::plot::{draw_error, finish_chart, framed_chart, white_canvas};
 use pn_runtime::reference::{cda_point_source, grosjean, pn_point_source};
 use pn_runtime::scenes::{builtin, BuiltinOptions, PointSourceParams};
-use pn_runtime::solver::{SolverKind, SolverOptions};
+use pn_runtime::solver::{SolverKind, SolverOptions, SolverTuning};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-/// Arguments of `pn tradeoff`.
-#[derive(Args, Debug)]
-pub struct TradeoffArgs {
+/// The options of `pn tradeoff`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TradeoffRequest {
     /// A small subset for a smoke test (resolutions 12 and 16; about a minute).
-    #[arg(long)]
     pub quick: bool,
-    /// Output directory for tradeoff.csv and tradeoff.png.
-    #[arg(long, default_value = "out/tradeoff")]
+    /// Output directory for `tradeoff.csv` and `tradeoff.png`.
     pub out: PathBuf,
-    /// Resolutions (cells per axis), comma separated (default 20,30,40,60; 12,16 with --quick).
-    #[arg(long, value_delimiter = ',')]
+    /// Resolutions (cells per axis; default 20, 30, 40, 60; 12, 16 with `quick`).
     pub res: Option<Vec<usize>>,
-    /// Relative-residual tolerances, comma separated (default 1e-4,1e-6).
-    #[arg(long, value_delimiter = ',')]
+    /// Relative-residual tolerances (default 1e-4, 1e-6).
     pub tol: Option<Vec<f64>>,
+    /// Expert solver settings (the `pn` binary reads them from the environment).
+    pub tuning: SolverTuning,
+}
+
+impl Default for TradeoffRequest {
+    /// The full study into `out/tradeoff`.
+    fn default() -> Self {
+        Self {
+            quick: false,
+            out: PathBuf::from("out/tradeoff"),
+            res: None,
+            tol: None,
+            tuning: SolverTuning::default(),
+        }
+    }
 }
 
 /// The CSV header (see the module documentation for the two error columns).
@@ -95,7 +105,13 @@ impl Point {
 const METHODS: [(&str, usize); 5] = [("cda", 0), ("fld", 0), ("P1", 1), ("P3", 3), ("P5", 5)];
 
 /// Solves the point source with `method` at `n³` cells to `tol`.
-fn measure(method: &'static str, order: usize, n: usize, tol: f64) -> anyhow::Result<Point> {
+fn measure(
+    method: &'static str,
+    order: usize,
+    n: usize,
+    tol: f64,
+    tuning: &SolverTuning,
+) -> anyhow::Result<Point> {
     let params = PointSourceParams::default();
     let h = 2.0 * params.half_width / n as f64;
     let tau_per_cell = params.sigma_t * h;
@@ -144,6 +160,7 @@ fn measure(method: &'static str, order: usize, n: usize, tol: f64) -> anyhow::Re
     let opts = SolverOptions {
         tol,
         progress: false,
+        tuning: tuning.clone(),
         ..Default::default()
     };
     let sol = solve_problem(
@@ -279,8 +296,9 @@ fn write_png(path: &Path, points: &[Point], tols: &[f64]) -> anyhow::Result<()> 
     finish_chart(&mut chart, &root, path, 16, SeriesLabelPosition::UpperRight)
 }
 
-/// Runs `pn tradeoff`.
-pub fn run(args: &TradeoffArgs) -> anyhow::Result<()> {
+/// Runs `pn tradeoff`: writes `tradeoff.csv` and `tradeoff.png` and prints the table to
+/// `stdout`.
+pub fn run(args: &TradeoffRequest, stdout: &mut dyn std::io::Write) -> anyhow::Result<()> {
     let res = args.res.clone().unwrap_or(if args.quick {
         vec![12, 16]
     } else {
@@ -297,12 +315,12 @@ pub fn run(args: &TradeoffArgs) -> anyhow::Result<()> {
     );
     // One untimed small solve first, so that thread-pool start-up and first-touch costs do
     // not land on the first measured point.
-    measure("P1", 1, 8, 1e-4).context("warm-up solve")?;
+    measure("P1", 1, 8, 1e-4, &args.tuning).context("warm-up solve")?;
     let mut points = Vec::new();
     for &(method, order) in &METHODS {
         for &n in &res {
             for &tol in &tols {
-                let p = measure(method, order, n, tol)
+                let p = measure(method, order, n, tol, &args.tuning)
                     .with_context(|| format!("{method} at {n}³, tolerance {tol:e}"))?;
                 eprintln!("tradeoff: {}", p.csv());
                 points.push(p);
@@ -319,7 +337,7 @@ pub fn run(args: &TradeoffArgs) -> anyhow::Result<()> {
     std::fs::write(args.out.join("tradeoff.csv"), csv)
         .with_context(|| format!("writing {}/tradeoff.csv", args.out.display()))?;
     write_png(&args.out.join("tradeoff.png"), &points, &tols)?;
-    println!("{}", markdown(&points));
+    writeln!(stdout, "{}", markdown(&points))?;
     eprintln!(
         "wrote {0}/tradeoff.csv and {0}/tradeoff.png",
         args.out.display()

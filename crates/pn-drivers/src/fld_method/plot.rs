@@ -17,8 +17,7 @@ use std::f64::consts::PI;
 use std::fmt::Write as _;
 use std::path::Path;
 
-use super::{solve_fld_route, FldRun, FldSettings};
-use crate::solve::SolveFlags;
+use crate::fld_setup::{solve_fld_route, FldRun, FldSettings};
 use pn_kernels::KernelChoice;
 
 /// Order of the semi-analytic P_N reference in the plot.
@@ -43,17 +42,19 @@ struct Curve {
 /// Solves the other limiters, samples everything along +x and writes the CSV and the PNG.
 pub fn write_figure5(
     out: &Path,
-    a: &SolveFlags,
+    params: &PointSourceParams,
     fp: &FldProblem,
     settings: &FldSettings,
     kernel: &KernelChoice,
     run: &FldRun,
 ) -> Result<()> {
-    let d = PointSourceParams::default();
-    let sigma_t = a.sigma_t.unwrap_or(d.sigma_t);
-    let albedo = a.albedo.unwrap_or(d.albedo);
-    let g = a.g.unwrap_or(d.g);
-    let source = a.source.unwrap_or(d.source);
+    let PointSourceParams {
+        sigma_t,
+        albedo,
+        g,
+        source,
+        ..
+    } = *params;
     let grid = fp.grid;
     let h3 = grid.h.powi(3);
     let power: f64 = fp.source.iter().sum::<f64>() * h3;

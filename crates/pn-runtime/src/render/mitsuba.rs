@@ -316,15 +316,13 @@ if __name__ == "__main__":
     main()
 "#;
 
-/// The Python interpreter to run Mitsuba with: `explicit` (from `--python`), else
-/// `$PN_MITSUBA_PYTHON`, else `.venv-mitsuba/bin/python` in the current folder or in the
-/// repository this binary was built from. Errors name `scripts/mitsuba-venv.sh`.
+/// The Python interpreter to run Mitsuba with: `explicit`, the caller's choice (the `pn`
+/// binary passes `--python`, else `$PN_MITSUBA_PYTHON`; this library reads no environment),
+/// else `.venv-mitsuba/bin/python` in the current folder or in the repository this binary
+/// was built from. Errors name `scripts/mitsuba-venv.sh`.
 pub fn find_python(explicit: Option<&Path>) -> anyhow::Result<PathBuf> {
     if let Some(p) = explicit {
         return Ok(p.to_path_buf());
-    }
-    if let Some(p) = std::env::var_os(PYTHON_ENV).filter(|p| !p.is_empty()) {
-        return Ok(PathBuf::from(p));
     }
     let repo = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
     for base in [Path::new("."), repo.as_path()] {

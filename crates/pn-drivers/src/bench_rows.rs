@@ -1,0 +1,126 @@
+//! The rows of `bench.csv` and the measurements that `pn bench`, its model section
+//! (`bench_model`) and `pn tradeoff` share: peak memory, the point-source profile
+//! error and the FLD point source.
+
+use pn_runtime::fld::{FldGrid, FldProblem};
+use pn_runtime::pipeline::Solution;
+use pn_runtime::scenes::PointSourceParams;
+
+/// One row of bench.csv.
+pub(crate) struct Row {
+    pub(crate) problem: String,
+    pub(crate) method: String,
+    pub(crate) solver: String,
+    pub(crate) order: usize,
+    pub(crate) resolution: String,
+    pub(crate) unknowns: usize,
+    pub(crate) iterations: usize,
+    pub(crate) seconds_assemble: f64,
+    pub(crate) seconds_solve: f64,
+    pub(crate) peak_memory_bytes: u64,
+    pub(crate) error: Option<f64>,
+    pub(crate) reference: &'static str,
+    pub(crate) converged: bool,
+    /// Products with `A` or their equivalent ([`pn_runtime::solver::SolveStats::operator_applications`]).
+    pub(crate) operator_applications: usize,
+}
+
+pub(crate) const CSV_HEADER: &str = "problem,method,solver,order,resolution,unknowns,iterations,seconds_assemble,seconds_solve,peak_memory_bytes,error,reference,converged,operator_applications";
+
+impl Row {
+    pub(crate) fn csv(&self) -> String {
+        format!(
+            "{},{},{},{},{},{},{},{:.6},{:.6},{},{},{},{},{}",
+            self.problem,
+            self.method,
+            self.solver,
+            self.order,
+            self.resolution,
+            self.unknowns,
+            self.iterations,
+            self.seconds_assemble,
+            self.seconds_solve,
+            self.peak_memory_bytes,
+            self.error.map_or("".into(), |e| format!("{e:.3e}")),
+            self.reference,
+            self.converged,
+            self.operator_applications
+        )
+    }
+}
+
+/// Resets the kernel's peak-RSS counter so that each problem's peak is its own
+/// (`/proc/self/clear_refs`, Linux ≥ 4.0); returns false where that is not possible.
+pub(crate) fn reset_peak_memory() -> bool {
+    std::fs::write("/proc/self/clear_refs", "5").is_ok()
+}
+
+/// The peak resident memory of the process (0 where unknown).
+pub(crate) fn peak_memory() -> u64 {
+    pn_runtime::memory::peak_memory_bytes().unwrap_or(0)
+}
+
+/// Largest relative deviation of `values(k)` (normalised fluence at k cells along +x from
+/// the source) from `exact(τ_k)` at the cells nearest τ = 1, 2, 4.
+pub(crate) fn profile_error(
+    tau_per_cell: f64,
+    max_k: usize,
+    values: impl Fn(usize) -> f64,
+    exact: impl Fn(f64) -> f64,
+) -> Option<f64> {
+    let mut worst: Option<f64> = None;
+    for tau in [1.0, 2.0, 4.0] {
+        let k = (tau / tau_per_cell).round() as usize;
+        if k == 0 || k > max_k {
+            continue;
+        }
+        let t = k as f64 * tau_per_cell;
+        let e = (values(k) / exact(t) - 1.0).abs();
+        worst = Some(worst.map_or(e, |w: f64| w.max(e)));
+    }
+    worst
+}
+
+pub(crate) fn row_from(
+    problem: &str,
+    method: &str,
+    order: usize,
+    res: String,
+    sol: &Solution,
+    error: Option<f64>,
+    reference: &'static str,
+) -> Row {
+    Row {
+        problem: problem.into(),
+        method: method.into(),
+        solver: sol.stats.solver.clone(),
+        order,
+        resolution: res,
+        unknowns: sol.unknowns,
+        iterations: sol.stats.iterations,
+        seconds_assemble: sol.seconds_assembly,
+        seconds_solve: sol.seconds_solve,
+        peak_memory_bytes: peak_memory(),
+        error,
+        reference,
+        converged: sol.stats.converged(),
+        operator_applications: sol.stats.operator_applications,
+    }
+}
+
+/// The point source of `params` on `n³` cells for FLD: a unit-power source in cell
+/// (n/2, n/2, n/2), like the `pointsource` scene.
+pub(crate) fn fld_point_source(n: usize, params: &PointSourceParams) -> anyhow::Result<FldProblem> {
+    let grid = FldGrid::cube(n, 2.0 * params.half_width)?;
+    let h = 2.0 * params.half_width / n as f64;
+    let cells = grid.len();
+    let c = n / 2;
+    let mut source = vec![0.0; cells];
+    source[grid.index(c, c, c)] = 1.0 / (h * h * h);
+    Ok(FldProblem {
+        grid,
+        sigma_t: vec![params.sigma_t; cells],
+        sigma_a: vec![params.sigma_t * (1.0 - params.albedo); cells],
+        source,
+    })
+}

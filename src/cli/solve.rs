@@ -1,0 +1,214 @@
+//! `pn solve` and `pn converge`: their arguments and the conversion into
+//! [`pn_drivers::solve::SolveRequest`].
+
+use clap::{Args, ValueEnum};
+use pn_drivers::scene_setup::Dim;
+use pn_drivers::scene_setup::{Method, Route, SolveRequest};
+use pn_runtime::fld::Limiter;
+use pn_runtime::problem::Boundary;
+use pn_runtime::scenes::PointSourceShape;
+use pn_runtime::solver::SolverKind;
+use std::path::PathBuf;
+
+use super::Env;
+
+/// `--method`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum MethodArg {
+    /// The P_N equations.
+    Pn,
+    /// Classical diffusion.
+    Cda,
+    /// Flux-limited diffusion.
+    Fld,
+}
+
+impl From<MethodArg> for Method {
+    fn from(m: MethodArg) -> Self {
+        match m {
+            MethodArg::Pn => Method::Pn,
+            MethodArg::Cda => Method::Cda,
+            MethodArg::Fld => Method::Fld,
+        }
+    }
+}
+
+/// `--fld-solver`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum FldSolverArg {
+    /// Red–black Gauss–Seidel/SOR.
+    Gs,
+    /// Picard iteration with linear solves through the diffusion stencil.
+    Picard,
+}
+
+impl From<FldSolverArg> for Route {
+    fn from(r: FldSolverArg) -> Self {
+        match r {
+            FldSolverArg::Gs => Route::GaussSeidel,
+            FldSolverArg::Picard => Route::Picard,
+        }
+    }
+}
+
+/// Arguments of `pn solve`.
+#[derive(Args, Debug, Clone)]
+pub struct SolveArgs {
+    /// A built-in scene (checkerboard, checkerboard3d, pointsource) or a .toml scene file.
+    pub scene: String,
+    /// Everything else (boxed: keeps the `pn` command enum small).
+    #[command(flatten)]
+    pub flags: Box<SolveFlags>,
+}
+
+/// Arguments of `pn converge` (`--res` takes the list of resolutions, each one value for
+/// all axes; everything else as in `pn solve`).
+#[derive(Args, Debug, Clone)]
+pub struct ConvergeArgs {
+    /// A built-in scene (checkerboard, checkerboard3d, pointsource) or a .toml scene file.
+    pub scene: String,
+    /// The options of `pn solve`; here `--res R1,R2,...` lists the resolutions (coarsest
+    /// first, each an integer multiple of the first) and `--out` is the study's directory.
+    #[command(flatten)]
+    pub flags: Box<SolveFlags>,
+}
+
+/// The options of `pn solve` (and `pn converge`).
+#[derive(Args, Debug, Clone)]
+pub struct SolveFlags {
+    /// P_N order (default: the scene's, 5 for checkerboard).
+    #[arg(long, allow_negative_numbers = true)]
+    pub order: Option<usize>,
+    /// Dimension, 2 or 3 (default: the scene's).
+    #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(u8).range(2..=3))]
+    pub dim: Option<u8>,
+    /// Cells per axis: one number for all axes, or NX,NY[,NZ].
+    #[arg(long, value_delimiter = ',', allow_negative_numbers = true)]
+    pub res: Option<Vec<usize>>,
+    /// Boundary closure: neumann (extrapolation) or dirichlet (zero).
+    #[arg(long)]
+    pub bc: Option<Boundary>,
+    /// Tolerance on the relative residual ‖b − Au‖₂/‖b‖₂.
+    #[arg(long, default_value = "1e-10", allow_hyphen_values = true)]
+    pub tol: f64,
+    /// Maximum solver iterations.
+    #[arg(long, default_value_t = 100_000, allow_negative_numbers = true)]
+    pub max_iter: usize,
+    /// Output directory (default: out/<scene>).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Worker threads (default: all cores).
+    #[arg(long, allow_negative_numbers = true)]
+    pub threads: Option<usize>,
+    /// Use the collocated stencil (all moments at cell centres; oscillates).
+    #[arg(long)]
+    pub collocated: bool,
+    /// pn (the P_N equations), cda (classical diffusion) or fld (flux-limited diffusion).
+    #[arg(long, value_enum, default_value = "pn")]
+    pub method: MethodArg,
+    /// --method fld: flux limiter (lp, sum, max, kershaw, larsen2 or larsen<n>, cda;
+    /// default lp).
+    #[arg(long, value_parser = parse_limiter)]
+    pub limiter: Option<Limiter>,
+    /// --method fld --fld-solver gs: SOR factor ω in (0, 2) (default 1.5).
+    #[arg(long, allow_hyphen_values = true)]
+    pub omega: Option<f64>,
+    /// --method fld: gs (red–black Gauss–Seidel/SOR, default) or picard (linear solves
+    /// through the diffusion stencil with --solver).
+    #[arg(long, value_enum)]
+    pub fld_solver: Option<FldSolverArg>,
+    /// --method fld: extinction threshold σ_ε (1/length; default 1e-3 / longest domain edge).
+    #[arg(long, allow_hyphen_values = true)]
+    pub sigma_eps: Option<f64>,
+    /// Linear solver: parity-cg (eliminates the odd moments; preconditioned CG, or GMRES/
+    /// BiCGSTAB when the closure makes the even system nonsymmetric; the preconditioner is
+    /// multigrid for large systems, ILU(0) for small ones), parity-mg / parity-ilu (force
+    /// multigrid / the ILU(0)-or-Jacobi choice) or cgnr (the paper's baseline, CG on
+    /// AᵀA u = Aᵀb); also lsqr, lsmr, and the matrix-free cgnr-mf, lsqr-mf, lsmr-mf.
+    #[arg(long, default_value = "parity-cg")]
+    pub solver: SolverKind,
+    /// Raise σ_t to at least this value (required where σ_t reaches 0).
+    #[arg(long, allow_hyphen_values = true)]
+    pub sigma_t_min: Option<f64>,
+    /// Refuse problems whose estimated memory exceeds this (bytes, or with K/M/G/T;
+    /// default: 80% of the physical memory).
+    #[arg(long, value_parser = pn_runtime::memory_estimate::parse_size)]
+    pub max_memory: Option<u64>,
+    /// Analytic fields: exact (value at the staggered point, as StaRMAP) or average[:N]
+    /// (mean over the cell-sized control volume, N midpoints per axis; default 8 in 2D,
+    /// 4 in 3D).
+    #[arg(long, default_value = "exact")]
+    pub sampling: pn_runtime::field::Sampling,
+    /// Also solve at half the resolution and report a Richardson estimate of the
+    /// discretization error (error.npy, error.png, report.json); needs even resolutions.
+    #[arg(long)]
+    pub error_estimate: bool,
+    /// pointsource: extinction σ_t (default 8).
+    #[arg(long, allow_hyphen_values = true)]
+    pub sigma_t: Option<f64>,
+    /// pointsource: albedo (default 0.9).
+    #[arg(long, allow_hyphen_values = true)]
+    pub albedo: Option<f64>,
+    /// pointsource: Henyey–Greenstein g (default 0, isotropic).
+    #[arg(long, allow_hyphen_values = true)]
+    pub g: Option<f64>,
+    /// pointsource: the domain is [0, 2w]³ (default w = 1).
+    #[arg(long, allow_hyphen_values = true)]
+    pub half_width: Option<f64>,
+    /// pointsource: cell (Q_0^0 = 1/h³ in cell n/2) or gaussian:<std-dev>.
+    #[arg(long)]
+    pub source: Option<PointSourceShape>,
+}
+
+/// `--limiter`: the library's parser (its error names the limiters).
+fn parse_limiter(s: &str) -> anyhow::Result<Limiter> {
+    s.parse()
+}
+
+impl SolveFlags {
+    /// The request for `scene` with these flags.
+    pub fn request(&self, scene: &str, env: &Env) -> SolveRequest {
+        SolveRequest {
+            scene: scene.to_string(),
+            order: self.order,
+            dim: self.dim.map(|d| if d == 2 { Dim::Two } else { Dim::Three }),
+            res: self.res.clone(),
+            bc: self.bc,
+            tol: self.tol,
+            max_iter: self.max_iter,
+            out: self.out.clone(),
+            threads: self.threads,
+            collocated: self.collocated,
+            method: self.method.into(),
+            limiter: self.limiter,
+            omega: self.omega,
+            fld_solver: self.fld_solver.map(Route::from),
+            sigma_eps: self.sigma_eps,
+            solver: self.solver,
+            sigma_t_min: self.sigma_t_min,
+            max_memory: self.max_memory,
+            sampling: self.sampling,
+            error_estimate: self.error_estimate,
+            sigma_t: self.sigma_t,
+            albedo: self.albedo,
+            g: self.g,
+            half_width: self.half_width,
+            source: self.source,
+            tuning: env.tuning.clone(),
+        }
+    }
+}
+
+impl SolveArgs {
+    /// The driver's request.
+    pub fn request(&self, env: &Env) -> SolveRequest {
+        self.flags.request(&self.scene, env)
+    }
+}
+
+impl ConvergeArgs {
+    /// The driver's request (`res` lists the resolutions).
+    pub fn request(&self, env: &Env) -> SolveRequest {
+        self.flags.request(&self.scene, env)
+    }
+}
