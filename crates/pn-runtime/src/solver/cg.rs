@@ -4,6 +4,23 @@
 //! `‖r‖₂ ≤ target` ([`Control`]); starts from the given `x`, so the caller can restart
 //! from the true residual when rounding drift leaves the recomputed residual above the
 //! tolerance. No parameters beyond the controller's.
+//!
+//! ```
+//! use pn_runtime::operator::Identity;
+//! use pn_runtime::solver::cg::cg;
+//! use pn_runtime::solver::control::{Control, Outcome};
+//!
+//! // A = [[4, 1], [1, 3]] (symmetric positive definite), f = A [1, 2].
+//! let a = sprs::CsMat::new((2, 2), vec![0, 2, 4], vec![0, 1, 0, 1], vec![4.0, 1.0, 1.0, 3.0]);
+//! let f = [6.0, 7.0];
+//! let mut x = [0.0; 2];
+//! // Target ‖f − A x‖ ≤ 1e-12 (absolute), residuals recorded relative to 1; at most 10
+//! // iterations, stagnation window 10 with a required drop of 1e-4, divergence above 1e8.
+//! let mut ctl = Control::new(1e-12, 1.0, 10, 10, 1e-4, 1e8);
+//! assert_eq!(cg(&a, &Identity, &f, &mut x, &mut ctl), Outcome::Reached);
+//! assert!((x[0] - 1.0).abs() < 1e-12 && (x[1] - 2.0).abs() < 1e-12);
+//! assert!(ctl.iterations <= 2); // CG is exact after n steps
+//! ```
 
 use super::control::{true_residual, Control, Outcome};
 use crate::linalg::{axpy, dot, norm, xpby};
