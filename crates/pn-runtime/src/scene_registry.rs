@@ -66,21 +66,21 @@ pub const BUILTIN_SCENES: [BuiltinScene; 7] = [
     BuiltinScene {
         name: "checkerboard",
         kind: SceneKind::Solve,
-        description: "the 2D lattice test on [0,7]² (absorbing blocks, a source in the \
-                      centre; 71² cells, P_5 by default)",
+        description: "the 2D lattice test on [0,7]²: absorbing blocks around a central \
+                      source, 71² cells, P_5 by default",
         toml: None,
     },
     BuiltinScene {
         name: "checkerboard3d",
         kind: SceneKind::Solve,
-        description: "the 3D lattice test on [0,7]³ (31³ cells, P_1 by default)",
+        description: "the 3D lattice test on [0,7]³, 31³ cells, P_1 by default",
         toml: None,
     },
     BuiltinScene {
         name: "pointsource",
         kind: SceneKind::Solve,
-        description: "an isotropic point source in a homogeneous medium (σ_t = 8, α = 0.9 on \
-                      [0,2]³, 80³ cells), with analytic references",
+        description: "an isotropic point source in a homogeneous medium, σ_t = 8 and \
+                      α = 0.9 on [0,2]³, 80³ cells, with analytic references",
         toml: None,
     },
     BuiltinScene {
@@ -92,8 +92,8 @@ pub const BUILTIN_SCENES: [BuiltinScene; 7] = [
     BuiltinScene {
         name: "nebula",
         kind: SceneKind::Render,
-        description: "three noise-warped lobes of wispy, highly scattering density (the \
-                      comparison figure's scene)",
+        description: "three noise-warped lobes of wispy, highly scattering density, the \
+                      comparison figure's scene",
         toml: Some(include_str!("../../../scenes/nebula.toml")),
     },
     BuiltinScene {
@@ -136,7 +136,7 @@ pub fn names(kind: SceneKind) -> Vec<&'static str> {
 pub fn wrong_kind_error(name: &str, wanted: SceneKind) -> Option<anyhow::Error> {
     let s = find(name).filter(|s| s.kind != wanted)?;
     Some(anyhow::anyhow!(
-        "{name:?} is a built-in {} scene ({}): run it with `{} {name}`; the built-in scenes \
+        "{name:?} is a built-in {} scene ({}); run it with `{} {name}`. The built-in scenes \
          of `{}` are {} (or give a path to a .toml {} scene file)",
         s.kind.name(),
         s.description,
