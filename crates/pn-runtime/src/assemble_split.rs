@@ -14,7 +14,7 @@
 use crate::assemble::{assemble_chunk, check_kernel, Chunk, CHUNK};
 use crate::layout::Layout;
 use crate::problem::Problem;
-use crate::solver::parity::even_mask;
+use crate::solver::pn_layout::even_mask;
 use crate::solver::parity::split::{classes, BlockMat, Classes, ParityError, Split};
 use pn_stencil::StencilKernel;
 use rayon::prelude::*;
@@ -62,6 +62,13 @@ struct SplitChunk {
     /// Stored diagonal entries (rows with a centred term of their own moment).
     diag_entries: usize,
     max_entry: f64,
+}
+
+/// Whether `PN_SOLVER_PROFILE` is set (the assembly then prints its timing line).
+// Moved here from `solver::parity`, whose solvers now take the flag from
+// `SolverOptions::tuning`; to be passed in as well (issue 15).
+fn profile_enabled() -> bool {
+    std::env::var_os("PN_SOLVER_PROFILE").is_some()
 }
 
 /// Assembles `kernel` for `problem` on `layout` into parity blocks. The outer error is bad
@@ -170,7 +177,7 @@ pub fn assemble_split(
         }
         seconds_append += t1.elapsed().as_secs_f64();
     }
-    if crate::solver::parity::profile_enabled() {
+    if profile_enabled() {
         eprintln!(
             "profile assemble-split: rows {seconds_rows:.3} s (parallel), append {seconds_append:.3} s"
         );

@@ -12,7 +12,7 @@ use crate::assemble_split::{assemble_split, has_parity_structure};
 use crate::energy::{energy_balance, EnergyBalance};
 use crate::layout::Layout;
 use crate::problem::Problem;
-use crate::solver::multigrid::solve::LayoutSolver;
+use crate::solver::pn_layout::LayoutSolver;
 use crate::solver::{SolveStats, SolverKind, SolverOptions};
 use crate::unstagger::{unstagger, CellMoments};
 use pn_stencil::StencilKernel;
