@@ -18,7 +18,7 @@ use pn_runtime::reference::{cda_point_source, grosjean, pn_point_source};
 use pn_runtime::scenes::{builtin, BuiltinOptions, PointSourceParams};
 use pn_runtime::solver::{SolverKind, SolverOptions, SolverTuning};
 use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::time::Instant;
 
 /// The options of `pn bench`.
@@ -51,23 +51,6 @@ impl Default for BenchRequest {
             tuning: SolverTuning::default(),
         }
     }
-}
-
-/// Reads a StaRMAP reference CSV (rows = x index, columns = y index).
-fn read_reference(path: &Path) -> anyhow::Result<Vec<f64>> {
-    let text =
-        std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
-    let mut v = Vec::new();
-    for line in text.lines().filter(|l| !l.trim().is_empty()) {
-        for cell in line.split(',') {
-            v.push(
-                cell.trim()
-                    .parse::<f64>()
-                    .with_context(|| format!("bad number in {}", path.display()))?,
-            );
-        }
-    }
-    Ok(v)
 }
 
 /// `max|a − b| / max|b|`.
@@ -124,7 +107,7 @@ fn checkerboard_rows(args: &BenchRequest, rows: &mut Vec<Row>) -> anyhow::Result
     let opts = BuiltinOptions::default();
     for &order in orders {
         let reference = match order {
-            1 | 5 => read_reference(
+            1 | 5 => pn_runtime::reference::starmap::read_csv(
                 &args
                     .reference
                     .join(format!("checkerboard/starmap_p{order}_n71.csv")),
