@@ -14,8 +14,8 @@
 use crate::assemble::{assemble_chunk, check_kernel, Chunk, CHUNK};
 use crate::layout::Layout;
 use crate::problem::Problem;
-use crate::solver::pn_layout::even_mask;
 use crate::solver::parity::split::{classes, BlockMat, Classes, ParityError, Split};
+use crate::solver::pn_layout::even_mask;
 use pn_stencil::StencilKernel;
 use rayon::prelude::*;
 
@@ -31,6 +31,10 @@ pub struct SplitSystem {
     pub rhs: Vec<f64>,
     /// Largest magnitude of an entry of `A`.
     pub max_entry: f64,
+    /// Seconds spent forming the rows (in parallel).
+    pub seconds_rows: f64,
+    /// Seconds spent appending the rows to the blocks.
+    pub seconds_append: f64,
 }
 
 /// Whether every term of `kernel` couples a row to the other parity (by `l`), apart from
@@ -62,13 +66,6 @@ struct SplitChunk {
     /// Stored diagonal entries (rows with a centred term of their own moment).
     diag_entries: usize,
     max_entry: f64,
-}
-
-/// Whether `PN_SOLVER_PROFILE` is set (the assembly then prints its timing line).
-// Moved here from `solver::parity`, whose solvers now take the flag from
-// `SolverOptions::tuning`; to be passed in as well (issue 15).
-fn profile_enabled() -> bool {
-    std::env::var_os("PN_SOLVER_PROFILE").is_some()
 }
 
 /// Assembles `kernel` for `problem` on `layout` into parity blocks. The outer error is bad
@@ -177,11 +174,6 @@ pub fn assemble_split(
         }
         seconds_append += t1.elapsed().as_secs_f64();
     }
-    if profile_enabled() {
-        eprintln!(
-            "profile assemble-split: rows {seconds_rows:.3} s (parallel), append {seconds_append:.3} s"
-        );
-    }
     // Shrinking the length keeps the allocation (no copy); its untouched tail costs no memory.
     b_idx.truncate(b_len);
     b_val.truncate(b_len);
@@ -204,6 +196,8 @@ pub fn assemble_split(
         },
         rhs,
         max_entry,
+        seconds_rows,
+        seconds_append,
     }))
 }
 

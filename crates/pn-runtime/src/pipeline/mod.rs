@@ -131,6 +131,12 @@ fn solve_split_system(
         Err(_) => return Ok(None),
     };
     let seconds_assembly = t0.elapsed().as_secs_f64();
+    if opts.tuning.profile {
+        eprintln!(
+            "profile assemble-split: rows {:.3} s (parallel), append {:.3} s",
+            system.seconds_rows, system.seconds_append
+        );
+    }
     check_magnitude_values(system.max_entry, true, &system.rhs)?;
     let t1 = Instant::now();
     let (u, stats) =
