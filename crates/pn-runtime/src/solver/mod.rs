@@ -101,7 +101,7 @@ impl SolverKind {
                 Box::new(parity::ParityCg::auto(parity::Precond::Auto))
             }
             // Given an assembled matrix, the matrix-free kinds run on it; the pipeline routes
-            // them to `crate::matfree::solve` so that A is never assembled.
+            // them to `crate::pipeline::matrix_free` so that A is never assembled.
             SolverKind::Lsqr | SolverKind::LsqrMf => Box::new(lsqr::Lsqr),
             SolverKind::Lsmr | SolverKind::LsmrMf => Box::new(lsmr::Lsmr),
             SolverKind::CgnrMf => Box::new(cgnr_mf::CgnrMf),
