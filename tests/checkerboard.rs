@@ -1,5 +1,5 @@
 //! `pn solve checkerboard` with the real (generated) stencils against StaRMAP
-//! (DESIGN.md §7, `../shared/reference/checkerboard/`), plus symmetry, 2D/3D consistency,
+//! (docs/design.md §7, `tests/data/checkerboard/`), plus symmetry, 2D/3D consistency,
 //! energy balance, the collocated artefact and the Dirichlet closure.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
@@ -197,7 +197,7 @@ fn mirror_3d(f: &[f64], n: usize, axis: usize) -> f64 {
     worst / max
 }
 
-/// The 3D lattice (DESIGN.md §7) at 31³: the block rule and the source are symmetric under
+/// The 3D lattice (docs/design.md §7) at 31³: the block rule and the source are symmetric under
 /// x → 7−x and z → 7−z, and the power balance closes.
 fn checkerboard3d(order: &str) {
     let (shape, f, rep) = solve(

@@ -1,7 +1,7 @@
 //! Self-convergence on the point source with a Gaussian source: a smooth solution,
-//! so the staggered P_1 discretization must show its design order 2 (DESIGN.md §3), and the
+//! so the staggered P_1 discretization must show its design order 2 (docs/design.md §3), and the
 //! Richardson estimate must match the true error against the semi-analytic solution
-//! (`pn_point_source(..).fluence_gaussian_world`, DESIGN.md §7).
+//! (`pn_point_source(..).fluence_gaussian_world`, docs/design.md §7).
 //!
 //! Setup: σ_t = 1, α = 0.9, isotropic, P_1 (κ = √(3(1−α)) = 0.548 per unit length, a
 //! diffusion length of 1.83). The Gaussian (standard deviation `S`) is centred in the domain

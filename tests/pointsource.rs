@@ -1,4 +1,4 @@
-//! The 3D point source end to end (DESIGN.md §7 "Point source, 3D").
+//! The 3D point source end to end (docs/design.md §7 "Point source, 3D").
 //!
 //! * P_1 and CDA on the same grid agree (the paper's claim);
 //! * with a Gaussian source, discrete P_1, P_3 and P_5 converge to the
@@ -287,7 +287,7 @@ fn diagonal_profile_matches_axis_profile() {
     assert!(p3 <= 2.0 * p3_err, "P_3 24³: {p3} vs {p3_err}");
 }
 
-/// The paper's setup (DESIGN.md §7): 80³ cells on [0,2]³, σ_t = 8, α = 0.9, Q_0^0 = 1/h³ in
+/// The paper's setup (docs/design.md §7): 80³ cells on [0,2]³, σ_t = 8, α = 0.9, Q_0^0 = 1/h³ in
 /// cell (40,40,40), extrapolation (Neumann) closure as in the paper. Returns the relative
 /// deviations from the semi-analytic P_N values at τ = 1, 2, 4 (cell centres, since
 /// σ_t h = 0.2).
@@ -315,7 +315,7 @@ fn paper_deviations(order: usize) -> Vec<f64> {
 
 /// (c) The paper's setup for P_1: within 4% of the semi-analytic values at τ = 1, 2, 4 (the
 /// one-cell source is not resolved — σ_t h = 0.2, τ = 1 is five cells out — and the boundary
-/// at 8 mfp adds ≈ 1% at τ = 4, DESIGN.md §7). Measured: +1.87%, +0.65%, +0.91% (P_1) and
+/// at 8 mfp adds ≈ 1% at τ = 4, docs/design.md §7). Measured: +1.87%, +0.65%, +0.91% (P_1) and
 /// +3.24%, +0.81%, +1.03% (P_5; the large-κ modes of higher orders are less resolved near the
 /// source). Ignored: 2M unknowns, ~10 s with parity-CG.
 #[test]

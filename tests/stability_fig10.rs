@@ -5,7 +5,7 @@
 //! The scene: 2D, [0,1]², 32×32 cells, a disc of radius 0.3 around the centre with σ_t = 20
 //! and albedo 0.9, vacuum (σ_t = 0) outside, an isotropic source Q_0^0 = 1 in the cells
 //! with centres within 0.1 of the centre, Dirichlet or Neumann boundary. The vacuum makes A singular
-//! (DESIGN.md §5); raising σ_t to the threshold regularises it, and the smaller the
+//! (docs/design.md §5); raising σ_t to the threshold regularises it, and the smaller the
 //! threshold the worse the conditioning, so the iteration count grows as it shrinks.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 

@@ -50,7 +50,7 @@ pub enum DirVar {
 }
 
 /// Complex spherical harmonics (with Condon–Shortley phase) or the real basis of
-/// DESIGN.md §2.
+/// docs/design.md §2.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum ShKind {
     /// Complex spherical harmonics `Y_l^m` with the Condon–Shortley phase.

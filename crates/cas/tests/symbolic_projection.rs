@@ -1,5 +1,5 @@
 //! End to end with symbolic indices: `∫ conj(Y_{l+1}^{m+1}) ω_x Y_l^m dω = −½ c_{l,m}`
-//! (DESIGN.md §2.1) obtained by the recursion and orthonormality passes alone.
+//! (docs/design.md §2.1) obtained by the recursion and orthonormality passes alone.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
 use cas::passes::{

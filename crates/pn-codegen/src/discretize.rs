@@ -1,4 +1,4 @@
-//! The discretizer: a walk over the expression tree with a stack of offsets (DESIGN.md §4),
+//! The discretizer: a walk over the expression tree with a stack of offsets (docs/design.md §4),
 //! followed by canonicalisation into the stencil IR.
 //!
 //! Every equation is discretized at a hypothetical row location carrying the equation's
@@ -8,7 +8,7 @@
 //!   its offset (one half cell each way, so the difference spans one cell h_d); nested
 //!   derivatives compose, so `∂_x(D ∂_x L)` becomes the 3-point stencil with D at ±½ cell;
 //! * a field node becomes [`Weight::Field`] at the top-of-stack offset (the runtime decides
-//!   whether that is exact evaluation or an average of voxel data, DESIGN.md §3);
+//!   whether that is exact evaluation or an average of voxel data, docs/design.md §3);
 //! * `Q_l^m` becomes the field [`FieldRef::Source`];
 //! * `L_l^m` becomes a reference to the unknown at the top-of-stack offset; if that offset
 //!   is not a position of the unknown's grid along some axis, the unknown is interpolated
@@ -361,7 +361,7 @@ impl Walker<'_> {
     fn unknown(&mut self, (l, m): (i64, i64)) -> Result<Lin, StencilError> {
         let Some(&q) = self.index.get(&(l, m)) else {
             if self.dim == Dim::Two && (l + m).rem_euclid(2) != 0 {
-                // Odd under z → −z: vanishes for z-independent problems (DESIGN.md §3).
+                // Odd under z → −z: vanishes for z-independent problems (docs/design.md §3).
                 return Ok(Lin::default());
             }
             return Err(StencilError::Malformed(format!(

@@ -4,7 +4,7 @@
 //!
 //! A [`PdeSystem`] is a list of unknowns (real-basis moments `L_l^m`) and one equation per
 //! unknown; the equation of unknown `(l, m)` is *located* at that unknown's grid position
-//! (DESIGN.md §4: the discretizer works at a hypothetical equation location with the
+//! (docs/design.md §4: the discretizer works at a hypothetical equation location with the
 //! equation's own staggered offset).
 
 use cas::{Axis, Expr, FieldName, ShKind};
@@ -67,7 +67,7 @@ impl PdeSystem {
         }
     }
 
-    /// The 2D reduction of DESIGN.md §3: for z-independent fields every moment with l+m odd
+    /// The 2D reduction of docs/design.md §3: for z-independent fields every moment with l+m odd
     /// vanishes (its basis function is odd under z → −z) and every ∂z term is zero. Drops
     /// those unknowns, their equations, and every term that contains a ∂z or a vanishing
     /// moment.
@@ -157,7 +157,7 @@ fn diffusion_equation(name: &str, dim: Dim, d: Expr) -> PdeSystem {
     }
 }
 
-/// The transport coefficient `σ_tr = σ_t − σ_s λ_1 p_1` (DESIGN.md §2.2; `λ_1 p_1 = g` for
+/// The transport coefficient `σ_tr = σ_t − σ_s λ_1 p_1` (docs/design.md §2.2; `λ_1 p_1 = g` for
 /// Henyey–Greenstein).
 pub fn sigma_tr() -> Expr {
     Expr::add(vec![
@@ -170,7 +170,7 @@ pub fn sigma_tr() -> Expr {
     ])
 }
 
-/// Classical diffusion (DESIGN.md §2.2) as an input PDE:
+/// Classical diffusion (docs/design.md §2.2) as an input PDE:
 /// `−∇·(1/(3σ_tr) ∇L_0^0) + σ_a L_0^0 = Q_0^0`. Discretized, `D = 1/(3σ_tr)` is formed from
 /// σ_t, σ_s and λ_1 p_1 requested at the half positions between neighbouring unknowns.
 pub fn cda(dim: Dim) -> PdeSystem {

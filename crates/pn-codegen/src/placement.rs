@@ -1,11 +1,11 @@
-//! Placement of the unknowns on staggered grids (DESIGN.md §3).
+//! Placement of the unknowns on staggered grids (docs/design.md §3).
 //!
 //! The staggered placement is *derived* from the coupling structure of the equations: the
 //! equation of unknown r is located at r's position; a term in it that reaches unknown q
 //! through an odd number of ∂_d puts q half a cell away from r along d, an even number
 //! (including none) on the same grid along d. Starting from L_0^0 at the cell centre, a
 //! breadth-first walk over these constraints fixes every shift and checks that no
-//! constraint is violated. [`rule_shift`] is the closed-form rule of DESIGN.md §3 that the
+//! constraint is violated. [`rule_shift`] is the closed-form rule of docs/design.md §3 that the
 //! derived placement is tested against.
 
 use std::collections::VecDeque;
@@ -15,7 +15,7 @@ use cas::Expr;
 use crate::pde::{as_unknown, PdeSystem};
 use pn_stencil::{Dim, MomentPlacement, Staggering, StencilError};
 
-/// The shift of moment (l, m) by the rule of DESIGN.md §3: shifted along axis d iff the
+/// The shift of moment (l, m) by the rule of docs/design.md §3: shifted along axis d iff the
 /// real basis function is odd under x_d → −x_d; x: (m>0, m odd) or (m<0, m even);
 /// y: m<0; z: l+m odd. In 2D the z shift is always 0.
 pub fn rule_shift(l: i64, m: i64, dim: Dim) -> [u8; 3] {

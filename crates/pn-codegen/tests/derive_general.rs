@@ -24,7 +24,7 @@ fn general_form_instantiates_to_the_expanded_system() {
 
 #[test]
 fn henyey_greenstein_moments_are_powers_of_g() {
-    // λ_l p_l = 2π ∫ p_HG(μ) P_l(μ) dμ = g^l (DESIGN.md §2.1). The HG integrand is smooth
+    // λ_l p_l = 2π ∫ p_HG(μ) P_l(μ) dμ = g^l (docs/design.md §2.1). The HG integrand is smooth
     // (analytic for |g| < 1), so 400-point Gauss–Legendre converges to round-off; 1e-12
     // leaves room for the O(lmax) cancellation in the Legendre recurrence.
     for g in [-0.7, 0.0, 0.3, 0.5, 0.9] {

@@ -1,5 +1,5 @@
-//! The derived real P_N system against numerical quadrature (DESIGN.md §2.3) and the P_1
-//! hand-check (DESIGN.md §2.2).
+//! The derived real P_N system against numerical quadrature (docs/design.md §2.3) and the P_1
+//! hand-check (docs/design.md §2.2).
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
 use cas::{Axis, Expr, FieldName};
@@ -77,7 +77,7 @@ fn collision_and_scattering_are_diagonal() {
 
 #[test]
 fn p1_matches_the_hand_check() {
-    // DESIGN.md §2.2:
+    // docs/design.md §2.2:
     //   (1/√3)(∂x L_1^1 + ∂y L_1^{-1} + ∂z L_1^0) + σ_t L_0^0 − σ_s λ_0 p_0 L_0^0 = Q_0^0
     //   (1/√3) ∂x L_0^0 + (σ_t − σ_s λ_1 p_1) L_1^1 = Q_1^1   (y ↔ L_1^{-1}, z ↔ L_1^0)
     let s3 = Expr::Num(cas::Surd::sqrt_ratio(1, 3).unwrap());

@@ -149,7 +149,7 @@ fn inconsistent_coupling_is_rejected() {
     }
 }
 
-/// DESIGN.md §2.2 for P_1, discretized by hand on the staggered grid: row L_0^0 at the
+/// docs/design.md §2.2 for P_1, discretized by hand on the staggered grid: row L_0^0 at the
 /// centre reads L_1^1 / L_1^{-1} / L_1^0 half a cell away along x / y / z.
 #[test]
 fn p1_3d_equals_hand_written_stencil() {
@@ -490,7 +490,7 @@ fn user_fields_without_runtime_counterpart_are_reported() {
 }
 
 /// End to end against an independent route: the stencils discretized from the CAS-derived
-/// equations equal those from transport matrices computed by quadrature (DESIGN.md §2.3),
+/// equations equal those from transport matrices computed by quadrature (docs/design.md §2.3),
 /// weight by weight for random fields (tolerance: quadrature round-off ~1e-15 per entry,
 /// weights scaled by 1/h ≤ 4).
 #[test]

@@ -11,7 +11,8 @@ use pn_runtime::field::Field;
 use pn_runtime::layout::Layout;
 use pn_runtime::problem::{Boundary, Problem};
 use pn_runtime::solver::parity::split::split;
-use pn_runtime::solver::parity::{even_mask, ParityCg, Precond};
+use pn_runtime::solver::parity::{ParityCg, Precond};
+use pn_runtime::solver::pn_layout::even_mask;
 use pn_stencil::{Dim, StencilKernel};
 
 fn scene(name: &str, dim: Dim, res: usize, boundary: Boundary) -> Problem {

@@ -38,7 +38,7 @@ fn solve(problem: &Problem, order: i32, staggered: bool, tol: f64) -> Solution {
 
 #[test]
 fn quadrature_p1_matches_hand_check() {
-    // DESIGN.md §2.2: the (0,0)–(1,1) x-coupling is 1/√3.
+    // docs/design.md §2.2: the (0,0)–(1,1) x-coupling is 1/√3.
     let m = coupling_matrices(&[(0, 0), (1, -1), (1, 0), (1, 1)]);
     assert!((m[0][0][3] - 1.0 / 3f64.sqrt()).abs() < 1e-14);
     assert!((m[1][0][1] - 1.0 / 3f64.sqrt()).abs() < 1e-14);

@@ -11,12 +11,12 @@ mod common;
 use common::fld::sphere_in_vacuum;
 
 /// CDA Green's function of the infinite medium, normalised: `4πφ/σ_t² = 3 e^{−√(3(1−α))τ}/τ`
-/// (DESIGN.md §7).
+/// (docs/design.md §7).
 fn cda_infinite(tau: f64, albedo: f64) -> f64 {
     3.0 * (-(3.0 * (1.0 - albedo)).sqrt() * tau).exp() / tau
 }
 
-/// Grosjean's approximation, normalised (DESIGN.md §7).
+/// Grosjean's approximation, normalised (docs/design.md §7).
 fn grosjean(tau: f64, albedo: f64) -> f64 {
     let lambda = (3.0 * (1.0 - albedo) / (2.0 - albedo)).sqrt();
     (-tau).exp() / (tau * tau) + 3.0 * albedo / (2.0 - albedo) * (-lambda * tau).exp() / tau

@@ -1,4 +1,4 @@
-//! Semi-analytic P_N point-source solution (DESIGN.md §7, shared/reference/pointsource/).
+//! Semi-analytic P_N point-source solution (docs/design.md §7, tests/data/pointsource/).
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
 use pn_runtime::reference::{
@@ -36,7 +36,7 @@ fn matches_the_tabulated_reference_rows() {
     assert_eq!(p5.delta_weight, 0.0);
 }
 
-/// P_1 is CDA with σ_tr = σ_t(1 − αg) (DESIGN.md §2.2), for any albedo and g. Both sides are
+/// P_1 is CDA with σ_tr = σ_t(1 − αg) (docs/design.md §2.2), for any albedo and g. Both sides are
 /// closed forms evaluated in double precision: 1e-12 relative.
 #[test]
 fn p1_equals_cda_closed_form() {
@@ -52,7 +52,7 @@ fn p1_equals_cda_closed_form() {
             }
         }
     }
-    // DESIGN.md §7's isotropic form 3 e^{−√(3(1−α))τ}/τ.
+    // docs/design.md §7's isotropic form 3 e^{−√(3(1−α))τ}/τ.
     for &tau in &[0.3, 1.0, 3.0] {
         let want = 3.0 * (-(3.0f64 * 0.1).sqrt() * tau).exp() / tau;
         assert_close(

@@ -183,7 +183,7 @@ pub trait StencilKernel: Send + Sync {
 /// Errors of placement, discretization and code generation.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum StencilError {
-    /// The coupling structure admits no staggered placement (DESIGN.md §3).
+    /// The coupling structure admits no staggered placement (docs/design.md §3).
     InconsistentPlacement(String),
     /// The expression tree contains something the discretizer cannot handle.
     Unsupported(String),

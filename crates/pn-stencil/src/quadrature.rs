@@ -1,9 +1,9 @@
 //! Numerical quadrature on the sphere and real spherical harmonics — the independent
-//! check of the derivation (DESIGN.md §2.3).
+//! check of the derivation (docs/design.md §2.3).
 //!
 //! * [`gauss_legendre`]: nodes and weights on [−1, 1] (exact for polynomials of degree
 //!   ≤ 2n−1);
-//! * [`real_sh`]: the real basis of DESIGN.md §2 (no Condon–Shortley phase left over);
+//! * [`real_sh`]: the real basis of docs/design.md §2 (no Condon–Shortley phase left over);
 //! * [`SphereQuadrature`]: Gauss–Legendre in cos θ × uniform in φ; with `n_mu > d/2` and
 //!   `n_phi > d` nodes it integrates every polynomial of degree ≤ d in ω exactly;
 //! * [`transport_matrices`]: `M^d_{(l,m),(l',m')} = ∫ ω_d Y_l^m Y_{l'}^{m'} dω`;
@@ -81,7 +81,7 @@ pub fn assoc_legendre(l: usize, m: usize, mu: f64) -> f64 {
     pm1
 }
 
-/// Real spherical harmonic `Y_l^m` of DESIGN.md §2 at direction (cos θ = `mu`, φ = `phi`).
+/// Real spherical harmonic `Y_l^m` of docs/design.md §2 at direction (cos θ = `mu`, φ = `phi`).
 pub fn real_sh(l: usize, m: i64, mu: f64, phi: f64) -> f64 {
     let am = m.unsigned_abs() as usize;
     // (l−|m|)!/(l+|m|)! as a product, no overflow

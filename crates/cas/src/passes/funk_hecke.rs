@@ -1,4 +1,4 @@
-//! The Funk–Hecke rule for a rotationally symmetric phase function (DESIGN.md §2.1):
+//! The Funk–Hecke rule for a rotationally symmetric phase function (docs/design.md §2.1):
 //! `∫ p(ω'·ω) Y_l^m(ω') dω' = λ_l p_l Y_l^m(ω)`, with `λ_l p_l` the field
 //! [`FieldName::PhaseMoment`]. Holds for complex and real `Y` alike (the real ones are
 //! combinations of complex ones of the same `l`).

@@ -1,5 +1,5 @@
 //! Conversion between the real spherical harmonics and the complex ones with the
-//! Condon–Shortley phase (DESIGN.md §2):
+//! Condon–Shortley phase (docs/design.md §2):
 //!
 //! ```text
 //! m > 0:  Y_{l,m} = (1/√2) (Y_l^{−m} + (−1)^m Y_l^m)

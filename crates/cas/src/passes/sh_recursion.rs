@@ -1,5 +1,5 @@
 //! The recursion relations for `ω_x Y_l^m`, `ω_y Y_l^m`, `ω_z Y_l^m` (complex basis with
-//! the Condon–Shortley phase, DESIGN.md §2.1).
+//! the Condon–Shortley phase, docs/design.md §2.1).
 //!
 //! The coefficients are emitted as named functions `a_{l,m}` … `f_{l,m}`
 //! (`Expr::Func("a", [l, m])`); [`define_coefficients`] replaces them by their closed
@@ -90,7 +90,7 @@ fn rewrite_product(mut fs: Vec<Expr>) -> Expr {
     Expr::Mul(fs)
 }
 
-/// The closed form of a recursion coefficient (DESIGN.md §2.1) for index expressions.
+/// The closed form of a recursion coefficient (docs/design.md §2.1) for index expressions.
 pub fn coefficient_definition(name: &str, l: &Expr, m: &Expr) -> Option<Expr> {
     let lin = |a: i64, b: i64, k: i64| {
         // a·l + b·m + k

@@ -2,7 +2,7 @@
 //! m > 0 (the compact form of the paper's Eq. 5/6, derived, not transcribed).
 //!
 //! The same [`pipeline`] runs with symbolic indices `l`, `m` and sign
-//! assumptions on `m`; the recursion coefficients stay named (`a_{l,m}` … `f_{l,m}`, DESIGN.md
+//! assumptions on `m`; the recursion coefficients stay named (`a_{l,m}` … `f_{l,m}`, docs/design.md
 //! §2.1) and are brought into a canonical form (`e_{l,m} = c_{l,−m}`, `f_{l,m} = d_{l,−m}`,
 //! `a` and `b` even in m) so that like terms combine. Where the real↔complex conversion needs
 //! to know whether `m ± 1` is zero (m = ±1), the result carries Kronecker deltas `δ_{m,±1}`.

@@ -1,4 +1,4 @@
-//! Derivation of the real-valued P_N equations from the RTE (DESIGN.md §2).
+//! Derivation of the real-valued P_N equations from the RTE (docs/design.md §2).
 //!
 //! Contract used by the discretizer: [`PnSystem::equations`] holds one [`PnEquation`] per
 //! (l, m) with l ≤ N, ordered by the moment index l(l+1)+m, each written as `lhs = rhs` with

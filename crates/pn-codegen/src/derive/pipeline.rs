@@ -1,5 +1,5 @@
 //! The derivation proper: project the RTE onto a real basis function `Y_{l,m}` and apply
-//! the `cas` passes until no angular variable is left (DESIGN.md §2, §2.1).
+//! the `cas` passes until no angular variable is left (docs/design.md §2, §2.1).
 //!
 //! Steps (each recorded with its expression tree when asked to):
 //! 1. the RTE with all terms on the left;
@@ -163,7 +163,7 @@ pub fn derive(setup: &Setup) -> Derived {
     });
     rec.push(
         "Real to complex basis",
-        "Write the test function in the complex basis with the Condon--Shortley phase (DESIGN.md \\S 2).",
+        "Write the test function in the complex basis with the Condon--Shortley phase (docs/design.md \\S 2).",
         &lhs,
         &rhs,
     );
@@ -173,7 +173,7 @@ pub fn derive(setup: &Setup) -> Derived {
     });
     rec.push(
         "Recursion relations",
-        "Replace $\\omega_d Y_l^m$ by the recursion relations (DESIGN.md \\S 2.1).",
+        "Replace $\\omega_d Y_l^m$ by the recursion relations (docs/design.md \\S 2.1).",
         &lhs,
         &rhs,
     );

@@ -57,7 +57,7 @@ pub fn equation_block(lhs: &Expr, rhs: &Expr, per_line: usize) -> String {
 /// The expanded system as LaTeX (one `align*` per equation).
 pub fn system_latex(sys: &PnSystem) -> String {
     let mut out = format!(
-        "% Real P_{0} equations ({1} moments), derived by pn-codegen (DESIGN.md section 2).\n",
+        "% Real P_{0} equations ({1} moments), derived by pn-codegen (docs/design.md section 2).\n",
         sys.order,
         sys.equations.len()
     );

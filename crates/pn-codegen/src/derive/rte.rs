@@ -1,5 +1,5 @@
 //! The radiative transfer equation as an expression tree, and the truncated real
-//! spherical-harmonic expansions substituted into it (DESIGN.md §2).
+//! spherical-harmonic expansions substituted into it (docs/design.md §2).
 
 use cas::passes::funk_hecke::phase_function;
 use cas::{Axis, DirVar, Expr, FieldName, ShKind};

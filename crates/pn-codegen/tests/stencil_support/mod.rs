@@ -26,7 +26,7 @@ fn surd_expr(v: f64) -> Expr {
 /// The P_N system in the canonical shape of `pn_codegen::derive`, with the transport
 /// coefficients from quadrature (a test fixture independent of the CAS derivation).
 pub fn quadrature_pn_system(order: usize) -> PnSystem {
-    // The quadrature check of DESIGN.md §2.3, independent of the CAS derivation.
+    // The quadrature check of docs/design.md §2.3, independent of the CAS derivation.
     let mats = pn_stencil::quadrature::transport_matrices(order);
     let lm: Vec<(i64, i64)> = (0..=order as i64)
         .flat_map(|l| (-l..=l).map(move |m| (l, m)))

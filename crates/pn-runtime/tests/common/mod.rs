@@ -3,13 +3,13 @@
 //! options, the StaRMAP references and the relative difference the tests bound; the FLD
 //! test problems ([`fld`]).
 //!
-//! The quadrature stencil's equations are DESIGN.md §2.2,
+//! The quadrature stencil's equations are docs/design.md §2.2,
 //! `Σ_d M^d ∂_d L + (σ_t − σ_s λ_l p_l) L_l^m = Q_l^m`, with
 //! `M^d_{(l,m),(l',m')} = ∫ ω_d Y_l^m Y_l'^m' dω` computed by Gauss–Legendre × uniform-φ
-//! quadrature (DESIGN.md §2.3) in the real basis of DESIGN.md §2. Placement follows the rule
-//! of DESIGN.md §3; a derivative along d becomes `(u[+½e_d] − u[−½e_d])/h_d` (staggered) or
-//! `(u[+e_d] − u[−e_d])/(2h_d)` (collocated). For P_1 this is exactly the hand check of
-//! DESIGN.md §2.2.
+//! quadrature (docs/design.md §2.3) in the real basis of docs/design.md §2. Placement
+//! follows the rule of docs/design.md §3; a derivative along d becomes
+//! `(u[+½e_d] − u[−½e_d])/h_d` (staggered) or `(u[+e_d] − u[−e_d])/(2h_d)` (collocated).
+//! For P_1 this is exactly the hand check of docs/design.md §2.2.
 #![allow(dead_code)]
 
 pub mod fld;
@@ -69,7 +69,7 @@ fn factorial(n: i32) -> f64 {
     (1..=n).map(|k| k as f64).product()
 }
 
-/// Real spherical harmonic of DESIGN.md §2 at (cosθ, φ).
+/// Real spherical harmonic of docs/design.md §2 at (cosθ, φ).
 pub fn real_ylm(l: i32, m: i32, mu: f64, phi: f64) -> f64 {
     let am = m.abs();
     let k = ((2 * l + 1) as f64 / (4.0 * PI) * factorial(l - am) / factorial(l + am)).sqrt();
@@ -109,7 +109,7 @@ pub fn coupling_matrices(moments: &[(i32, i32)]) -> Vec<Vec<Vec<f64>>> {
     out
 }
 
-/// Placement rule of DESIGN.md §3.
+/// Placement rule of docs/design.md §3.
 pub fn placement(l: i32, m: i32) -> [u8; 3] {
     let x = (m > 0 && m % 2 == 1) || (m < 0 && m % 2 == 0);
     let y = m < 0;
