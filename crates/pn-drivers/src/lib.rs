@@ -11,7 +11,7 @@
 //! the stencil they select) is below [`fld_setup`], [`error_estimate`] and
 //! [`pointsource_extras`], which are below [`solve`], [`fld_method`] and [`converge`];
 //! [`render`] uses [`fld_setup`], [`figure`] uses [`render`]; `bench_rows` is below
-//! [`bench`] (and its `bench_model` section) and [`tradeoff`].
+//! [`bench`](mod@bench) (and its `bench_model` section) and [`tradeoff`].
 //!
 //! # Example
 //!
