@@ -11,7 +11,7 @@
 //! hierarchy to the finest operator it needs.
 
 use super::split::{ParityError, Split};
-use crate::operator::{LinearOperator, Preconditioner};
+use crate::operator::{Identity, Jacobi, LinearOperator, Preconditioner};
 use rayon::prelude::*;
 use sprs::CsMat;
 
@@ -85,7 +85,7 @@ pub enum Built {
     /// `z = r`.
     Identity,
     /// `z = r / diag(S)`.
-    Diagonal(Vec<f64>),
+    Diagonal(Jacobi),
     /// Dense inverse blocks.
     Blocks {
         /// Even-local indices of each block.
@@ -121,11 +121,9 @@ impl Built {
         match kind {
             Precond::None => Ok(Built::Identity),
             Precond::Jacobi => {
-                let d = diagonal(split);
-                if let Some(i) = d.iter().position(|v| *v == 0.0 || !v.is_finite()) {
-                    return Err(ParityError::SingularBlock { block: i });
-                }
-                Ok(Built::Diagonal(d.into_iter().map(|v| 1.0 / v).collect()))
+                let j = Jacobi::from_diagonal(&diagonal(split))
+                    .map_err(|row| ParityError::SingularBlock { block: row })?;
+                Ok(Built::Diagonal(j))
             }
             Precond::BlockJacobi { block_of } => {
                 let n = split.even.len() + split.odd.len();
@@ -228,11 +226,8 @@ impl Built {
     /// `z = M⁻¹ r` (for [`Built::Multigrid`] use [`Built::apply_with`]).
     pub fn apply(&self, r: &[f64], z: &mut [f64]) {
         match self {
-            Built::Identity => z.copy_from_slice(r),
-            Built::Diagonal(inv) => z
-                .par_iter_mut()
-                .zip(r.par_iter().zip(inv.par_iter()))
-                .for_each(|(zi, (ri, di))| *zi = ri * di),
+            Built::Identity => Identity.apply(r, z),
+            Built::Diagonal(j) => j.apply(r, z),
             Built::Blocks { members, inverses } => {
                 for (m, inv) in members.iter().zip(inverses) {
                     let k = m.len();
