@@ -109,7 +109,7 @@ impl Surd {
 
     #[expect(
         clippy::expect_used,
-        reason = "p·q of two i64-range radicand parts fits i128; the P_N coefficients up to MAX_ORDER are far from that range, an overflow would be a caller's expression outside the cas's exact range"
+        reason = "Surd is exact arithmetic in a fixed width by design: the radicands of the P_N derivation up to MAX_ORDER are ratios of small integers, far from overflowing p·q in i128, and stopping beats a silently wrong coefficient"
     )]
     fn new128(coeff: R128, radicand: R128) -> Option<Surd> {
         if radicand.is_negative() {
