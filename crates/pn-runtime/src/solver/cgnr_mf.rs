@@ -1,4 +1,4 @@
-//! `--solver cgnr-mf`: [`cgls`](super::cgls::cgls) with the matrix-free operator
+//! `--solver cgnr-mf`: [`cgls`] with the matrix-free operator
 //! ([`crate::matfree`]); the pipeline routes it there so that `A` is never assembled.
 
 pub use super::cgls::cgls;

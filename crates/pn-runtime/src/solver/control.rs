@@ -1,5 +1,5 @@
 //! The one stopping controller of every iterative method ([`Control`]), and the frame the
-//! least-squares methods share ([`run_from_zero`]).
+//! least-squares methods share (`run_from_zero`).
 //!
 //! A method reports the norm of its residual (recurrence or true) after each iteration to
 //! [`Control::record`], which stops it on

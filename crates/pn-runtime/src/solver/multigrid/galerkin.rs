@@ -1,6 +1,6 @@
 //! Galerkin coarse operators `A_c = Pᵀ A P` for the piecewise-constant aggregation `P`.
 //!
-//! With `P` the aggregation of [`super::aggregate`], entry `(I, J)` of `Pᵀ A P` is the sum
+//! With `P` the aggregation of [`super::aggregate`](mod@super::aggregate), entry `(I, J)` of `Pᵀ A P` is the sum
 //! of `A_ij` over `i ∈ I`, `j ∈ J`. The finest level of the parity systems is built from
 //! the parity blocks without forming `S` ([`crate::solver::parity::galerkin`], with the
 //! row builder [`build_rows`] of this module).

@@ -1,7 +1,7 @@
 //! Aggregation multigrid for the even-parity system `S` (and scalar diffusion systems such
 //! as CDA), used as a preconditioner of the Krylov methods in [`super::parity`].
 //!
-//! * [`aggregate`]: 2×2×2 geometric aggregation per moment grid (positions known from the
+//! * [`aggregate`](mod@aggregate): 2×2×2 geometric aggregation per moment grid (positions known from the
 //!   layout), giving the piecewise-constant prolongation `P`.
 //! * [`galerkin`]: coarse operators `Pᵀ A P`; on the finest level from the parity blocks,
 //!   without forming `S` (DESIGN.md §5).
@@ -337,7 +337,7 @@ fn csr_asymmetry(a: &CsMat<f64>, tol: f64) -> f64 {
 }
 
 /// [`FineCycle::AdditiveIfSymmetric`] treats the finest operator as symmetric when its
-/// first Galerkin operator's [`csr_asymmetry`] is at most this tolerance: rounding in
+/// first Galerkin operator's relative entry asymmetry is at most this tolerance: rounding in
 /// the coarse sums is ~1e-15 of the row scale, while the Neumann closure's asymmetry of
 /// `S` measured 4e-5 to 4e-4 (random probes) on the point source and checkerboard P_3/P_5.
 pub const COARSE_SYMMETRY_TOL: f64 = 1e-11;
@@ -567,7 +567,7 @@ impl Multigrid {
     }
 
     /// Relative asymmetry of an entry of the first Galerkin operator `PᵀAP` above
-    /// [`COARSE_SYMMETRY_TOL`], or 0 if there is none ([`csr_asymmetry`]). `PᵀAP` is
+    /// [`COARSE_SYMMETRY_TOL`], or 0 if there is none. `PᵀAP` is
     /// symmetric to rounding (~1e-15) whenever `A` is, so a positive value proves `A`
     /// nonsymmetric without a single application of `A`.
     pub fn first_coarse_asymmetry(&self) -> f64 {

@@ -308,7 +308,7 @@ impl Split {
     /// `‖b − A u‖₂` from the blocks, with `u` and `b` given by parity:
     /// `r_e = b_e − D_e u_e − B u_o`, `r_o = b_o − D_o (u_o + C̃ u_e)`. Equal to the norm of
     /// the residual of the assembled `A` up to rounding, so a solve can check its result
-    /// after `A` itself has been dropped (or was never assembled, [`crate::assemble::assemble_split`]).
+    /// after `A` itself has been dropped (or was never assembled, [`crate::assemble_split::assemble_split`]).
     pub fn residual_norm(&self, u_e: &[f64], u_o: &[f64], b_e: &[f64], b_o: &[f64]) -> f64 {
         // Σ r² over one parity: `coupling` times the other parity's unknowns gives `t`;
         // the odd rows hold C̃ = D_o⁻¹C, so their coupling is scaled by the diagonal too.
