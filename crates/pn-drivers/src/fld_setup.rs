@@ -17,7 +17,7 @@ use pn_runtime::fld::{
     PicardOptions,
 };
 use pn_runtime::problem::{Problem, Scattering};
-use pn_runtime::solver::SolverKind;
+use pn_runtime::solver::{SolverKind, SolverTuning};
 use std::time::Instant;
 
 use crate::scene_setup::{Route, SolveRequest};
@@ -47,6 +47,8 @@ pub struct FldSettings {
     pub route: Route,
     /// The linear solver of the Picard steps.
     pub linear_solver: SolverKind,
+    /// Expert settings of that linear solver.
+    pub tuning: SolverTuning,
 }
 
 /// Reads and checks the FLD options of `a` for `grid` (σ_ε defaults to `1e-3/L`). Options
@@ -100,6 +102,7 @@ pub fn settings_from_request(a: &SolveRequest, grid: &FldGrid) -> Result<FldSett
         params,
         route,
         linear_solver: a.solver,
+        tuning: a.tuning.clone(),
     })
 }
 
@@ -219,6 +222,7 @@ pub fn solve_fld_route(
             let opts = PicardOptions {
                 solver: settings.linear_solver,
                 max_steps: settings.params.max_iter,
+                tuning: settings.tuning.clone(),
                 ..Default::default()
             };
             let p = solve_fld_picard(

@@ -396,6 +396,7 @@ fn solve_ms(
             params,
             route: Route::GaussSeidel,
             linear_solver: SolverKind::ParityCg,
+            tuning: tuning.clone(),
         };
         let dk = diffusion_kernel(Dim::Three)?;
         let run = solve_fld_route(&fp, &settings, &dk, None)?;

@@ -51,7 +51,7 @@ use crate::field::VoxelGrid;
 use crate::linalg::residual;
 use crate::solver::multigrid::solve::mg_krylov;
 use crate::solver::multigrid::Geometry;
-use crate::solver::{SolveStatus, SolverKind, SolverOptions};
+use crate::solver::{SolveStatus, SolverKind, SolverOptions, SolverTuning};
 
 /// Options of the Picard route (the nonlinear tolerance and σ_ε, ε, limiter come from
 /// [`FldParams`]; `FldParams::omega` and `max_iter` belong to the red–black route).
@@ -66,6 +66,8 @@ pub struct PicardOptions {
     pub max_linear_iter: usize,
     /// Maximum number of Picard steps.
     pub max_steps: usize,
+    /// Expert settings of the linear solver (multigrid parameters, Krylov method, profile).
+    pub tuning: SolverTuning,
 }
 
 impl Default for PicardOptions {
@@ -82,6 +84,7 @@ impl Default for PicardOptions {
             linear_tol: 1e-2,
             max_linear_iter: 100_000,
             max_steps: 500,
+            tuning: SolverTuning::default(),
         }
     }
 }
@@ -201,6 +204,7 @@ pub fn solve_fld_picard(
         tol: opts.linear_tol,
         max_iter: opts.max_linear_iter,
         progress: false,
+        tuning: opts.tuning.clone(),
         ..Default::default()
     };
     let solver = opts.solver.solver();
