@@ -77,7 +77,7 @@ fn pn(args: &[&str]) -> std::process::Output {
 }
 
 /// For isotropic scattering the first-scatter source has no l = 1 part, and eliminating the
-/// staggered face moments of P_1 gives exactly the 7-point CDA stencil (DESIGN.md §2.2):
+/// staggered face moments of P_1 gives exactly the 7-point CDA stencil (docs/design.md §2.2):
 /// the two images must agree to the solver tolerance (1e-8 relative residual; the paths
 /// are identical because both use the same seeds, so no Monte Carlo noise enters the
 /// difference). Tolerance 1e-5 relative to the image maximum.

@@ -67,7 +67,7 @@ impl Drop for Case {
     }
 }
 
-/// A .vol header (DESIGN.md §6) for a grid of the given size and encoding, plus `values`.
+/// A .vol header (docs/design.md §6) for a grid of the given size and encoding, plus `values`.
 fn vol(encoding: i32, dims: [i32; 3], values: &[f32]) -> Vec<u8> {
     let mut b = b"VOL\x03".to_vec();
     for v in [encoding, dims[0], dims[1], dims[2], 1] {

@@ -1,7 +1,7 @@
 //! `pn bench`, section "Model only what the scene requires" (issue 8, item 5), measured:
 //!
 //! * **2D problems solve only the 2D moments.** The checkerboard solved as 2D (the 2D
-//!   stencil keeps the moments with l+m even and has no ∂z terms, DESIGN.md §3) against the
+//!   stencil keeps the moments with l+m even and has no ∂z terms, docs/design.md §3) against the
 //!   same problem as a one-cell-thick 3D slab (all (N+1)² moments): unknowns, non-zeros,
 //!   seconds, and the difference of the answers.
 //! * **Isotropic media skip the scattering terms that vanish.** The point source with an

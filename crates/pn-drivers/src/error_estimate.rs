@@ -6,7 +6,7 @@
 //! (`pn_runtime::convergence::richardson`): `u_fine − u ≈ (u_fine − u_coarse)/(2^p − 1)`.
 //! The order p is observed from a third solve at a quarter of the resolution when every
 //! axis is divisible by 4 and the observed value is plausible (0.5 < p < 4); otherwise the
-//! design order p = 2 (DESIGN.md §3: second-order staggered differences) is assumed and the
+//! design order p = 2 (docs/design.md §3: second-order staggered differences) is assumed and the
 //! report says so.
 
 use crate::scene_setup::{

@@ -7,14 +7,14 @@
 //! **From the scene to the FLD problem** ([`fld_problem`]): σ_t, σ_s (or the albedo) and
 //! `Q_0^0` are evaluated at the cell centres (exact for analytic fields, the voxel itself for
 //! voxel data at the grid resolution). The FLD extinction is the transport coefficient
-//! `σ_t − g σ_s` (`g = λ_1 p_1`, DESIGN.md §2.2; σ_t for isotropic scattering), the
+//! `σ_t − g σ_s` (`g = λ_1 p_1`, docs/design.md §2.2; σ_t for isotropic scattering), the
 //! absorption `σ_t − σ_s`. FLD needs cubic cells (one `h`) and 3D; the outermost cell layer
 //! carries the Dirichlet value `φ = ε j̄ h` instead of the scene's `--bc`, and vacuum is handled
 //! by `σ_ε` (`--sigma-eps`, default `1e-3/L` with L the longest domain edge) instead of
 //! `--sigma-t-min`.
 //!
 //! **Normalisation.** The FLD solvers work with the fluence `φ = √(4π) L_0^0` and the
-//! isotropic emission `q = √(4π) Q_0^0` (DESIGN.md §1; the diffusion equation is linear in
+//! isotropic emission `q = √(4π) Q_0^0` (docs/design.md §1; the diffusion equation is linear in
 //! both, so it reads the same for L_0^0 and Q_0^0). For consistency with `--method pn|cda`,
 //! `fluence.npy`, `moments.npy` and `fluence.png` hold **`L_0^0 = φ/√(4π)`**; multiply by
 //! `√(4π)` for the fluence.

@@ -4,7 +4,7 @@
 //! **From the scene to the FLD problem** ([`fld_problem`]): σ_t, σ_s (or the albedo) and
 //! `Q_0^0` are evaluated at the cell centres (exact for analytic fields, the voxel itself for
 //! voxel data at the grid resolution). The FLD extinction is the transport coefficient
-//! `σ_t − g σ_s` (`g = λ_1 p_1`, DESIGN.md §2.2; σ_t for isotropic scattering), the
+//! `σ_t − g σ_s` (`g = λ_1 p_1`, docs/design.md §2.2; σ_t for isotropic scattering), the
 //! absorption `σ_t − σ_s`. FLD needs cubic cells (one `h`) and 3D.
 //!
 //! **Normalisation.** The FLD solvers work with the fluence `φ = √(4π) L_0^0` and the
@@ -22,7 +22,7 @@ use std::time::Instant;
 
 use crate::scene_setup::{Route, SolveRequest};
 
-/// `√(4π)`: `φ = √(4π) L_0^0` and `q = √(4π) Q_0^0` (DESIGN.md §1).
+/// `√(4π)`: `φ = √(4π) L_0^0` and `q = √(4π) Q_0^0` (docs/design.md §1).
 pub const SQRT_4PI: f64 = 3.544_907_701_811_032;
 
 /// Refuses the FLD-only flags with `--method pn|cda`.

@@ -1,11 +1,11 @@
-//! Extra outputs of `pn solve pointsource` (issue 5, DESIGN.md §7 "Point source, 3D"):
+//! Extra outputs of `pn solve pointsource` (issue 5, docs/design.md §7 "Point source, 3D"):
 //! `profile.csv` / `profile.png` (the discrete solution along +x from the source cell centre
 //! beside the semi-analytic P_N solution, CDA and Grosjean) and `profile_diagonal.csv` (the
 //! same along the face diagonal (1,1,0)/√2, for the rotational-invariance check).
 //!
 //! **Normalisation.** The scene's source has `∫ Q_0^0 dV = 1` (`Q_0^0 = 1/h³` in one cell, or
 //! a normalised Gaussian). Its power is `∫∫ Q_0^0 Y_0^0 dω dV = √(4π)` and the fluence is
-//! `φ = √(4π) L_0^0`, so the fluence *per unit power* is `G = L_0^0` (DESIGN.md §7: "then
+//! `φ = √(4π) L_0^0`, so the fluence *per unit power* is `G = L_0^0` (docs/design.md §7: "then
 //! L_0^0 is the unit-power Green's function"). The profiles show the normalised fluence
 //! `4πG/σ_t² = 4π L_0^0/σ_t²` against τ = σ_t r.
 //!

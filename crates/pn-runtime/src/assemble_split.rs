@@ -1,4 +1,4 @@
-//! Assembly straight into the parity blocks `A = [[D_e, B], [C, D_o]]` (DESIGN.md §5),
+//! Assembly straight into the parity blocks `A = [[D_e, B], [C, D_o]]` (docs/design.md §5),
 //! without ever holding `A` itself.
 //!
 //! The parity solvers only need `D_e`, `D_o`, `B` and `C̃ = D_o⁻¹ C`

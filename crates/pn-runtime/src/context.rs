@@ -71,7 +71,7 @@ impl FieldContext for RowContext<'_> {
             FieldRef::PhaseMoment(l) => pb.phase.moment(*l),
             FieldRef::Source { l, m } => self.record(pb.source(*l, *m, p)),
             // Classical diffusion coefficient D = 1/(3 σ_tr), σ_tr = σ_t − σ_s λ_1 p_1
-            // (DESIGN.md §2.2).
+            // (docs/design.md §2.2).
             FieldRef::Diffusion => self.record(pb.coefficients(p).map(|c| c.diffusion(&pb.phase))),
         }
     }

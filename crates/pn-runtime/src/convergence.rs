@@ -8,7 +8,7 @@
 //!
 //! Conventions: all fields are per-cell arrays in C order of `(nx, ny, nz)` (x slowest) as
 //! written to `fluence.npy`; every cell of a grid has the same volume, so discrete L2 norms
-//! are plain sums. The error model is `u_h = u + C h^p` (DESIGN.md §3 discretization is
+//! are plain sums. The error model is `u_h = u + C h^p` (docs/design.md §3 discretization is
 //! second order for smooth fields, p = 2).
 
 pub mod order;

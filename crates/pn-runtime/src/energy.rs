@@ -1,6 +1,6 @@
 //! Energy balance: source power against absorbed power plus boundary outflow.
 //!
-//! In units of the fluence φ = √(4π) L_0^0 (DESIGN.md §2), per unit length in z for 2D:
+//! In units of the fluence φ = √(4π) L_0^0 (docs/design.md §2), per unit length in z for 2D:
 //! * source power   `P_Q = √(4π) Σ_cells V Q_0^0(centre)`,
 //! * absorbed power `P_A = √(4π) Σ_cells V σ_a(centre) L_0^0`,
 //! * outflow        `P_B = ∮ J·n dA` with `J_d = √(4π/3) L_1^{(d)}` (L_1^1 ↔ x, L_1^{−1} ↔ y,

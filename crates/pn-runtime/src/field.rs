@@ -1,10 +1,10 @@
 //! Scalar fields over the domain: constants, analytic functions of position, and voxel grids.
 //!
 //! Analytic fields are evaluated exactly at the requested (staggered) position, as StaRMAP
-//! does (DESIGN.md §3, "Fields"). Voxel grids hold one value per cell centre of the domain
+//! does (docs/design.md §3, "Fields"). Voxel grids hold one value per cell centre of the domain
 //! and are sampled by trilinear interpolation between cell centres (clamped at the domain
 //! edge). When the voxel resolution equals the grid resolution this is exactly the rule of
-//! DESIGN.md §3: a value at a cell centre is the voxel, at a face the average of the 2
+//! docs/design.md §3: a value at a cell centre is the voxel, at a face the average of the 2
 //! adjacent cells, at an edge the average of 4 and at a corner the average of 8.
 
 use std::sync::Arc;
@@ -140,7 +140,7 @@ impl Field {
 /// How analytic fields are sampled at staggered positions (`--sampling`).
 ///
 /// * `Exact` (default): the field's value at the staggered point, as StaRMAP does
-///   (DESIGN.md §3, "Fields").
+///   (docs/design.md §3, "Fields").
 /// * `Average(n)`: the mean of the field over the control volume around the staggered
 ///   point — the box of one cell size `h` per active axis centred on the point — by the
 ///   midpoint rule on `n` sub-boxes per axis (`n^d` evaluations). A piecewise-constant field

@@ -2,7 +2,7 @@
 //!
 //! A moment with `shift[d] == 0` has `n_d` centred positions along axis d, one with
 //! `shift[d] == 1` has `n_d + 1` face positions (both domain faces; the extra one on the
-//! max side is the "extra boundary unknown" of DESIGN.md §3). Unknowns are stored moment
+//! max side is the "extra boundary unknown" of docs/design.md §3). Unknowns are stored moment
 //! by moment; within a moment, x is the slowest axis: `offset[q] + (ix·ny + iy)·nz + iz`.
 
 use crate::problem::{Boundary, Grid};
@@ -97,7 +97,7 @@ impl Layout {
     /// boundary condition: `None` when Dirichlet drops the reference.
     ///
     /// Neumann (extrapolation) clamps each axis index to the moment's range, i.e. the same
-    /// moment at the nearest inside position (DESIGN.md §3).
+    /// moment at the nearest inside position (docs/design.md §3).
     pub fn resolve(&self, q: usize, half: [i64; 3], bc: Boundary) -> Option<usize> {
         let s = self.moments[q].shift;
         let e = self.extents[q];

@@ -69,7 +69,7 @@ impl Grid {
 pub enum Phase {
     /// p = 1/(4π): λ_0 p_0 = 1, all other bands 0.
     Isotropic,
-    /// Henyey–Greenstein with parameter g: λ_l p_l = g^l (DESIGN.md §2.1).
+    /// Henyey–Greenstein with parameter g: λ_l p_l = g^l (docs/design.md §2.1).
     HenyeyGreenstein(f64),
 }
 
@@ -98,7 +98,7 @@ pub enum Scattering {
     Albedo(Field),
 }
 
-/// Boundary closure for stencil references outside the domain (DESIGN.md §3).
+/// Boundary closure for stencil references outside the domain (docs/design.md §3).
 ///
 /// With extrapolation the face rows on the domain faces see a zero difference across the
 /// boundary, which makes the boundary reflecting: the net flux through it vanishes and all
@@ -162,7 +162,7 @@ pub struct Problem {
     pub sources: Vec<SourceTerm>,
     /// Boundary closure.
     pub boundary: Boundary,
-    /// σ_t is raised to at least this value (needed where σ_t reaches 0, DESIGN.md §5).
+    /// σ_t is raised to at least this value (needed where σ_t reaches 0, docs/design.md §5).
     pub sigma_t_min: Option<f64>,
 }
 
@@ -179,7 +179,7 @@ pub struct Coefficients {
     pub sigma_s: f64,
 }
 
-/// The transport coefficient `σ_tr = σ_t − σ_s λ_1 p_1` (DESIGN.md §2.2; `λ_1 p_1 = g` for
+/// The transport coefficient `σ_tr = σ_t − σ_s λ_1 p_1` (docs/design.md §2.2; `λ_1 p_1 = g` for
 /// Henyey–Greenstein, see [`Phase::moment`]), whose inverse gives the classical diffusion
 /// coefficient `D = 1/(3σ_tr)`.
 ///
@@ -344,7 +344,7 @@ impl Problem {
     }
 
     /// The automatic σ_t threshold `--sigma-t-min` gets when vacuum is detected
-    /// (DESIGN.md §5: in vacuum A is singular, a threshold is needed and must be reported).
+    /// (docs/design.md §5: in vacuum A is singular, a threshold is needed and must be reported).
     ///
     /// Rule: when no threshold is set and σ_t = 0 at some staggered position (cell centres,
     /// faces, edges and corners, i.e. every half-cell coordinate) while it is positive

@@ -1,6 +1,6 @@
 //! Reference solutions: point source in an infinite medium (P_N, CDA, Grosjean).
 //!
-//! DESIGN.md §7 ("Point source, 3D") and `shared/reference/pointsource/README.md`.
+//! docs/design.md §7 ("Point source, 3D") and `tests/data/pointsource/README.md`.
 //! Everything here is expressed in the *normalised* form used there: with τ = σ_t r the
 //! normalised fluence of a unit-power isotropic point source is `4πφ/σ_t²`, a function of τ
 //! (and of the albedo α and the Henyey–Greenstein g) only. The `*_world` helpers convert to

@@ -24,7 +24,7 @@
 //!
 //! Voxel data cover the domain cell-centred (data of another resolution than the grid are
 //! interpolated trilinearly between their cell centres, with a note); `.npy` arrays have shape `(nx, ny, nz)` (or
-//! `(nx, ny)` in 2D), C order, x the first axis; `.vol` follows DESIGN.md §6. Relative paths
+//! `(nx, ny)` in 2D), C order, x the first axis; `.vol` follows docs/design.md §6. Relative paths
 //! are relative to the scene file.
 
 use crate::field::{Field, VoxelGrid};

@@ -1,4 +1,4 @@
-//! Built-in solve scenes: `checkerboard`, `checkerboard3d` and `pointsource` (DESIGN.md §7),
+//! Built-in solve scenes: `checkerboard`, `checkerboard3d` and `pointsource` (docs/design.md §7),
 //! built in code; their names and descriptions are in [`crate::scene_registry`], which also
 //! knows the render scenes (`pn render`). Scene files for `pn solve` are read by
 //! [`crate::scene_file`].
@@ -152,13 +152,13 @@ pub fn resolve_res(dim: Dim, default: usize, res: Option<&[usize]>) -> anyhow::R
     Ok(r)
 }
 
-/// The 2D lattice rule of DESIGN.md §7 for block (cx, cy) = (⌈x⌉, ⌈y⌉).
+/// The 2D lattice rule of docs/design.md §7 for block (cx, cy) = (⌈x⌉, ⌈y⌉).
 pub fn checkerboard_absorbs_2d(x: f64, y: f64) -> bool {
     let (cx, cy) = (x.ceil() as i64, y.ceil() as i64);
     (cx + cy) % 2 == 0 && 1 < cx && cx < 7 && 1 < cy && cy - 2 * (cx - 4).abs() < 4
 }
 
-/// The 3D lattice rule of DESIGN.md §7.
+/// The 3D lattice rule of docs/design.md §7.
 pub fn checkerboard_absorbs_3d(x: f64, y: f64, z: f64) -> bool {
     let (cx, cz) = (x.ceil() as i64, z.ceil() as i64);
     checkerboard_absorbs_2d(x, y) && (cx + cz) % 2 == 0 && 1 < cx && cx < 7 && 1 < cz && cz < 7

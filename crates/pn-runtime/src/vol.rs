@@ -1,4 +1,4 @@
-//! Mitsuba `.vol` grids (DESIGN.md §6): `VOL`, u8 version 3, i32 encoding 1 (float32),
+//! Mitsuba `.vol` grids (docs/design.md §6): `VOL`, u8 version 3, i32 encoding 1 (float32),
 //! i32 xres yres zres, i32 channels, 6×f32 bounding box, then f32 data with x fastest.
 
 use crate::field::VoxelGrid;

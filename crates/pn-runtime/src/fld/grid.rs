@@ -105,7 +105,7 @@ impl FldGrid {
 ///
 /// All fields are cell-centred, in the grid's index order. `sigma_t` is the extinction used in
 /// the diffusion coefficient (pass the transport coefficient `σ_t − g σ_s` for anisotropic
-/// scattering, cf. DESIGN.md §2.2); `sigma_a` the absorption; `source` the isotropic emission
+/// scattering, cf. docs/design.md §2.2); `sigma_a` the absorption; `source` the isotropic emission
 /// density q (power per volume; a unit-power point source in one cell is `q = 1/h³`), so that
 /// φ is the fluence.
 #[derive(Debug, Clone, PartialEq)]

@@ -4,7 +4,7 @@
 //! Each step freezes the FLD coefficient at the current iterate, `D_k = F(R(φ_k))/max(σ_t, σ_ε)`
 //! on the cell faces ([`super::face_diffusion_coefficients`]), assembles the linear diffusion PDE
 //! `−∇·(D_k ∇φ) + σ_a φ = q` from a [`StencilKernel`] (the generated `diffusion_3d` stencil,
-//! DESIGN.md §2.2 with D a field), solves it with one of the project's linear solvers
+//! docs/design.md §2.2 with D a field), solves it with one of the project's linear solvers
 //! ([`SolverKind`]) and stops when the *nonlinear* residual of the red–black solver,
 //! [`super::relative_residual`], falls below `params.tol`. Both routes therefore stop on the
 //! same quantity and converge to the same discrete solution.
@@ -23,7 +23,7 @@
 //!   faces, and gets the very `D_f` the red–black operator uses. A request for D anywhere
 //!   else is an error.
 //! * **Units.** The stencil is written for `L_0^0` with source `Q_0^0`. The equation is linear
-//!   and both sides scale with `√(4π)` (`φ = √(4π) L_0^0`, `q = √(4π) Q_0^0`, DESIGN.md §1), so
+//!   and both sides scale with `√(4π)` (`φ = √(4π) L_0^0`, `q = √(4π) Q_0^0`, docs/design.md §1), so
 //!   feeding it the fluence source q yields the fluence φ directly; the caller converts to
 //!   `L_0^0` where it needs P_N units.
 //!

@@ -1,5 +1,5 @@
 //! Matrix-free products with the discretized system: `A x` and `Aᵀ x` cell by cell from the
-//! stencil, without storing `A` (DESIGN.md §3 layout and boundary closure, §5 solvers).
+//! stencil, without storing `A` (docs/design.md §3 layout and boundary closure, §5 solvers).
 //!
 //! **What is stored.** The stencil's weights are evaluated once per row through the kernel
 //! ([`StencilKernel::eval_row`], so compiled and interpreted stencils both work). A term

@@ -1,4 +1,4 @@
-//! Closed-form point-source solutions (DESIGN.md §7), normalised fluence `4πφ/σ_t²` of a
+//! Closed-form point-source solutions (docs/design.md §7), normalised fluence `4πφ/σ_t²` of a
 //! unit-power isotropic point source at optical distance τ = σ_t r.
 
 use anyhow::{ensure, Result};
@@ -10,11 +10,11 @@ use anyhow::{ensure, Result};
 /// ```
 ///
 /// Derivation: CDA is `−∇·(D∇φ) + σ_a φ = δ³(x)` for a unit-power source with
-/// `D = 1/(3σ_tr)` and `σ_tr = σ_t − gσ_s = σ_t(1 − αg)` (DESIGN.md §2.2; φ = √(4π) L_0^0, and
+/// `D = 1/(3σ_tr)` and `σ_tr = σ_t − gσ_s = σ_t(1 − αg)` (docs/design.md §2.2; φ = √(4π) L_0^0, and
 /// the equation for L_0^0 with Q_0^0 = δ³/√(4π) is the same after multiplying by √(4π)).
 /// Its solution is `φ = e^{−σ_eff r}/(4πD r)` with `σ_eff = √(σ_a/D) = √(3σ_a σ_tr)`, so
 /// `4πφ/σ_t² = 3σ_tr/(σ_t² r) e^{−σ_eff r} = 3(1−αg)/τ · e^{−κτ}` with `κ = σ_eff/σ_t`.
-/// For g = 0 this is DESIGN.md's `3 e^{−√(3(1−α))τ}/τ`. P_1 with `σ_1 = σ_t − σ_s g` gives the
+/// For g = 0 this is docs/design.md's `3 e^{−√(3(1−α))τ}/τ`. P_1 with `σ_1 = σ_t − σ_s g` gives the
 /// same single mode (tested against [`crate::reference::pn_point_source`]).
 ///
 /// Plain formula: no checks on α or g (α = 1 gives the non-absorbing `3(1−g)/τ`).

@@ -1,5 +1,5 @@
 //! Point-source solutions smoothed by a 3D Gaussian source profile (for convergence studies,
-//! DESIGN.md §7: a single-cell source is not resolved by refinement, a Gaussian is).
+//! docs/design.md §7: a single-cell source is not resolved by refinement, a Gaussian is).
 //!
 //! Every P_N mode is a multiple of the Yukawa potential `f(x) = e^{−κ|x|}/|x|`; its
 //! convolution with the normalised isotropic Gaussian `G_s` (standard deviation s per axis) is

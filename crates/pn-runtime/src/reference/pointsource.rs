@@ -1,6 +1,6 @@
 //! Semi-analytic P_N solution for an isotropic point source in an infinite homogeneous medium.
 //!
-//! Method (`shared/reference/pointsource/README.md`, DESIGN.md §7). P_N is rotationally
+//! Method (`tests/data/pointsource/README.md`, docs/design.md §7). P_N is rotationally
 //! invariant, so the 3D point-source fluence is `φ(r) = −(1/(2πr)) dφ_slab/dx |_{x=r}` of the
 //! plane-source (slab) solution. All quantities are in mean free paths (σ_t = 1, σ_s = α).
 //!
@@ -194,7 +194,7 @@ pub fn pn_point_source(order: usize, albedo: f64, g: f64) -> Result<PointSourceM
 
 impl PointSourceModes {
     /// The classical diffusion (CDA) solution as a single mode: `κ = √(3(1−α)(1−αg))`,
-    /// `C = 3(1−αg)`. It is identical to [`pn_point_source`] with N = 1 (DESIGN.md §2.2:
+    /// `C = 3(1−αg)`. It is identical to [`pn_point_source`] with N = 1 (docs/design.md §2.2:
     /// eliminating the l = 1 moments of P_1 gives CDA with `σ_tr = σ_t(1 − αg)`); see
     /// [`crate::reference::cda_point_source`] for the derivation.
     pub fn cda(albedo: f64, g: f64) -> Result<Self> {
@@ -255,7 +255,7 @@ impl PointSourceModes {
     /// Fluence φ in world units at distance `r` from the centre of a unit-power source with a
     /// Gaussian profile of standard deviation `s` (world units) in a medium of extinction
     /// `sigma_t`: `φ = σ_t²/(4π) · fluence_gaussian(σ_t r, σ_t s)` (the convolution commutes
-    /// with the scaling τ = σ_t x, DESIGN.md §7).
+    /// with the scaling τ = σ_t x, docs/design.md §7).
     pub fn fluence_gaussian_world(&self, r: f64, s: f64, sigma_t: f64) -> f64 {
         sigma_t * sigma_t / (4.0 * PI) * self.fluence_gaussian(sigma_t * r, sigma_t * s)
     }

@@ -1,6 +1,6 @@
 //! The first-scatter source and the [`Problem`] a render scene poses on its solve grid.
 //!
-//! DESIGN.md §6: for a directional or point light the uncollided radiance is a delta in the
+//! docs/design.md §6: for a directional or point light the uncollided radiance is a delta in the
 //! light's travel direction d, so the first-scatter source
 //! `Q(x,ω) = σ_s(x) ∫ p(ω'·ω) L_u(x,ω') dω' = σ_s T E p(d·ω)` projects onto the real SH
 //! (Funk–Hecke, §2.1) as

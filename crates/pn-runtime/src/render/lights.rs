@@ -1,4 +1,4 @@
-//! Lights (DESIGN.md §6): directional (irradiance E on a plane perpendicular to its travel
+//! Lights (docs/design.md §6): directional (irradiance E on a plane perpendicular to its travel
 //! direction) and point (power Φ, radiant intensity Φ/(4π), irradiance Φ/(4π r²)).
 
 /// A light. Lights are not visible to the camera (no surfaces, background 0).
@@ -23,7 +23,7 @@ pub enum Light {
 /// What a light delivers at a point, without attenuation.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Incident {
-    /// Unit direction in which the light travels at the point (`d` of DESIGN.md §6).
+    /// Unit direction in which the light travels at the point (`d` of docs/design.md §6).
     pub travel: [f64; 3],
     /// Unattenuated irradiance E at the point.
     pub irradiance: f64,
@@ -67,7 +67,7 @@ impl Light {
 
 /// The phase function value p(μ) for the cosine μ between the two **propagation**
 /// directions (incoming travel direction and outgoing direction), normalised over the sphere
-/// (DESIGN.md §2: ∫p = 1; HG with λ_l p_l = g^l).
+/// (docs/design.md §2: ∫p = 1; HG with λ_l p_l = g^l).
 pub fn phase_value(phase: crate::problem::Phase, mu: f64) -> f64 {
     match phase {
         crate::problem::Phase::Isotropic => 1.0 / (4.0 * std::f64::consts::PI),

@@ -4,7 +4,7 @@
 //! **Convention (shared with the Mitsuba export).** Density is piecewise constant per voxel:
 //! voxel (i, j, k) covers `bbox_min + [i, i+1)·h_x × [j, j+1)·h_y × [k, k+1)·h_z`, and the
 //! density is 0 outside the box. Data are stored x fastest, index `(k·ny + j)·nx + i`, the
-//! order of a `.vol` file (DESIGN.md §6). σ_t(x) = `sigma_t_scale` × density(x).
+//! order of a `.vol` file (docs/design.md §6). σ_t(x) = `sigma_t_scale` × density(x).
 //!
 //! Procedural media are deterministic functions of the seed (a hash of the lattice point and
 //! the seed, no global random state), evaluated at the voxel centres.

@@ -1,4 +1,4 @@
-//! Mitsuba 3 ground truth (issue 7, DESIGN.md §6): writes a render scene as a `.vol` density
+//! Mitsuba 3 ground truth (issue 7, docs/design.md §6): writes a render scene as a `.vol` density
 //! grid plus a Python script that builds the *same* scene with `mi.load_dict` (variant
 //! `scalar_rgb`) and renders it with the `volpath` path tracer; runs that script.
 //!
@@ -14,7 +14,7 @@
 //!   `sigma_t_scale`, `albedo` a float or a second `gridvolume`;
 //! * phase: Mitsuba's `hg` evaluates `1 + g² + 2g·(wi·wo)` with both directions pointing
 //!   away from the vertex, i.e. `1 + g² − 2g μ` in the propagation-direction cosine μ of
-//!   DESIGN.md §2: the same function, g > 0 forward;
+//!   docs/design.md §2: the same function, g > 0 forward;
 //! * lights: `directional` with `direction` = travel direction and `irradiance` = E;
 //!   `point` with `intensity` = Φ/(4π);
 //! * camera: `perspective` with `fov_axis = "x"` and `to_world = look_at(position, target,

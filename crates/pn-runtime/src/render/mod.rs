@@ -1,5 +1,5 @@
 //! Rendering participating media with the multiple-scattering solutions (issue 7,
-//! DESIGN.md §6).
+//! docs/design.md §6).
 //!
 //! * [`scene`]: the TOML render scene ([`RenderScene`]) and the built-in scenes;
 //! * [`medium`]: the piecewise-constant density grid and the procedural media;

@@ -7,7 +7,7 @@
 //!             + Σ_{l,m} λ_l p_l L_l^m(x) Y_l^m(ω_o) ]          (multiple scattering)
 //! ```
 //!
-//! after which the path terminates: the solution L_ms (DESIGN.md §6) carries all higher
+//! after which the path terminates: the solution L_ms (docs/design.md §6) carries all higher
 //! orders. ω_o is the direction towards the camera (minus the ray direction), d the light's
 //! travel direction at x; T is exact (voxel traversal, [`super::shadow`]); L_l^m is the
 //! un-staggered solution, trilinear between solve-cell centres (clamped at the outermost

@@ -4,7 +4,7 @@
 //! [`super::medium`]: a 3D DDA (Amanatides & Woo) visits every voxel the segment crosses and
 //! sums σ_t·(length inside the voxel). Transmittance T = exp(−optical depth).
 //!
-//! A deep shadow map (DESIGN.md §6, "T is the transmittance to the light") stores T from
+//! A deep shadow map (docs/design.md §6, "T is the transmittance to the light") stores T from
 //! every solve-cell centre to each light; it is computed in parallel with rayon.
 
 use super::lights::Light;

@@ -1,5 +1,5 @@
 //! CGLS: conjugate gradients on the normal equations `AᵀA u = Aᵀb` without forming `AᵀA`
-//! (Hestenes & Stiefel 1952; DESIGN.md §5), on any [`LinearOperator`]: the assembled CSR
+//! (Hestenes & Stiefel 1952; docs/design.md §5), on any [`LinearOperator`]: the assembled CSR
 //! matrix (`--solver cgnr`, [`super::cgnr::Cgnr`]) or the matrix-free operator
 //! (`--solver cgnr-mf`, [`crate::matfree`]).
 //!

@@ -1,4 +1,4 @@
-//! `parity-cg`: eliminate the odd-l moments and solve the even-parity system (DESIGN.md §5).
+//! `parity-cg`: eliminate the odd-l moments and solve the even-parity system (docs/design.md §5).
 //!
 //! Ordering the unknowns into even-l (e) and odd-l (o) moments, the staggered P_N matrix is
 //! `A = [[D_e, B], [C, D_o]]`: transport couples only even↔odd and collision/scattering is

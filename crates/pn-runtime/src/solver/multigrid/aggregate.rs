@@ -6,7 +6,7 @@
 //! [`crate::solver::pn_layout`]). Grouping positions `2c, 2c+1` per axis
 //! of the same class gives the tentative (piecewise-constant) prolongation `P`: column
 //! `I` is 1 on the members of aggregate `I`. The near-null space of the diffusion-like
-//! even-parity operator is locally constant per moment (DESIGN.md §5: for P_1 it is CDA),
+//! even-parity operator is locally constant per moment (docs/design.md §5: for P_1 it is CDA),
 //! which `P` reproduces exactly. Axes with a single position are not coarsened.
 
 /// Class and grid position of every unknown of one level.

@@ -4,7 +4,7 @@
 //! * [`aggregate`](mod@aggregate): 2×2×2 geometric aggregation per moment grid (positions known from the
 //!   layout), giving the piecewise-constant prolongation `P`.
 //! * [`galerkin`]: coarse operators `Pᵀ A P`; on the finest level from the parity blocks,
-//!   without forming `S` (DESIGN.md §5).
+//!   without forming `S` (docs/design.md §5).
 //! * [`smoother`]: Jacobi-preconditioned Chebyshev smoothing.
 //! * [`vcycle`]: the symmetric V-cycle `z = M⁻¹ r` (same smoother before and after the
 //!   coarse correction, dense LU on the coarsest level), so `M` is symmetric positive

@@ -1,7 +1,7 @@
 //! Finding the parity classes from the matrix alone.
 //!
 //! The off-diagonal couplings of a staggered P_N matrix form a bipartite graph (even-l ↔
-//! odd-l, DESIGN.md §5), so a breadth-first 2-colouring of each connected component
+//! odd-l, docs/design.md §5), so a breadth-first 2-colouring of each connected component
 //! recovers the two classes up to a swap per component. Either class can be eliminated as
 //! long as its diagonal is invertible; per component we eliminate the class whose smallest
 //! |diagonal| is larger. For P_N that is the odd class: its diagonal is σ_t, while the even

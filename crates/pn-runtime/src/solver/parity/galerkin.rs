@@ -1,5 +1,5 @@
 //! The first Galerkin operator `Pᵀ S P` of the multigrid hierarchy for the reduced
-//! operator `S = D_e − B C̃` (`C̃ = D_o⁻¹ C`, DESIGN.md §5), from the parity blocks:
+//! operator `S = D_e − B C̃` (`C̃ = D_o⁻¹ C`, docs/design.md §5), from the parity blocks:
 //! `Pᵀ S P = Pᵀ D_e P − (Pᵀ B)(C̃ P)`: each coarse row merges its members' rows of `B`
 //! (neighbouring cells share most odd neighbours) and adds the rows of `C̃` with columns
 //! mapped to their aggregates, so `S` itself is never formed.

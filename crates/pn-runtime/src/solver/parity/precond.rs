@@ -1,7 +1,7 @@
 //! Preconditioners for the reduced operator `S = D_e − B D_o⁻¹ C`.
 //!
 //! Entries of `S` are computed exactly from the blocks without forming `S`:
-//! `S_ij = D_e,ii δ_ij − Σ_k B_ik C̃_kj` with `C̃ = D_o⁻¹ C` (DESIGN.md §5).
+//! `S_ij = D_e,ii δ_ij − Σ_k B_ik C̃_kj` with `C̃ = D_o⁻¹ C` (docs/design.md §5).
 //! * Jacobi: `diag(S)⁻¹`.
 //! * Block-Jacobi: the dense blocks of `S` over groups of even unknowns (by default the even
 //!   moments belonging to one grid cell), each inverted once.

@@ -1,4 +1,4 @@
-//! The reduced even-parity operator `S = D_e − B D_o⁻¹ C` (DESIGN.md §5).
+//! The reduced even-parity operator `S = D_e − B D_o⁻¹ C` (docs/design.md §5).
 //!
 //! Eliminating the odd unknowns from `[[D_e, B], [C, D_o]] [u_e; u_o] = [b_e; b_o]` gives
 //! `S u_e = f` with `f = b_e − B D_o⁻¹ b_o`, and then `u_o = D_o⁻¹ (b_o − C u_e)`. With that

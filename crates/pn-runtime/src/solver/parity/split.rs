@@ -1,4 +1,4 @@
-//! Splitting `A` into the even/odd parity blocks `A = [[D_e, B], [C, D_o]]` (DESIGN.md §5).
+//! Splitting `A` into the even/odd parity blocks `A = [[D_e, B], [C, D_o]]` (docs/design.md §5).
 //!
 //! The staggered transport couples even-l moments only to odd-l moments and the collision
 //! term is diagonal, so the two diagonal blocks must be diagonal matrices. [`split`] checks
@@ -33,7 +33,7 @@ pub enum ParityError {
     #[error(
         "row {row} couples to unknown {col} of the same parity ({parity}) off the diagonal \
          (value {value:e}); parity elimination needs the collision/scattering part to be \
-         diagonal and transport to couple even-l only to odd-l moments (DESIGN.md §5) — \
+         diagonal and transport to couple even-l only to odd-l moments (docs/design.md §5) — \
          use --solver cgnr for this system"
     )]
     SameParityCoupling {
@@ -49,7 +49,7 @@ pub enum ParityError {
     /// A zero (or non-finite) diagonal entry in an odd row: `D_o` cannot be inverted.
     #[error(
         "odd-l row {row} has diagonal {value:e}; parity elimination divides by it \
-         (σ_t must be positive everywhere: vacuum regions need a minimum σ_t, DESIGN.md §5)"
+         (σ_t must be positive everywhere: vacuum regions need a minimum σ_t, docs/design.md §5)"
     )]
     SingularOddDiagonal {
         /// Row index.
