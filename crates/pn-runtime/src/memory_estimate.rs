@@ -124,9 +124,9 @@ pub fn estimate_for_solver(
         let maps = unknowns.saturating_mul(8 * 4);
         let multigrid = (blocks as f64 * MULTIGRID_FRACTION) as u128;
         let even = unknowns / 2 + 1;
-        let restart = crate::solver::gmres::gmres_restart(
-            usize::try_from(even).unwrap_or(usize::MAX),
-        ) as u128;
+        let restart =
+            crate::solver::gmres::gmres_restart(usize::try_from(even).unwrap_or(usize::MAX))
+                as u128;
         let krylov = even.saturating_mul(8 * (restart + 1 + PARITY_VECTORS));
         let full_vectors = unknowns.saturating_mul(8 * 3);
         blocks
