@@ -1,14 +1,45 @@
-//! `pn-runtime` — from a scene to a solved system.
+//! `pn-runtime` — from a scene to a solved system, numerics only.
 //!
-//! * [`reference`]: analytic and semi-analytic reference solutions (point source).
-//! * [`fld`]: flux-limited diffusion (nonlinear Gauss–Seidel solver and limiters).
-//! * Problem description: [`field`], [`problem`], [`scenes`] (built-in), [`scene_file`]
-//!   (TOML), [`vol`] and [`npy`] (voxel data and array files); [`scene_registry`] lists
-//!   every built-in scene of `pn solve` and `pn render`.
+//! It builds on the stencil IR of `pn-stencil` alone: a stencil (compiled by `pn-kernels` or
+//! interpreted) comes in as a `&dyn StencilKernel`; neither the computer-algebra system nor
+//! the generator is a dependency.
+//!
+//! * Problem description: [`field`], [`problem`] (including [`problem::sigma_tr`]),
+//!   [`scenes`] (built-in), [`scene_file`] (TOML), [`vol`] and [`npy`] (voxel data and array
+//!   files); [`scene_registry`] lists every built-in scene of `pn solve` and `pn render`.
 //! * Discrete system: [`layout`] (unknowns and boundary closure), [`context`] (fields at
-//!   staggered positions), [`assemble`] (sprs CSR).
-//! * Solving: [`linalg`], [`solver`] (CGNR), [`pipeline`] (the whole chain).
-//! * Results: [`unstagger`], [`energy`], [`output`], [`memory`]; [`threads`] for `--threads`.
+//!   staggered positions), [`assemble`] (sprs CSR), [`assemble_split`] (straight into the
+//!   parity blocks), [`matfree`] (the matrix-free operator).
+//! * Solving: [`operator`] (operator and preconditioner traits), [`linalg`], [`solver`] (one
+//!   file per Krylov method, one stopping controller, the parity solvers and multigrid),
+//!   [`pipeline`] (the whole chain, [`pipeline::solve_problem`]), [`fld`] (flux-limited
+//!   diffusion), [`convergence`] (resolution studies).
+//! * Results: [`unstagger`], [`energy`], [`output`], [`plot`], [`memory`] and
+//!   [`memory_estimate`]; [`threads`] for `--threads`.
+//! * [`reference`]: analytic and semi-analytic reference solutions (point source, StaRMAP
+//!   files); [`render`]: first-scatter sources, the volumetric renderer and the Mitsuba
+//!   export.
+//!
+//! Solving the checkerboard at P_1 on a coarse grid (the stencil comes from `pn-kernels`):
+//!
+//! ```
+//! use pn_kernels::{pn_kernel, Dim, Staggering};
+//! use pn_runtime::pipeline::solve_problem;
+//! use pn_runtime::scenes::{builtin, BuiltinOptions};
+//! use pn_runtime::solver::{SolverKind, SolverOptions};
+//!
+//! let opts = BuiltinOptions { res: Some(vec![21]), ..Default::default() };
+//! let scene = builtin("checkerboard", &opts).unwrap();
+//! let p1 = pn_kernel(1, Dim::Two, Staggering::Staggered).unwrap();
+//! let solver_opts = SolverOptions { tol: 1e-10, progress: false, ..Default::default() };
+//! let sol = solve_problem(&scene.problem, p1.kernel.as_ref(), SolverKind::ParityCg, &solver_opts)
+//!     .unwrap();
+//! assert!(sol.stats.converged() && sol.stats.relative_residual <= 1e-10);
+//! // What the source emits is absorbed (the Neumann box lets nothing out).
+//! let balance = sol.energy.unwrap();
+//! assert!(balance.relative_imbalance < 1e-6, "{balance:?}");
+//! ```
+#![warn(missing_docs)]
 
 pub mod fld;
 pub mod reference;
