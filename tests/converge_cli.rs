@@ -1,4 +1,4 @@
-//! `pn converge` and `pn solve --error-estimate / --sampling` (issue 10) through the binary.
+//! `pn converge` and `pn solve --error-estimate / --sampling` through the binary.
 //!
 //! Checkerboard resolutions 18, 36, 72, 144: 7 does not divide them, so no cell face lies on
 //! a block face and no staggered position (multiples of 7/(2n)) lands on one either (2n | 7m
@@ -287,7 +287,7 @@ fn converge_p1_checkerboard(res: &str, sampling: &str, tag: &str) -> (PathBuf, s
     (d, json)
 }
 
-/// Issue 10: "the estimate at 71² brackets the difference to the finest grid", P_1
+/// The estimate at 71² brackets the difference to the finest grid: P_1
 /// checkerboard 71/142/284 with parity-cg, for both samplings. The estimate of level 71 is
 /// built from 71 and 142 only (`estimate_next`, with the order of 71/142/284); it brackets
 /// when `diff_finest ≤ estimate ≤ 2·diff_finest` (the estimate is not optimistic, and at most

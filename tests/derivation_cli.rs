@@ -1,4 +1,4 @@
-//! `pn latex`, `pn equations`, `pn supplemental` end to end (issue 2).
+//! `pn latex`, `pn equations`, `pn supplemental` end to end.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
 use std::process::Command;

@@ -1,4 +1,4 @@
-//! Issue 9 at the command line: the memory estimate and `--max-memory`, the automatic
+//! Bad input at the command line: the memory estimate and `--max-memory`, the automatic
 //! σ_t threshold, and a clear error (never a panic) for every bad flag value.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 

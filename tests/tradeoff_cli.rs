@@ -1,4 +1,4 @@
-//! `pn tradeoff --quick` through the binary (the CI smoke test of issue 8, item 4): the CSV
+//! `pn tradeoff --quick` through the binary (the CI smoke test of the speed/accuracy trade-off): the CSV
 //! has the documented columns, one row per method × resolution × tolerance, every error is
 //! finite (FLD has no own reference and leaves that column empty), and the plot exists.
 //! Also `pn solve --solver cgnr-mf/lsqr/lsmr` and a bad `--solver` name.
