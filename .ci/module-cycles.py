@@ -2,6 +2,7 @@
 """Report module cycles in the workspace's library crates; exit 1 if there is one.
 
 Usage: .ci/module-cycles.py [CRATE_SRC_DIR ...]   (default: every crates/*/src with a lib.rs)
+       .ci/module-cycles.py --self-test     (the checker on small crates with and without cycles)
 
 What it reads
 -------------
@@ -322,7 +323,52 @@ def modname(path):
     return "::".join(path) if path else "crate"
 
 
+def count_cycles(crate):
+    """The number of cycles in `crate`, over every parent's sibling graph."""
+    found = 0
+    for edges in crate.edges().values():
+        adj = defaultdict(set)
+        nodes = set()
+        for a, b in edges:
+            adj[a].add(b)
+            nodes.update((a, b))
+        found += sum(1 for comp in sccs(nodes, adj) if len(comp) >= 2)
+    return found
+
+
+def self_test():
+    """Checks the checker on small crates written to a temporary folder: a cycle between two
+    siblings (through `use crate::` and `super::`) is found, a nested one too, and neither a
+    parent using its children nor a child using its parent counts."""
+    import tempfile
+
+    cases = {
+        "siblings": (1, {"lib.rs": "mod a;\nmod b;\n", "a.rs": "use crate::b::f;\n",
+                         "b.rs": "pub fn f() { super::a::g() }\n"}),
+        "nested": (1, {"lib.rs": "mod s;\n", "s.rs": "mod x;\nmod y;\n",
+                       "s/x.rs": "use super::y::Y;\n", "s/y.rs": "use crate::s::x::X;\n"}),
+        "parent_child": (0, {"lib.rs": "mod a;\nuse crate::a::f;\n",
+                             "a.rs": "use crate::g;\npub fn f() {}\n"}),
+        "one_way": (0, {"lib.rs": "mod a;\nmod b;\n", "a.rs": "use crate::b::f;\n",
+                        "b.rs": "// crate::a::g is only a comment\npub fn f() {}\n"}),
+    }
+    failures = 0
+    for name, (want, files) in cases.items():
+        with tempfile.TemporaryDirectory() as tmp:
+            src = Path(tmp) / "src"
+            for rel, text in files.items():
+                (src / rel).parent.mkdir(parents=True, exist_ok=True)
+                (src / rel).write_text(text)
+            got = count_cycles(Crate(src))
+        status = "ok" if got == want else "FAILED"
+        failures += got != want
+        print(f"module-cycles self-test {name}: {got} cycle(s), expected {want}: {status}")
+    return 1 if failures else 0
+
+
 def main(argv):
+    if argv[1:] == ["--self-test"]:
+        return self_test()
     root = Path(__file__).resolve().parent.parent
     dirs = [Path(a) for a in argv[1:]] or sorted(
         p.parent for p in (root / "crates").glob("*/src/lib.rs")
