@@ -325,7 +325,7 @@ fn same_problem<'a>(rows: &'a [Row], like: &Row, solver: &str) -> Option<&'a Row
     })
 }
 
-/// Work in products with `A` (issue 8 asks parity-cg for ≥ 20× fewer than cgnr to the same
+/// Work in products with `A` (the target is ≥ 20× fewer for parity-cg than for cgnr to the same
 /// tolerance): cgnr counts A and Aᵀ, the parity solvers every application of the reduced
 /// operator (multigrid cycle and setup included), which touches A's off-diagonal entries once.
 fn work_comparison(rows: &[Row]) -> String {

@@ -1,4 +1,4 @@
-//! `pn bench`, section "Model only what the scene requires" (issue 8, item 5), measured:
+//! `pn bench`, section "Model only what the scene requires" (docs/solvers.md), measured:
 //!
 //! * **2D problems solve only the 2D moments.** The checkerboard solved as 2D (the 2D
 //!   stencil keeps the moments with l+m even and has no ∂z terms, docs/design.md §3) against the

@@ -1,4 +1,4 @@
-//! `pn converge <scene> --order N --res R1,R2,R3,...`: a self-convergence study (issue 10).
+//! `pn converge <scene> --order N --res R1,R2,R3,...`: a self-convergence study (docs/convergence.md).
 //!
 //! Solves the scene at every resolution (all other flags as in `pn solve`: method, order,
 //! sampling, boundary, solver, tolerance, point-source parameters), compares every level

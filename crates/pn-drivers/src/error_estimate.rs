@@ -1,4 +1,4 @@
-//! `pn solve --error-estimate` and `--sampling` (issue 10), plus the per-level solve shared
+//! `pn solve --error-estimate` and `--sampling` (docs/convergence.md), plus the per-level solve shared
 //! with `pn converge`.
 //!
 //! The estimate solves the same scene (same sampling, same solver settings) at half the

@@ -1,4 +1,4 @@
-//! `pn figure nebula`: the comparison figure of issue 7 item 5. Renders one scene with
+//! `pn figure nebula`: the comparison figure (docs/rendering.md). Renders one scene with
 //! single scattering only, CDA, FLD, P_1, P_3 and P_5 (the same camera rays and seeds for
 //! all), and — when a Mitsuba reference is given (`--reference`), already present as
 //! `<out>/mitsuba.exr`, or rendered on request (`--mitsuba`) — compares each against it.

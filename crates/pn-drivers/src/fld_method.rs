@@ -1,4 +1,4 @@
-//! `pn solve <scene> --method fld`: flux-limited diffusion (Koerner et al. 2014; issue 6)
+//! `pn solve <scene> --method fld`: flux-limited diffusion (Koerner et al. 2014; docs/fld.md)
 //! by the red–black Gauss–Seidel solver (`--fld-solver gs`, default) or by Picard iteration
 //! through the generated `diffusion_3d` stencil (`--fld-solver picard`), with the outputs of
 //! P_N (`fluence.npy`, `moments.npy`, `fluence.png`, `report.json`) and, for the `pointsource`

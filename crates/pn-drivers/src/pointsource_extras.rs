@@ -1,4 +1,4 @@
-//! Extra outputs of `pn solve pointsource` (issue 5, docs/design.md §7 "Point source, 3D"):
+//! Extra outputs of `pn solve pointsource` (docs/pointsource.md, docs/design.md §7 "Point source, 3D"):
 //! `profile.csv` / `profile.png` (the discrete solution along +x from the source cell centre
 //! beside the semi-analytic P_N solution, CDA and Grosjean) and `profile_diagonal.csv` (the
 //! same along the face diagonal (1,1,0)/√2, for the rotational-invariance check).

@@ -1,6 +1,5 @@
 //! `pn render <scene.toml | builtin>`: solves the multiple scattering of a render scene on
-//! its (cropped, possibly coarser) solve grid and renders the image (issue 7 items 1–3,
-//! issue 8 item 5). Writes `image.exr` (linear), `image.png` (tone-mapped) and
+//! its (cropped, possibly coarser) solve grid and renders the image (docs/rendering.md). Writes `image.exr` (linear), `image.png` (tone-mapped) and
 //! `report.json` (times, unknowns with and without cropping and at the density resolution,
 //! solver statistics, peak memory).
 //!
@@ -91,7 +90,7 @@ impl Default for RenderOptions {
     }
 }
 
-/// Unknowns of the solve (issue 8 item 5: what cropping and a coarse grid save).
+/// Unknowns of the solve (what cropping and a coarse grid save; docs/solvers.md).
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct UnknownStats {
     /// Solved: the cropped grid at the solve resolution.

@@ -290,7 +290,7 @@ pub fn kernel_for(req: &SolveRequest, scene: &Scene) -> Result<(KernelChoice, us
     }
 }
 
-/// Refuses a problem whose estimated memory for `choice` exceeds `max_memory` (issue 9),
+/// Refuses a problem whose estimated memory for `choice` exceeds `max_memory`,
 /// then sets the automatic σ_t threshold where part of the domain is vacuum. Returns that
 /// threshold, if one was set.
 pub fn check_memory_and_set_sigma_t_min(

@@ -21,7 +21,7 @@ pub use crate::scene_setup::{Route, SolveRequest};
 pub fn run(req: &SolveRequest, stdout: &mut dyn Write) -> anyhow::Result<()> {
     let a = req;
     if a.method == Method::Fld {
-        // Issue 9: the memory check before FLD allocates its per-cell arrays.
+        // The memory check before FLD allocates its per-cell arrays.
         let grid = scene_from_request(req)?.problem.grid;
         pn_runtime::memory_estimate::check_limit(
             &pn_runtime::memory_estimate::estimate_fld(&grid),
@@ -44,7 +44,7 @@ pub fn run(req: &SolveRequest, stdout: &mut dyn Write) -> anyhow::Result<()> {
     // `method` is pn or cda here (fld returned above).
     let (choice, order) = kernel_for(a, &scene)?;
     let opts = a.solver_options();
-    // Issue 9: refuse oversized problems before allocating, then the automatic σ_t threshold.
+    // Refuse oversized problems before allocating, then the automatic σ_t threshold.
     if let Some(t) = check_memory_and_set_sigma_t_min(a, &mut scene, &choice)? {
         eprintln!("note: σ_t = 0 in part of the domain (vacuum): using --sigma-t-min {t:.3e} (1e-3 × max σ_t); set --sigma-t-min to override");
     }

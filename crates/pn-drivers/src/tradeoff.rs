@@ -1,5 +1,5 @@
 //! `pn tradeoff`: error against time on the point source for method × resolution ×
-//! tolerance (issue 8, item 4), as `tradeoff.csv` and `tradeoff.png` (log–log, one curve per
+//! tolerance (docs/tradeoff.md), as `tradeoff.csv` and `tradeoff.png` (log–log, one curve per
 //! method). This is the table a user reads to choose N.
 //!
 //! Methods: CDA (through the P_N pipeline with parity-cg), FLD with the Levermore–Pomraning

@@ -1,4 +1,4 @@
-//! Resolution studies and Richardson error estimates (issue 10).
+//! Resolution studies and Richardson error estimates (docs/convergence.md).
 //!
 //! * [`restrict`]: cell-centred fields from a fine grid to a nested coarse grid (average of
 //!   the children) and block averages (exact overlap weights of cells and blocks).

@@ -12,7 +12,7 @@
 //! ```
 //!
 //! `D = F(R)/max(σ_t, σ_ε)` and the Knudsen number `R = |∇φ|/(σ_t φ)` with lower bounds on
-//! `|∇φ|` and `φ` follow Koerner et al. 2014 as summarised in issue 6. Our choices, where that
+//! `|∇φ|` and `φ` follow Koerner et al. 2014 (the paper's text is in the shared papers; docs/fld.md). Our choices, where that
 //! summary leaves details open:
 //! * **R and D live on the faces**, where the scheme carries its flux. The gradient normal to
 //!   the face is the one-sided difference across it, the tangential components the mean of the

@@ -47,7 +47,7 @@ impl Default for FldParams {
 
 impl FldParams {
     /// Defaults for `limiter` with σ_ε = 1e-3 / L, L the longest domain edge of `grid`
-    /// (the paper's choice of σ_ε relative to the domain size, as stated in issue 6).
+    /// (the paper's choice of σ_ε relative to the domain size).
     pub fn for_grid(limiter: Limiter, grid: &FldGrid) -> Self {
         Self {
             limiter,

@@ -1,5 +1,5 @@
 //! Flux-limited diffusion through the generated stencil: a Picard iteration whose steps are
-//! linear diffusion solves (issue 6, item 3).
+//! linear diffusion solves (docs/fld.md).
 //!
 //! Each step freezes the FLD coefficient at the current iterate, `D_k = F(R(φ_k))/max(σ_t, σ_ε)`
 //! on the cell faces ([`super::face_diffusion_coefficients`]), assembles the linear diffusion PDE

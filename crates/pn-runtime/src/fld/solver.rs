@@ -49,7 +49,7 @@ impl FldSolution {
 ///
 /// Each iteration relaxes the red and then the black interior cells with the face coefficients
 /// `D_F` of the current φ, then recomputes `D_F` from the new φ (the nonlinear Gauss–Seidel
-/// with SOR of Koerner et al. 2014 as described in issue 6; refreshing D once per iteration
+/// with SOR of Koerner et al. 2014 (docs/fld.md); refreshing D once per iteration
 /// rather than per half-sweep, and clamping relaxed values at φ ≥ 0, are our choices: both
 /// keep the iteration stable with vacuum at high ω). The boundary layer holds `φ = ε j̄ h`.
 /// The iteration stops when the RMS residual over the interior, with D evaluated at the

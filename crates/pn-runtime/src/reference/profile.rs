@@ -1,4 +1,4 @@
-//! The point-source profile outputs of issue 5: `profile.csv` and `profile.png`, the discrete
+//! The point-source profile outputs (docs/pointsource.md): `profile.csv` and `profile.png`, the discrete
 //! solution along a ray from the source against the semi-analytic P_N solution, CDA and
 //! Grosjean (the plot a reader of the paper knows as its Figure 9).
 

@@ -1,4 +1,4 @@
-//! Image comparison (issue 7, `pn compare`): error metrics between a test image `a` and a
+//! Image comparison (`pn compare`): error metrics between a test image `a` and a
 //! reference `b` (e.g. ours against Mitsuba's), and a false-colour difference image.
 //!
 //! Metrics, over all N pixels of single-channel (grey) images, with

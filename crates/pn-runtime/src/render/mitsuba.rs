@@ -1,4 +1,4 @@
-//! Mitsuba 3 ground truth (issue 7, docs/design.md §6): writes a render scene as a `.vol` density
+//! Mitsuba 3 ground truth (docs/design.md §6, docs/rendering.md): writes a render scene as a `.vol` density
 //! grid plus a Python script that builds the *same* scene with `mi.load_dict` (variant
 //! `scalar_rgb`) and renders it with the `volpath` path tracer; runs that script.
 //!

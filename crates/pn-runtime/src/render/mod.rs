@@ -1,5 +1,5 @@
-//! Rendering participating media with the multiple-scattering solutions (issue 7,
-//! docs/design.md §6).
+//! Rendering participating media with the multiple-scattering solutions
+//! (docs/design.md §6, docs/rendering.md).
 //!
 //! * [`scene`]: the TOML render scene ([`RenderScene`]) and the built-in scenes;
 //! * [`medium`]: the piecewise-constant density grid and the procedural media;

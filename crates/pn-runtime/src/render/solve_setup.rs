@@ -4,7 +4,7 @@
 //! `h_d = extent_d / res_d`, possibly coarser than the density grid). It is cropped to the
 //! solve cells that overlap a voxel with density > 0, plus `margin` empty cells on every
 //! side (these may reach outside the medium box, where the density is 0): light leaves
-//! through the Dirichlet boundary of the cropped grid (issue 8 item 5, "model only what the
+//! through the Dirichlet boundary of the cropped grid ("model only what the
 //! scene requires"). The uncropped alternative, for the statistics, is the whole medium box
 //! plus the same margin.
 //!
