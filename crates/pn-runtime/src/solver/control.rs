@@ -212,9 +212,8 @@ pub(crate) fn true_residual(
     r: &mut [f64],
     ctl: &mut Control,
 ) {
-    a.apply(x, r);
+    op_residual(a, x, f, r);
     ctl.applications += 1;
-    r.iter_mut().zip(f).for_each(|(ri, fi)| *ri = fi - *ri);
 }
 
 /// An indicatif progress bar that is hidden unless stderr is a terminal.
