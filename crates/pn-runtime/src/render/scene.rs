@@ -11,6 +11,7 @@
 //! bbox_max = [1.0, 1.0, 1.0]   # "grid": the .vol header's box unless given
 //! sigma_t_scale = 20.0      # σ_t(x) = sigma_t_scale · density(x)  (1/length)
 //! albedo = 0.9              # or albedo_file = "a.npy" (same grid)
+//! filter = "trilinear"      # how voxels are read: "trilinear" (default, Mitsuba's) | "nearest"
 //! [phase]
 //! kind = "hg"               # "isotropic" | "hg"
 //! g = 0.3
@@ -48,7 +49,7 @@
 
 use super::camera::{norm, Camera};
 use super::lights::Light;
-use super::medium::{check_box, DensityGrid, Procedural};
+use super::medium::{check_box, DensityFilter, DensityGrid, Procedural};
 use crate::npy::read_npy;
 use crate::problem::Phase;
 use crate::scene_registry::{self, SceneKind};
@@ -98,6 +99,9 @@ pub struct MediumSpec {
     pub sigma_t_scale: f64,
     /// Albedo σ_s/σ_t.
     pub albedo: Albedo,
+    /// How the density (and an albedo grid) is read between voxel centres
+    /// (`[medium] filter`, default trilinear as Mitsuba; see [`super::medium`]).
+    pub filter: DensityFilter,
 }
 
 impl MediumSpec {
@@ -108,6 +112,30 @@ impl MediumSpec {
             Albedo::Constant(a) => *a,
             Albedo::Voxels(v) => v[index] as f64,
         }
+    }
+
+    /// Albedo at the point `p`, read like the density: an albedo grid with `density`'s
+    /// filter (trilinear or nearest, on the same voxels; the clamped value in the outer half
+    /// voxel, 0 outside the box), a constant albedo everywhere. `density` must be this
+    /// medium's grid ([`RenderScene::density_grid`]).
+    ///
+    /// As in Mitsuba's `heterogeneous` medium, σ_s(x) = albedo(x)·σ_t(x) with **both**
+    /// filtered: between voxel centres σ_s is the product of two trilinear fields, not the
+    /// interpolation of the per-voxel σ_s.
+    pub fn albedo_at_point(&self, density: &DensityGrid, p: [f64; 3]) -> f64 {
+        match &self.albedo {
+            Albedo::Constant(a) => *a,
+            Albedo::Voxels(v) => density.sample(v, p),
+        }
+    }
+
+    /// σ_t(p) and σ_s(p) = albedo(p)·σ_t(p), both filtered ([`Self::albedo_at_point`]).
+    pub fn coefficients_at(&self, density: &DensityGrid, p: [f64; 3]) -> (f64, f64) {
+        let st = self.sigma_t_scale * density.density_at(p);
+        if st == 0.0 {
+            return (0.0, 0.0);
+        }
+        (st, st * self.albedo_at_point(density, p))
     }
 
     /// Kind name as in the scene file ("grid" for files).
@@ -241,6 +269,7 @@ struct MediumToml {
     sigma_t_scale: f64,
     albedo: Option<f64>,
     albedo_file: Option<PathBuf>,
+    filter: Option<String>,
 }
 
 #[derive(Deserialize, Debug)]
@@ -352,13 +381,15 @@ impl RenderScene {
         })
     }
 
-    /// The density grid of the medium (generated for procedural media).
+    /// The density grid of the medium (generated for procedural media), read with the
+    /// medium's [`MediumSpec::filter`].
     pub fn density_grid(&self) -> anyhow::Result<DensityGrid> {
         let m = &self.medium;
-        match &m.source {
-            MediumSource::Procedural(p) => p.grid(m.resolution, m.bbox_min, m.bbox_max, m.seed),
-            MediumSource::File { grid, .. } => Ok((**grid).clone()),
-        }
+        let g = match &m.source {
+            MediumSource::Procedural(p) => p.grid(m.resolution, m.bbox_min, m.bbox_max, m.seed)?,
+            MediumSource::File { grid, .. } => (**grid).clone(),
+        };
+        Ok(g.with_filter(m.filter))
     }
 }
 
@@ -478,6 +509,10 @@ fn build_medium(m: MediumToml, base: &Path) -> anyhow::Result<MediumSpec> {
         }
     };
     check_box(bbox_min, bbox_max).context("medium")?;
+    let filter = match &m.filter {
+        None => DensityFilter::default(),
+        Some(f) => f.parse::<DensityFilter>().context("medium.filter")?,
+    };
     let albedo = match (m.albedo, m.albedo_file) {
         (Some(_), Some(_)) => bail!("give medium.albedo or medium.albedo_file, not both"),
         (None, None) => bail!("medium.albedo (or medium.albedo_file) is required"),
@@ -518,6 +553,7 @@ fn build_medium(m: MediumToml, base: &Path) -> anyhow::Result<MediumSpec> {
         bbox_max,
         sigma_t_scale: m.sigma_t_scale,
         albedo,
+        filter,
     })
 }
 
@@ -791,6 +827,22 @@ height = 8
         assert!(e.contains("irradiance"), "{e}");
         let e = err(&MINIMAL.replace("fov = 40.0", "fov = \"wide\""));
         assert!(e.contains("line 15, column 7"), "{e}");
+    }
+
+    #[test]
+    fn the_density_filter_is_read_and_applied() {
+        let s = parse(MINIMAL).unwrap();
+        assert_eq!(s.medium.filter, DensityFilter::Trilinear);
+        assert_eq!(s.density_grid().unwrap().filter, DensityFilter::Trilinear);
+        let s =
+            parse(&MINIMAL.replace("albedo = 0.5", "albedo = 0.5\nfilter = \"nearest\"")).unwrap();
+        assert_eq!(s.medium.filter, DensityFilter::Nearest);
+        assert_eq!(s.density_grid().unwrap().filter, DensityFilter::Nearest);
+        let e = err(&MINIMAL.replace("albedo = 0.5", "albedo = 0.5\nfilter = \"cubic\""));
+        assert!(
+            e.contains("medium.filter") && e.contains("\"cubic\"") && e.contains("trilinear"),
+            "{e}"
+        );
     }
 
     #[test]

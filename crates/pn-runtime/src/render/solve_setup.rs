@@ -233,6 +233,7 @@ mod tests {
             bbox_max: [1.0; 3],
             sigma_t_scale: scale,
             albedo: Albedo::Constant(albedo),
+            filter: crate::render::DensityFilter::Trilinear,
         }
     }
 
