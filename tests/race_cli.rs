@@ -92,6 +92,8 @@ fn quick_race_writes_tables_plot_and_markdown_and_caches_the_reference() {
     ] {
         assert!(dir.join(f).is_file(), "{f} missing");
     }
+    // The exports and images are gone: the folder holds tables, plots and text only.
+    assert!(!dir.join("work").exists());
     let rows = csv(&dir.join("points.csv"));
     // Mitsuba at 1 and 4 spp, plain and denoised, and the one pn point.
     let fams: Vec<&str> = rows.iter().map(|r| r["family"].as_str()).collect();

@@ -36,7 +36,8 @@ pub struct RaceArgs {
     /// Skip the denoised Mitsuba curve.
     #[arg(long)]
     pub no_denoise: bool,
-    /// pn points METHOD@RES, comma separated: cda@24, p5@32, … (default cda, P_1, P_3 at
+    /// pn points METHOD@RES[:rays=K][:step=S], comma separated: cda@24, p5@32:rays=1, …
+    /// (default cda, P_1, P_3 at
     /// 16,24,32,48 and P_5 at 16,24,32; p1@16 with --quick).
     #[arg(long)]
     pub pn_points: Option<String>,
@@ -76,6 +77,9 @@ pub struct RaceArgs {
     /// Only rewrite results.md from the CSV files in --out.
     #[arg(long)]
     pub markdown_only: bool,
+    /// Keep <out>/<scene>/work/ (the export, every image and render) after each scene.
+    #[arg(long)]
+    pub keep_work: bool,
 }
 
 fn words(s: &str) -> Vec<String> {
@@ -123,6 +127,7 @@ impl RaceArgs {
             quick: self.quick,
             threads: self.threads,
             markdown_only: self.markdown_only,
+            keep_work: self.keep_work,
         })
     }
 }

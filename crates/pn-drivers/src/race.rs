@@ -1,6 +1,7 @@
 //! `pn race <scene>...`: pn against Mitsuba 3 at equal error, in wall time (docs/race.md).
 //!
-//! Per scene, into `<out>/<scene>/`:
+//! Per scene, into `<out>/<scene>/` (exports, images and renders into `<out>/<scene>/work/`,
+//! removed after the scene unless `keep_work`):
 //! * a high-spp Mitsuba reference (`volpath`, all bounces; two independent halves with
 //!   different seeds, whose difference gives the reference's own noise), rendered once and
 //!   cached under the cache folder, keyed by a hash of the exported scene files and the spp;
@@ -48,6 +49,10 @@ use table::{num, Table};
 /// The pn points of a full race.
 pub const DEFAULT_PN_POINTS: &str = "cda@16,cda@24,cda@32,cda@48,p1@16,p1@24,p1@32,p1@48,\
                                      p3@16,p3@24,p3@32,p3@48,p5@16,p5@24,p5@32";
+/// The per-scene folder of the images, exports and renders (removed at the end of a scene
+/// unless `keep_work`).
+pub const WORK: &str = "work";
+
 /// Mitsuba's spp ladder of a full race.
 pub const DEFAULT_MITSUBA_SPP: &[usize] = &[1, 4, 16, 64, 256];
 
@@ -101,6 +106,8 @@ pub struct RaceRequest {
     pub threads: Option<usize>,
     /// Only regenerate `results.md` from the CSV files in `out`.
     pub markdown_only: bool,
+    /// Keep `<out>/<scene>/work/` (exports, images, renders) after the scene.
+    pub keep_work: bool,
 }
 
 impl Default for RaceRequest {
@@ -129,6 +136,7 @@ impl Default for RaceRequest {
             quick: false,
             threads: None,
             markdown_only: false,
+            keep_work: false,
         }
     }
 }
@@ -209,7 +217,8 @@ fn pn_settings(p: &PnPoint, args: &[String]) -> String {
     } else {
         format!("res={}", p.solve_res)
     };
-    let mut it = args.iter().peekable();
+    let all: Vec<String> = args.iter().cloned().chain(p.render_args()).collect();
+    let mut it = all.iter().peekable();
     while let Some(a) = it.next() {
         let key = a.trim_start_matches('-');
         match it.peek() {
@@ -242,7 +251,10 @@ pub fn run(req: &RaceRequest, stdout: &mut dyn Write) -> Result<()> {
     let plan = Plan::new(req)?;
     std::fs::create_dir_all(&req.out)
         .with_context(|| format!("cannot create {}", req.out.display()))?;
-    let mitsuba = Mitsuba::find(req.python.as_deref(), &req.out)?;
+    let scratch = std::env::temp_dir().join(format!("pn-race-{}", std::process::id()));
+    let mitsuba = Mitsuba::find(req.python.as_deref(), &scratch);
+    let _ = std::fs::remove_dir_all(&scratch);
+    let mitsuba = mitsuba?;
     writeln!(
         stdout,
         "pn race: Mitsuba {} ({}), reference {} spp, Mitsuba spp {:?}, {} pn points, \
@@ -290,8 +302,8 @@ fn mitsuba_points(
     table: &mut Table,
     log: &mut dyn Write,
 ) -> Result<()> {
-    let export = dir.join("export");
-    let images = dir.join("mitsuba");
+    let export = dir.join(WORK).join("export");
+    let images = dir.join(WORK).join("mitsuba");
     std::fs::create_dir_all(&images)?;
     for (k, &spp) in ctx.plan.mitsuba_spp.iter().enumerate() {
         for denoise in [false, true] {
@@ -371,7 +383,7 @@ fn pn_row(
     vec![
         ("scene", name.into()),
         ("tool", "pn".into()),
-        ("family", p.label().split('@').next().unwrap_or("").into()),
+        ("family", p.family_key()),
         ("settings", pn_settings(p, args)),
         (
             "order",
@@ -410,7 +422,7 @@ fn race_scene(
     let scene = RenderScene::load(scene_arg)?;
     let name = scene.name.clone();
     let dir = ctx.req.out.join(&name);
-    let export = dir.join("export");
+    let export = dir.join(WORK).join("export");
     mitsuba_side::export_scene(&scene, &export)?;
     writeln!(
         log,
@@ -441,7 +453,7 @@ fn race_scene(
     };
     let mut pn_errors = vec![];
     for p in &plan.pn_points {
-        let out = dir.join("pn").join(p.label().replace('@', "_"));
+        let out = dir.join(WORK).join("pn").join(p.folder());
         let r = runner.render(p, &out, &[])?;
         let e = errors(&read_gray(&r.images[0])?, &reference.image)?;
         let (solve, render, _) = pn_split(&r);
@@ -558,6 +570,10 @@ fn race_scene(
     if ablation {
         ablation_run(ctx, &name, &dir, &runner, &reference.image, log)?;
     }
+    if !ctx.req.keep_work {
+        let w = dir.join(WORK);
+        std::fs::remove_dir_all(&w).with_context(|| format!("cannot remove {}", w.display()))?;
+    }
     Ok(row)
 }
 
@@ -570,7 +586,7 @@ fn single_scatter(
     runner: &PnRunner,
     log: &mut dyn Write,
 ) -> Result<Vec<(&'static str, String)>> {
-    let export = dir.join("export");
+    let export = dir.join(WORK).join("export");
     let reference = mitsuba_side::reference(
         ctx.mitsuba,
         name,
@@ -581,7 +597,7 @@ fn single_scatter(
         log,
     )?;
     let p = PnPoint::parse("none")?;
-    let r = runner.render(&p, &dir.join("pn").join("single_scatter"), &[])?;
+    let r = runner.render(&p, &dir.join(WORK).join("pn").join("single_scatter"), &[])?;
     let e = errors(&read_gray(&r.images[0])?, &reference.image)?;
     let info = &reference.info;
     let ratio = e.rel_rmse / info.noise_rel_rmse;
@@ -658,7 +674,7 @@ fn turntable(
     log: &mut dyn Write,
 ) -> Result<Vec<(&'static str, String)>> {
     let k = ctx.plan.turntable;
-    let out = dir.join("turntable");
+    let out = dir.join(WORK).join("turntable");
     let pn_out = out.join("pn");
     let _ = std::fs::remove_dir_all(&pn_out);
     let r = match runner.render(point, &pn_out, &["--turntable".into(), k.to_string()]) {
@@ -711,7 +727,7 @@ fn turntable(
     let m = mitsuba_side::render(
         ctx.mitsuba,
         &MitsubaJob {
-            export: &dir.join("export"),
+            export: &dir.join(WORK).join("export"),
             spp,
             seed: 77,
             max_depth: -1,
@@ -753,7 +769,7 @@ fn turntable(
             "settings",
             format!(
                 "{} {}",
-                point.label(),
+                point.family,
                 pn_settings(point, &ctx.req.render_args)
             ),
         ),
@@ -815,10 +831,11 @@ fn ablation_run(
     let fine = PnPoint {
         family: Family::Pn(order),
         solve_res: fine_res,
+        ..base
     };
     let higher = PnPoint {
         family: Family::Pn(high),
-        solve_res: fine_res,
+        ..fine
     };
     let steps: [(&str, PnPoint, &[String]); 4] = [
         ("base", base, &[]),
@@ -826,12 +843,12 @@ fn ablation_run(
         ("fine solve resolution", fine, fine_args),
         ("higher order", higher, fine_args),
     ];
-    let adir = dir.join("ablation");
+    let adir = dir.join(WORK).join("ablation");
     let mut images = vec![];
     let mut t = Table::new(markdown::ABLATION_COLUMNS);
     let ref_norm = reference.data.iter().map(|v| v * v).sum::<f64>().sqrt();
     for (i, (what, p, extra)) in steps.iter().enumerate() {
-        let out = adir.join(format!("{i}_{}", p.label().replace('@', "_")));
+        let out = adir.join(format!("{i}_{}", p.folder()));
         let r = runner.render(p, &out, extra)?;
         let img = read_gray(&r.images[0])?;
         let e = errors(&img, reference)?;

@@ -61,23 +61,56 @@ impl fmt::Display for Family {
     }
 }
 
-/// One pn setting of the race: method and solve resolution (cells across the medium box).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// One pn setting of the race: method, solve resolution (cells across the medium box) and,
+/// optionally, the deterministic renderer's rays per pixel and step.
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PnPoint {
     /// The method.
     pub family: Family,
     /// Solve-grid cells per axis (ignored for single scattering).
     pub solve_res: usize,
+    /// `pn render --rays` (None: the renderer's default).
+    pub rays: Option<usize>,
+    /// `pn render --step` (None: the renderer's default).
+    pub step: Option<f64>,
 }
 
 impl PnPoint {
-    /// Parses `cda@24`, `p5@32` (`P5@32`), `none`.
+    /// Parses `cda@24`, `p5@32` (`P5@32`), `none`, each optionally followed by
+    /// `:rays=K` and/or `:step=S` (`p5@32:rays=1:step=1`).
     pub fn parse(s: &str) -> Result<Self> {
-        let t = s.trim().to_ascii_lowercase();
+        let lower = s.trim().to_ascii_lowercase();
+        let mut parts = lower.split(':');
+        let t = parts.next().unwrap_or("");
+        let (mut rays, mut step) = (None, None);
+        for opt in parts {
+            match opt.split_once('=') {
+                Some(("rays", v)) => {
+                    let n: usize = v
+                        .parse()
+                        .with_context(|| format!("pn point {s:?}: rays must be an integer"))?;
+                    ensure!(n >= 1, "pn point {s:?}: rays must be at least 1");
+                    rays = Some(n);
+                }
+                Some(("step", v)) => {
+                    let x: f64 = v
+                        .parse()
+                        .with_context(|| format!("pn point {s:?}: step must be a number"))?;
+                    ensure!(
+                        x.is_finite() && x > 0.0,
+                        "pn point {s:?}: step must be positive"
+                    );
+                    step = Some(x);
+                }
+                _ => bail!("pn point {s:?}: options are :rays=K and :step=S, got {opt:?}"),
+            }
+        }
         if t == "none" {
             return Ok(Self {
                 family: Family::None,
                 solve_res: 0,
+                rays,
+                step,
             });
         }
         let Some((f, r)) = t.split_once('@') else {
@@ -106,16 +139,54 @@ impl PnPoint {
             (4..=512).contains(&solve_res),
             "pn point {s:?}: solve resolution {solve_res} outside 4..=512"
         );
-        Ok(Self { family, solve_res })
+        Ok(Self {
+            family,
+            solve_res,
+            rays,
+            step,
+        })
     }
 
-    /// A label for tables and folder names: `p5@24`, `cda@32`, `none`.
+    /// The point as [`PnPoint::parse`] reads it: `p5@24`, `cda@32:rays=1`, `none`.
     pub fn label(&self) -> String {
-        match self.family {
+        let mut s = match self.family {
             Family::None => "none".into(),
             Family::Cda => format!("cda@{}", self.solve_res),
             Family::Pn(n) => format!("p{n}@{}", self.solve_res),
+        };
+        if let Some(r) = self.rays {
+            s += &format!(":rays={r}");
         }
+        if let Some(x) = self.step {
+            s += &format!(":step={x}");
+        }
+        s
+    }
+
+    /// The family column of the CSV: `cda`, `p5`, `none`.
+    pub fn family_key(&self) -> String {
+        match self.family {
+            Family::None => "none".into(),
+            Family::Cda => "cda".into(),
+            Family::Pn(n) => format!("p{n}"),
+        }
+    }
+
+    /// A folder name for the point's render.
+    pub fn folder(&self) -> String {
+        self.label().replace(['@', ':'], "_").replace('=', "")
+    }
+
+    /// The `pn render` arguments of the renderer settings.
+    pub fn render_args(&self) -> Vec<String> {
+        let mut v = vec![];
+        if let Some(r) = self.rays {
+            v.extend(["--rays".to_string(), r.to_string()]);
+        }
+        if let Some(x) = self.step {
+            v.extend(["--step".to_string(), x.to_string()]);
+        }
+        v
     }
 
     /// A readable name: `P_5 @ 24³`.
@@ -175,6 +246,7 @@ impl PnRunner {
             cmd.args(["--threads", &t.to_string()]);
         }
         cmd.args(&self.render_args)
+            .args(point.render_args())
             .args(extra)
             .arg("--out")
             .arg(out);
@@ -234,7 +306,22 @@ mod tests {
         assert_eq!((p.solve_res, p.label().as_str()), (24, "p5@24"));
         assert_eq!(PnPoint::parse("cda@16").unwrap().family, Family::Cda);
         assert_eq!(PnPoint::parse("none").unwrap().family, Family::None);
-        for bad in ["p5", "q3@24", "p0@24", "p5@x", "p5@2", "p61@16"] {
+        let p = PnPoint::parse("p3@32:rays=1:step=0.25").unwrap();
+        assert_eq!((p.rays, p.step), (Some(1), Some(0.25)));
+        assert_eq!(p.label(), "p3@32:rays=1:step=0.25");
+        assert_eq!(p.folder(), "p3_32_rays1_step0.25");
+        assert_eq!(p.render_args(), ["--rays", "1", "--step", "0.25"]);
+        for bad in [
+            "p5",
+            "q3@24",
+            "p0@24",
+            "p5@x",
+            "p5@2",
+            "p61@16",
+            "p5@24:rays=0",
+            "p5@24:step=-1",
+            "p5@24:spp=3",
+        ] {
             assert!(PnPoint::parse(bad).is_err(), "{bad}");
         }
     }
