@@ -1,6 +1,10 @@
-//! The renderer: camera rays, free-flight sampling by **delta tracking with the global
-//! majorant** (unbiased; the majorant is `sigma_t_scale × max density`), and at the first
-//! real collision the collision estimate
+//! The Monte Carlo renderer (`--renderer montecarlo`; the default is the deterministic
+//! [`super::march`]): camera rays, free-flight sampling by **delta tracking with the global
+//! majorant** (unbiased; the majorant is `sigma_t_scale × max density`, which bounds the
+//! trilinear field too: a trilinear value is a convex combination of voxel values), σ_t and
+//! the albedo read at the point with the grid's filter ([`DensityGrid::density_at`],
+//! [`super::scene::MediumSpec::coefficients_at`]), and at the first real collision the
+//! collision estimate
 //!
 //! ```text
 //! albedo(x) · [ Σ_lights p(d·ω_o) T(x, light) E(x)            (single scattering, NEE)
@@ -176,17 +180,14 @@ impl Renderer<'_> {
                 return 0.0;
             }
             let x = [0, 1, 2].map(|d| origin[d] + t * dir[d]);
-            let Some([i, j, k]) = self.density.voxel_of(x) else {
-                continue;
-            };
-            let sigma_t = ext.scale * self.density.at(i, j, k);
+            let (sigma_t, sigma_s) = self.scene.medium.coefficients_at(self.density, x);
             if rng.uniform() * majorant >= sigma_t {
                 continue; // null collision
             }
-            let albedo = self.scene.medium.albedo_at(self.density.index(i, j, k));
-            if albedo == 0.0 {
+            if sigma_s == 0.0 {
                 return 0.0;
             }
+            let albedo = sigma_s / sigma_t;
             let wo = dir.map(|c| -c);
             return albedo * (self.single(&ext, x, wo) + self.multiple(x, wo));
         }

@@ -39,8 +39,13 @@
 //! tolerance = 1e-6
 //! sigma_t_min = 0.0         # 0 or absent: automatic where vacuum is present
 //! [render]
-//! spp = 64
-//! seed = 1
+//! renderer = "deterministic" # or "montecarlo"
+//! rays = 4                  # deterministic: camera rays per pixel, k² (a k×k pattern)
+//! step = 0.5                # deterministic: step in voxel sides (error O(step²))
+//! cutoff = 1e-4             # deterministic: stop a ray when its transmittance is below
+//! exact_transmittance = false # deterministic: trace T to the lights at every step
+//! spp = 64                  # montecarlo: samples per pixel
+//! seed = 1                  # montecarlo: seed of the per-pixel random streams
 //! ```
 //!
 //! Unknown keys are refused; parse errors carry the line and column; relative file paths
@@ -206,14 +211,72 @@ pub struct SolveSettings {
     pub sigma_t_min: Option<f64>,
 }
 
+/// Which renderer draws the image.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum RendererKind {
+    /// Ray marching with a fixed pattern of camera rays: noise-free
+    /// ([`super::march`]; the default).
+    #[default]
+    Deterministic,
+    /// Delta tracking with next-event estimation, `spp` random samples per pixel
+    /// ([`super::renderer`]).
+    MonteCarlo,
+}
+
+impl std::str::FromStr for RendererKind {
+    type Err = anyhow::Error;
+    fn from_str(s: &str) -> anyhow::Result<Self> {
+        match s {
+            "deterministic" => Ok(Self::Deterministic),
+            "montecarlo" => Ok(Self::MonteCarlo),
+            _ => bail!("unknown renderer {s:?} (expected deterministic or montecarlo)"),
+        }
+    }
+}
+
+impl RendererKind {
+    /// Lower-case name, as in the scene file and `--renderer`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Deterministic => "deterministic",
+            Self::MonteCarlo => "montecarlo",
+        }
+    }
+}
+
 /// `[render]`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RenderSettings {
-    /// Samples per pixel.
+    /// The renderer.
+    pub renderer: RendererKind,
+    /// Samples per pixel (Monte Carlo renderer).
     pub spp: usize,
-    /// Seed of the per-pixel random streams.
+    /// Seed of the per-pixel random streams (Monte Carlo renderer).
     pub seed: u64,
+    /// Camera rays per pixel of the deterministic renderer: a square number k² (k×k
+    /// stratified sub-pixel positions).
+    pub rays: usize,
+    /// Step of the deterministic renderer in units of the smallest voxel side.
+    pub step: f64,
+    /// The deterministic renderer stops a ray when its transmittance falls below this.
+    pub cutoff: f64,
+    /// The deterministic renderer traces the transmittance to the lights exactly at every
+    /// step instead of interpolating the light-depth grid (slower; no grid error).
+    pub exact_transmittance: bool,
 }
+
+/// Default camera rays per pixel of the deterministic renderer (2×2).
+pub const DEFAULT_RAYS: usize = 4;
+/// Default step of the deterministic renderer (voxel sides).
+pub const DEFAULT_STEP: f64 = 0.5;
+/// Default transmittance cutoff of the deterministic renderer.
+pub const DEFAULT_CUTOFF: f64 = 1e-4;
+/// Most camera rays per pixel (16×16).
+pub const MAX_RAYS: usize = 256;
+/// Accepted steps (voxel sides): smaller ones cost time without visible gain, larger ones
+/// skip voxels.
+pub const STEP_RANGE: (f64, f64) = (1e-3, 4.0);
 
 /// A complete render scene.
 #[derive(Clone, Debug, PartialEq)]
@@ -315,8 +378,13 @@ struct SolveToml {
 #[derive(Deserialize, Debug)]
 #[serde(deny_unknown_fields)]
 struct RenderToml {
+    renderer: Option<RendererKind>,
     spp: Option<usize>,
     seed: Option<u64>,
+    rays: Option<usize>,
+    step: Option<f64>,
+    cutoff: Option<f64>,
+    exact_transmittance: Option<bool>,
 }
 
 const DEFAULT_BBOX: ([f64; 3], [f64; 3]) = ([-1.0; 3], [1.0; 3]);
@@ -661,12 +729,22 @@ fn build(t: SceneToml, base: &Path) -> anyhow::Result<RenderScene> {
     };
     solve.validate().context("[solve]")?;
     let r = t.render.unwrap_or(RenderToml {
+        renderer: None,
         spp: None,
         seed: None,
+        rays: None,
+        step: None,
+        cutoff: None,
+        exact_transmittance: None,
     });
     let render = RenderSettings {
+        renderer: r.renderer.unwrap_or_default(),
         spp: r.spp.unwrap_or(64),
         seed: r.seed.unwrap_or(1),
+        rays: r.rays.unwrap_or(DEFAULT_RAYS),
+        step: r.step.unwrap_or(DEFAULT_STEP),
+        cutoff: r.cutoff.unwrap_or(DEFAULT_CUTOFF),
+        exact_transmittance: r.exact_transmittance.unwrap_or(false),
     };
     render.validate().context("[render]")?;
     Ok(RenderScene {
@@ -728,12 +806,31 @@ impl SolveSettings {
 }
 
 impl RenderSettings {
-    /// Checks the sample count.
+    /// Checks the sample count, the ray count (a square number in 1..=[`MAX_RAYS`]), the
+    /// step (in [`STEP_RANGE`]) and the cutoff (in [0, 1)).
     pub fn validate(&self) -> anyhow::Result<()> {
         ensure!(
             (1..=MAX_SPP).contains(&self.spp),
             "spp must lie in 1..={MAX_SPP}, got {}",
             self.spp
+        );
+        let k = (self.rays as f64).sqrt().round() as usize;
+        ensure!(
+            (1..=MAX_RAYS).contains(&self.rays) && k * k == self.rays,
+            "rays (camera rays per pixel) must be a square number k² in 1..={MAX_RAYS} \
+             (1, 4, 9, 16, …: a k×k pattern), got {}",
+            self.rays
+        );
+        let (lo, hi) = STEP_RANGE;
+        ensure!(
+            self.step.is_finite() && (lo..=hi).contains(&self.step),
+            "step must lie in [{lo}, {hi}] voxel sides, got {}",
+            self.step
+        );
+        ensure!(
+            self.cutoff.is_finite() && (0.0..1.0).contains(&self.cutoff),
+            "cutoff (transmittance at which a ray stops) must lie in [0, 1), got {}",
+            self.cutoff
         );
         Ok(())
     }
@@ -843,6 +940,31 @@ height = 8
             e.contains("medium.filter") && e.contains("\"cubic\"") && e.contains("trilinear"),
             "{e}"
         );
+    }
+
+    #[test]
+    fn render_settings_have_defaults_and_are_checked() {
+        let s = parse(MINIMAL).unwrap();
+        assert_eq!(s.render.renderer, RendererKind::Deterministic);
+        assert_eq!((s.render.rays, s.render.step), (DEFAULT_RAYS, DEFAULT_STEP));
+        let with = |r: &str| format!("{MINIMAL}[render]\n{r}\n");
+        let s = parse(&with("renderer = \"montecarlo\"\nrays = 9\nstep = 0.25")).unwrap();
+        assert_eq!(s.render.renderer, RendererKind::MonteCarlo);
+        assert_eq!((s.render.rays, s.render.step), (9, 0.25));
+        for (bad, want) in [
+            ("rays = 3", "square number"),
+            ("rays = 0", "square number"),
+            ("rays = 1024", "square number"),
+            ("step = 0.0", "step must lie"),
+            ("step = 10.0", "step must lie"),
+            ("step = nan", "step must lie"),
+            ("cutoff = 1.0", "cutoff"),
+            ("cutoff = -0.1", "cutoff"),
+            ("renderer = \"magic\"", "unknown variant"),
+        ] {
+            let e = err(&with(bad));
+            assert!(e.contains(want), "{bad}: {e}");
+        }
     }
 
     #[test]
