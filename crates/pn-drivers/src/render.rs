@@ -563,8 +563,8 @@ pub fn render_views(
                  exact transmittance to the lights (traversal at every step)"
             } else {
                 "ray marching, exponential midpoint rule on the filter's lattice pieces; \
-                 transmittance to the lights: 2 voxels traversed, then the optical-depth \
-                 grid at the voxel centres"
+                 transmittance to the lights from the optical-depth grid at the voxel \
+                 centres"
             }
         } else {
             "delta tracking with the global majorant; next-event estimation with exact \

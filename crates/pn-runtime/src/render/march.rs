@@ -106,9 +106,13 @@ pub struct Marcher<'a> {
     near: f64,
 }
 
-/// The first [`NEAR_VOXELS`] voxel sides of every ray to a light are traversed exactly; the
-/// grid gives the rest (see [`Marcher::tau_to_light`]).
-pub const NEAR_VOXELS: f64 = 2.0;
+/// Voxel sides of every ray to a light traversed exactly before the grid takes over (see
+/// [`Marcher::tau_to_light`]; [`Marcher::with_near_voxels`] changes it). 0 by measurement: on
+/// the built-in cloud (64³, 48×48 rays, trilinear) the grid's relative RMS error against
+/// exact transmittance is 3.6 % with 0, 3.5 % with 1, 3.0 % with 2 and 2.0 % with 4 voxels
+/// traced, at 1×, 1.8×, 2.5× and 3.3× the render time: the error is the grid's interpolation
+/// across voxel-scale density detail everywhere, not mainly the kink where the light enters.
+pub const NEAR_VOXELS: f64 = 0.0;
 
 /// The MS in-scattering along one ray: the coefficients of ω_o and the 8 corner values of
 /// the last solve cell looked up (reused while the ray stays between the same centres).
@@ -257,6 +261,13 @@ impl<'a> Marcher<'a> {
             return near;
         }
         near + self.light_depth.tau(li, y)
+    }
+
+    /// Traces the first `voxels` voxel sides of every light ray exactly (default
+    /// [`NEAR_VOXELS`]; 0: the grid alone).
+    pub fn with_near_voxels(mut self, voxels: f64) -> Self {
+        self.near = voxels.max(0.0) * self.density.h().iter().fold(0.0f64, |m, v| m.max(*v));
+        self
     }
 
     /// Uses the exact optical depth to the lights (a voxel traversal per step and light,
@@ -766,15 +777,21 @@ height = {size}
                 let img = m.render(&s.camera, false);
                 img.data.iter().map(|v| *v as f64).collect()
             };
-            let grid = px(Marcher::new(&s, &g, None, &ld, settings(0.5)));
             let exact =
                 px(Marcher::new(&s, &g, None, &ld, settings(0.5)).with_exact_transmittance());
             let mean = exact.iter().sum::<f64>() / exact.len() as f64;
-            let bias = grid.iter().sum::<f64>() / exact.iter().sum::<f64>() - 1.0;
-            eprintln!(
-                "{filter}: light-depth grid vs exact: relative RMS {:.3e}, relative bias {bias:.3e}",
-                rms(&grid, &exact) / mean
-            );
+            for near in [0.0, 1.0, 2.0, 4.0] {
+                let t = std::time::Instant::now();
+                let grid =
+                    px(Marcher::new(&s, &g, None, &ld, settings(0.5)).with_near_voxels(near));
+                let secs = t.elapsed().as_secs_f64();
+                let bias = grid.iter().sum::<f64>() / exact.iter().sum::<f64>() - 1.0;
+                eprintln!(
+                    "{filter}, {near} voxels traced: light-depth grid vs exact: relative RMS \
+                     {:.3e}, relative bias {bias:.3e} ({secs:.3} s)",
+                    rms(&grid, &exact) / mean
+                );
+            }
         }
     }
 
