@@ -42,7 +42,9 @@
 //! quadrature error falls by 4 when `step` halves; `tests` measures the order.
 //!
 //! **What the step does not control.** (1) The light-depth grid: τ is interpolated between
-//! voxel corners, an error O(h²|∂²τ|) with h the voxel size ([`LightDepth`]). (2) The pixel
+//! voxel centres, an error O(h²|∂²τ|) with h the voxel size ([`LightDepth`]; measured on the
+//! built-in cloud: 3.6 % relative RMS, −1 % bias against exact transmittance, which
+//! [`MarchSettings::exact_transmittance`] removes at several times the cost). (2) The pixel
 //! filter: k×k stratified sub-pixel rays are the midpoint rule of the box filter (O(1/k²)
 //! for a smooth image, O(1/k) at silhouettes). (3) The cutoff: marching stops when T <
 //! `cutoff`; the light not collected is `∫_rest T σ_s S dt ≤ cutoff · max_x(albedo·S)`
@@ -107,7 +109,7 @@ pub struct Marcher<'a> {
 }
 
 /// Voxel sides of every ray to a light traversed exactly before the grid takes over (see
-/// [`Marcher::tau_to_light`]; [`Marcher::with_near_voxels`] changes it). 0 by measurement: on
+/// `Marcher::tau_to_light`; [`Marcher::with_near_voxels`] changes it). 0 by measurement: on
 /// the built-in cloud (64³, 48×48 rays, trilinear) the grid's relative RMS error against
 /// exact transmittance is 3.6 % with 0, 3.5 % with 1, 3.0 % with 2 and 2.0 % with 4 voxels
 /// traced, at 1×, 1.8×, 2.5× and 3.3× the render time: the error is the grid's interpolation
