@@ -452,21 +452,20 @@ pub fn render_views(
     let t_ld = Instant::now();
     // The solve's deep shadow maps hold T at the voxel centres: τ = −ln T, no new rays.
     let light_depth = if deterministic {
-        match shadow_maps
-            .as_ref()
-            .and_then(|m| LightDepth::from_shadow_maps(&density, m))
-        {
-            Some(ld) => Some(ld),
-            None => {
-                let ext = Extinction {
-                    grid: &density,
-                    scale: scene.medium.sigma_t_scale,
-                };
-                Some(pn_runtime::threads::with_threads(threads, || {
-                    LightDepth::compute(&ext, &scene.lights)
-                })?)
-            }
-        }
+        let ext = Extinction {
+            grid: &density,
+            scale: scene.medium.sigma_t_scale,
+        };
+        Some(pn_runtime::threads::with_threads(
+            threads,
+            || match shadow_maps
+                .as_ref()
+                .and_then(|m| LightDepth::from_shadow_maps(&ext, &scene.lights, m))
+            {
+                Some(ld) => ld,
+                None => LightDepth::compute(&ext, &scene.lights),
+            },
+        )?)
     } else {
         None
     };
