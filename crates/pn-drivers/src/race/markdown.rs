@@ -162,7 +162,35 @@ pub fn write(out: &Path) -> Result<PathBuf> {
             get(r, "turntable_speedup"),
         );
     }
-    for r in &recs {
+    // Scenes of an interrupted run: a folder with points.csv but no summary row yet.
+    let mut partial: Vec<BTreeMap<String, String>> = vec![];
+    let mut dirs: Vec<PathBuf> = std::fs::read_dir(out)
+        .with_context(|| format!("cannot list {}", out.display()))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.join("points.csv").is_file())
+        .collect();
+    dirs.sort();
+    for d in dirs {
+        let name = d
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        if !recs.iter().any(|r| get(r, "scene") == name) {
+            let mut r = BTreeMap::new();
+            r.insert("scene".to_string(), name);
+            partial.push(r);
+        }
+    }
+    if !partial.is_empty() {
+        let names: Vec<&str> = partial.iter().map(|r| get(r, "scene")).collect();
+        let _ = write!(
+            s,
+            "\nNot in the table above (the run ended before these scenes were complete; \
+             what they finished is below): {}.\n",
+            names.join(", ")
+        );
+    }
+    for r in recs.iter().chain(&partial) {
         let scene = get(r, "scene");
         let dir = out.join(scene);
         let _ = write!(s, "\n## {scene}\n\n![{scene}]({scene}/error_time.png)\n\n");
@@ -171,6 +199,7 @@ pub fn write(out: &Path) -> Result<PathBuf> {
             let t = Table::read(&pts_path)?;
             let pts = points(&t);
             let target: usize = get(r, "target_spp").parse().unwrap_or(64);
+            // (64 for a scene without a summary row: the default target.)
             let (lines, _) = crossings(&pts, target);
             s += "Crossing points:\n\n";
             for l in lines {
@@ -261,4 +290,38 @@ pub fn write(out: &Path) -> Result<PathBuf> {
     let p = out.join("results.md");
     std::fs::write(&p, s).with_context(|| format!("cannot write {}", p.display()))?;
     Ok(p)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::race::analysis::POINT_COLUMNS;
+
+    #[test]
+    fn markdown_lists_complete_and_interrupted_scenes() {
+        let out = std::env::temp_dir().join(format!("pn-race-md-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&out);
+        let mut summary = Table::new(SUMMARY_COLUMNS);
+        summary
+            .push(&[("scene", "a".into()), ("target_spp", "4".into())])
+            .unwrap();
+        std::fs::create_dir_all(out.join("a")).unwrap();
+        std::fs::create_dir_all(out.join("b")).unwrap();
+        summary.write(&out.join("summary.csv")).unwrap();
+        let mut pts = Table::new(POINT_COLUMNS);
+        pts.push(&[
+            ("family", "mitsuba".into()),
+            ("settings", "spp=4".into()),
+            ("spp", "4".into()),
+            ("seconds", "1".into()),
+            ("rel_rmse", "0.5".into()),
+        ])
+        .unwrap();
+        pts.write(&out.join("a/points.csv")).unwrap();
+        pts.write(&out.join("b/points.csv")).unwrap();
+        let md = std::fs::read_to_string(write(&out).unwrap()).unwrap();
+        assert!(md.contains("## a") && md.contains("## b"));
+        assert!(md.contains("were complete; what they finished is below): b."));
+        std::fs::remove_dir_all(&out).ok();
+    }
 }
