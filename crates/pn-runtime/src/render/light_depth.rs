@@ -38,6 +38,7 @@
 //! absolute error below 10⁻¹⁷·E.
 
 use super::lights::Light;
+use super::medium::floor_fast;
 use super::medium::DensityGrid;
 use super::shadow::{DeepShadowMaps, Extinction};
 use rayon::prelude::*;
@@ -169,7 +170,7 @@ impl PlaneDepth {
         if s <= 0.0 {
             return 0.0; // upstream of the whole support
         }
-        let k = ((s / self.ds).floor() as usize).min(self.ns - 1);
+        let k = (floor_fast(s / self.ds) as usize).min(self.ns - 1);
         let back = s - k as f64 * self.ds;
         let near = if back > 0.0 {
             ext.optical_depth(x, self.d.map(|c| -c), back)
@@ -180,7 +181,7 @@ impl PlaneDepth {
         let top_v = (self.nv - 1) as f64;
         let fu = ((dot(x, self.e1) - self.u0) / self.hu).clamp(0.0, top_u);
         let fv = ((dot(x, self.e2) - self.v0) / self.hu).clamp(0.0, top_v);
-        let (i, j) = (fu.floor() as usize, fv.floor() as usize);
+        let (i, j) = (floor_fast(fu) as usize, floor_fast(fv) as usize);
         let (i1, j1) = ((i + 1).min(self.nu - 1), (j + 1).min(self.nv - 1));
         let (tu, tv) = (fu - i as f64, fv - j as f64);
         let plane = &self.tau[k * self.nu * self.nv..(k + 1) * self.nu * self.nv];
@@ -372,7 +373,7 @@ impl LightDepth {
         for d in 0..3 {
             let top = (self.res[d] - 1) as f64;
             let u = ((x[d] - self.origin[d]) / self.h[d]).clamp(0.0, top);
-            let f = u.floor();
+            let f = floor_fast(u);
             lo[d] = f as usize;
             hi[d] = (lo[d] + 1).min(self.res[d] - 1);
             t[d] = u - f;

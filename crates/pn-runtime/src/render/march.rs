@@ -58,6 +58,7 @@
 use super::camera::Camera;
 use super::light_depth::LightDepth;
 use super::lights::{phase_value, Light};
+use super::medium::floor_fast;
 use super::medium::{DensityFilter, DensityGrid};
 use super::renderer::{Image, MsField};
 use super::scene::RenderScene;
@@ -151,7 +152,7 @@ impl<'a> MsCursor<'a> {
         for d in 0..3 {
             let n = g.res[d];
             let u = ((x[d] - g.min[d]) / g.h(d) - 0.5).clamp(0.0, (n - 1) as f64);
-            let f = u.floor();
+            let f = floor_fast(u);
             lo[d] = f as usize;
             t[d] = u - f;
         }
@@ -380,8 +381,8 @@ impl<'a> Marcher<'a> {
             let p = origin[d] + t0 * dir[d];
             let u = (p - self.lattice_min[d]) / h[d];
             let n = self.cells[d] as i64;
-            let mut c = u.floor() as i64;
-            if dir[d] < 0.0 && u == u.floor() {
+            let mut c = floor_fast(u) as i64;
+            if dir[d] < 0.0 && u == floor_fast(u) {
                 c -= 1; // on a plane, moving down: the cell below
             }
             c = c.clamp(0, n - 1);

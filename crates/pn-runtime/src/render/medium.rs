@@ -36,6 +36,19 @@
 use crate::field::VoxelGrid;
 use anyhow::{bail, ensure, Context};
 
+/// ⌊x⌋ for finite |x| < 2⁶³ without the libm call `f64::floor` becomes on baseline x86-64
+/// (no SSE4.1 `roundsd`): truncation, one down for negative non-integers. The renderers'
+/// lookups call it several times per sample.
+#[inline]
+pub(crate) fn floor_fast(x: f64) -> f64 {
+    let t = x as i64 as f64;
+    if t > x {
+        t - 1.0
+    } else {
+        t
+    }
+}
+
 /// How a voxel grid is read between voxel centres (see the module docs): Mitsuba's
 /// `gridvolume` `filter_type`.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
@@ -227,9 +240,8 @@ impl DensityGrid {
     #[inline]
     fn trilinear_1d(&self, d: usize, x: f64) -> (usize, usize, f64) {
         let n = self.res[d];
-        let h = (self.bbox_max[d] - self.bbox_min[d]) / n as f64;
-        let u = (x - self.bbox_min[d]) / h - 0.5;
-        let fl = u.floor();
+        let u = (x - self.bbox_min[d]) * (n as f64 / (self.bbox_max[d] - self.bbox_min[d])) - 0.5;
+        let fl = floor_fast(u);
         let f = u - fl;
         let i0 = fl as i64;
         let clamp = |i: i64| i.clamp(0, n as i64 - 1) as usize;

@@ -19,6 +19,7 @@
 //! every solve-cell centre to each light; it is computed in parallel with rayon.
 
 use super::lights::Light;
+use super::medium::floor_fast;
 use super::medium::{DensityFilter, DensityGrid};
 use crate::problem::Grid;
 use rayon::prelude::*;
@@ -112,9 +113,9 @@ impl Extinction<'_> {
         for d in 0..3 {
             let p = origin[d] + t0 * dir[d];
             let u = (p - lo[d]) / h[d];
-            let mut c = u.floor() as i64;
+            let mut c = floor_fast(u) as i64;
             let nd = n[d] as i64;
-            if dir[d] < 0.0 && u == u.floor() {
+            if dir[d] < 0.0 && u == floor_fast(u) {
                 c -= 1; // on a face, moving down: the cell below
             }
             c = c.clamp(0, nd - 1);
