@@ -58,3 +58,4 @@ pub mod scene_setup;
 pub mod solve;
 pub mod stencil;
 pub mod tradeoff;
+pub mod vacuum_extras;

@@ -1,0 +1,330 @@
+//! The Marshak vacuum boundary (docs/design.md §3, "Domain and boundary") against the 1D
+//! P_N–Marshak values of tests/data/marshak/README.md and the eigen-decomposition reference
+//! of `pn_runtime::reference::slab`: slab reflection and transmission, the Milne
+//! extrapolation length, convergence in h (second order: the even moments on the face are
+//! extrapolated linearly), the same slab along y and z in 3D, energy balance, a point
+//! source in a finite box (Marshak nearer the infinite medium than Dirichlet zero), and the
+//! mirror-symmetric checkerboard with Marshak faces under the parity solvers and multigrid.
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
+
+use pn_kernels::{pn_kernel, Staggering};
+use pn_runtime::field::{Field, Point};
+use pn_runtime::pipeline::{solve_problem, Solution};
+use pn_runtime::problem::{Boundary, Problem};
+use pn_runtime::reference::{pn_marshak_milne, pn_marshak_slab, pn_point_source};
+use pn_runtime::scenes::{builtin, BuiltinOptions, PointSourceParams};
+use pn_runtime::solver::{SolverKind, SolverOptions};
+use pn_runtime::vacuum_scenes::{milne_extrapolation_length, slab_fluxes, SlabParams};
+use pn_stencil::Dim;
+
+/// README tables: (N, R, T_d) for τ = 1, c = 0.9 and (N, z_0).
+const SLAB_README: [(usize, f64, f64); 4] = [
+    (1, 0.27259, 0.23337),
+    (3, 0.26935, 0.22541),
+    (5, 0.26838, 0.22398),
+    (7, 0.26797, 0.22374),
+];
+const MILNE_README: [(usize, f64); 4] = [(1, 0.66667), (3, 0.70509), (5, 0.70821), (7, 0.70920)];
+
+fn opts() -> SolverOptions {
+    SolverOptions {
+        tol: 1e-10,
+        max_iter: 20_000,
+        ..Default::default()
+    }
+}
+
+fn solve(problem: &Problem, order: usize, dim: Dim, solver: SolverKind) -> Solution {
+    let k = pn_kernel(order, dim, Staggering::Staggered).unwrap();
+    let sol = solve_problem(problem, k.kernel.as_ref(), solver, &opts()).unwrap();
+    assert!(sol.stats.converged(), "P{order}: {:?}", sol.stats);
+    let e = sol.energy.as_ref().unwrap();
+    // Energy balance: the l = 0 rows are the discrete continuity equation, the outflow is
+    // read off the Marshak face unknowns; the imbalance is at the level of the residual.
+    assert!(e.relative_imbalance < 1e-8, "P{order}: {e:?}");
+    sol
+}
+
+fn slab_scene(res: usize, tau: f64, albedo: f64, dim: Dim) -> Problem {
+    builtin(
+        "slab",
+        &BuiltinOptions {
+            dim: Some(dim),
+            res: Some(vec![res]),
+            slab: SlabParams {
+                tau: Some(tau),
+                albedo: Some(albedo),
+            },
+            ..Default::default()
+        },
+    )
+    .unwrap()
+    .problem
+}
+
+fn slab_rt(order: usize, res: usize, tau: f64, albedo: f64) -> (f64, f64) {
+    let p = slab_scene(res, tau, albedo, Dim::Two);
+    let sol = solve(&p, order, Dim::Two, SolverKind::ParityCg);
+    slab_fluxes(&sol.layout, &sol.u).unwrap()
+}
+
+/// Richardson extrapolation of a second-order quantity from h and h/2, and the observed
+/// order `log2((f_h − f_{h/4}) … )` from three levels.
+fn richardson(coarse: f64, fine: f64) -> f64 {
+    fine + (fine - coarse) / 3.0
+}
+
+/// Slab τ = 1, c = 0.9, P_1 … P_7: at h = 0.01 within 1e-4 of the README (which the issue
+/// asks to 1e-3), second-order convergence (the error ratio between h = 0.04, 0.02, 0.01
+/// near 4), and the Richardson value within 1e-5 of the eigen-decomposition reference
+/// (the README's 5 digits agree with it to 6e-6, see `reference::slab`).
+#[test]
+fn slab_converges_to_the_pn_marshak_values() {
+    for (n, r_readme, t_readme) in SLAB_README {
+        let exact = pn_marshak_slab(n, 1.0, 0.9).unwrap();
+        let levels: Vec<(f64, f64)> = [25, 50, 100].map(|r| slab_rt(n, r, 1.0, 0.9)).to_vec();
+        let (r, t) = levels[2];
+        eprintln!(
+            "P{n}: R {:?} T {:?} (exact {:.6} {:.6})",
+            levels.iter().map(|l| l.0).collect::<Vec<_>>(),
+            levels.iter().map(|l| l.1).collect::<Vec<_>>(),
+            exact.reflection,
+            exact.transmission
+        );
+        assert!((r - r_readme).abs() < 1e-4, "P{n} R {r} vs {r_readme}");
+        assert!((t - t_readme).abs() < 1e-4, "P{n} T {t} vs {t_readme}");
+        for (get, want) in [
+            (Box::new(|l: &(f64, f64)| l.0) as Box<dyn Fn(&(f64, f64)) -> f64>, exact.reflection),
+            (Box::new(|l: &(f64, f64)| l.1), exact.transmission),
+        ] {
+            let e: Vec<f64> = levels.iter().map(|l| (get(l) - want).abs()).collect();
+            let rich = richardson(get(&levels[1]), get(&levels[2]));
+            assert!((rich - want).abs() < 1e-5, "P{n}: Richardson {rich} vs {want}");
+            let ratio = e[1] / e[2];
+            assert!((3.0..5.5).contains(&ratio), "P{n}: error ratio {ratio} ({e:?})");
+        }
+        // Toward transport (S_48: R 0.26741, T 0.22375) as N grows.
+    }
+}
+
+/// Other thicknesses and albedos against the eigen-decomposition reference: Richardson from
+/// h and h/2 within 1e-5, the direct fine value within 1e-4.
+#[test]
+fn slab_other_tau_and_albedo() {
+    for (tau, c) in [(0.5, 0.5), (2.0, 0.99), (4.0, 0.3)] {
+        for n in [1, 3, 5] {
+            let exact = pn_marshak_slab(n, tau, c).unwrap();
+            let cells = (50.0 * tau) as usize;
+            let (r1, t1) = slab_rt(n, cells, tau, c);
+            let (r2, t2) = slab_rt(n, 2 * cells, tau, c);
+            eprintln!(
+                "τ {tau} c {c} P{n}: R {r1:.6} {r2:.6} T {t1:.6} {t2:.6} (exact {:.6} {:.6})",
+                exact.reflection, exact.transmission
+            );
+            assert!((r2 - exact.reflection).abs() < 1e-4, "τ {tau} c {c} P{n} R");
+            assert!((t2 - exact.transmission).abs() < 1e-4, "τ {tau} c {c} P{n} T");
+            assert!((richardson(r1, r2) - exact.reflection).abs() < 1e-5);
+            assert!((richardson(t1, t2) - exact.transmission).abs() < 1e-5);
+        }
+    }
+}
+
+fn milne_z0(order: usize, res: usize) -> f64 {
+    let s = builtin(
+        "milne",
+        &BuiltinOptions {
+            res: Some(vec![res]),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let sol = solve(&s.problem, order, Dim::Two, SolverKind::ParityCg);
+    milne_extrapolation_length(&s.problem.grid, &sol.layout, &sol.u).unwrap()
+}
+
+/// Milne: z_0 at h = 0.05 within 1e-3 of the README (P_1 exactly 2/3: the linear
+/// extrapolation is exact for the P_1 solution), and the Richardson value from h = 0.1,
+/// 0.05 within 1e-4 of the README and of the eigen-decomposition reference.
+#[test]
+fn milne_extrapolation_length_converges() {
+    for (n, readme) in MILNE_README {
+        let exact = pn_marshak_milne(n).unwrap();
+        let (z1, z2) = (milne_z0(n, 300), milne_z0(n, 600));
+        let rich = richardson(z1, z2);
+        eprintln!("P{n}: z0 {z1:.6} {z2:.6} Richardson {rich:.6} (exact {exact:.6})");
+        assert!((z2 - readme).abs() < 1e-3, "P{n}: {z2} vs {readme}");
+        assert!((rich - readme).abs() < 1e-4, "P{n}: {rich} vs {readme}");
+        assert!((rich - exact).abs() < 1e-4, "P{n}: {rich} vs {exact}");
+        if n == 1 {
+            assert!((z2 - 2.0 / 3.0).abs() < 1e-8, "{z2}");
+        }
+    }
+}
+
+/// The slab posed along y and along z in 3D (conditions from other harmonics: the ω_y- and
+/// ω_z-odd ones) gives the x slab's reflection and transmission, and 3D agrees with 2D.
+#[test]
+fn slab_along_every_axis_in_3d() {
+    let (n, cells) = (3, 40);
+    let reference = slab_rt(n, cells, 1.0, 0.9);
+    let x3 = slab_scene(cells, 1.0, 0.9, Dim::Three);
+    for axis in 0..3 {
+        let mut p = x3.clone();
+        let mut res = [1; 3];
+        res[axis] = cells;
+        p.grid.res = res;
+        p.grid.max = [1.0; 3];
+        let norm = 0.9 / (4.0 * std::f64::consts::PI).sqrt();
+        p.sources[0].field = Field::analytic(move |x: Point| norm * (-x[axis]).exp());
+        p.boundary = ["x=marshak", "y=marshak", "z=marshak"][axis].parse().unwrap();
+        let sol = solve(&p, n, Dim::Three, SolverKind::ParityCg);
+        // J_d = √(4π/3) L_1^{(d)} on the d faces: L_1^1 (x), L_1^{-1} (y), L_1^0 (z).
+        let m = [1, -1, 0][axis];
+        let q = sol
+            .layout
+            .moments
+            .iter()
+            .position(|mp| mp.l == 1 && mp.m == m)
+            .unwrap();
+        let c = (4.0 * std::f64::consts::PI / 3.0).sqrt();
+        let mut hi = [0; 3];
+        hi[axis] = cells;
+        let r = -c * sol.u[sol.layout.index(q, [0; 3])];
+        let t = c * sol.u[sol.layout.index(q, hi)];
+        eprintln!("axis {axis}: R {r:.9} T {t:.9} (2D x slab {reference:?})");
+        assert!((r - reference.0).abs() < 1e-8, "axis {axis}: R {r}");
+        assert!((t - reference.1).abs() < 1e-8, "axis {axis}: T {t}");
+    }
+}
+
+/// A point source in a box of 4 mean free paths (σ_t = 2, α = 0.9 on [0, 2]³) with Marshak
+/// faces is closer to the infinite-medium P_N solution than the same box with Dirichlet
+/// zero, by the mean relative difference of the fluence over the cells between 2 cells and
+/// 1.5 mean free paths from the source; reflecting (Neumann) faces overshoot it.
+#[test]
+fn point_source_box_marshak_beats_dirichlet() {
+    for (order, res) in [(1, 31), (3, 21)] {
+        let params = PointSourceParams {
+            sigma_t: 2.0,
+            albedo: 0.9,
+            ..Default::default()
+        };
+        let scene = builtin(
+            "pointsource",
+            &BuiltinOptions {
+                res: Some(vec![res]),
+                pointsource: params,
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        let modes = pn_point_source(order, 0.9, 0.0).unwrap();
+        let g = scene.problem.grid.clone();
+        let h = g.h(0);
+        let c = (res / 2) as f64 + 0.5;
+        let error = |bc: Boundary| -> f64 {
+            let mut p = scene.problem.clone();
+            p.boundary = bc;
+            let sol = solve(&p, order, Dim::Three, SolverKind::ParityCg);
+            let phi = sol.l00();
+            let (mut sum, mut count) = (0.0, 0usize);
+            for i in 0..res {
+                for j in 0..res {
+                    for k in 0..res {
+                        let d = [i, j, k].map(|v| (v as f64 + 0.5 - c) * h);
+                        let r = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+                        if r < 2.0 * h || 2.0 * r > 1.5 {
+                            continue;
+                        }
+                        let exact = modes.fluence_world(r, 2.0);
+                        let got = phi[(i * res + j) * res + k];
+                        sum += (got - exact) / exact;
+                        count += 1;
+                    }
+                }
+            }
+            sum / count as f64
+        };
+        let (m, d, n) = (
+            error(Boundary::Marshak),
+            error(Boundary::Dirichlet),
+            error(Boundary::Neumann),
+        );
+        eprintln!("P{order} {res}³: mean relative difference marshak {m:.4} dirichlet {d:.4} neumann {n:.4}");
+        assert!(m.abs() < 0.5 * d.abs(), "P{order}: marshak {m} dirichlet {d}");
+        assert!(d < m && m < n, "P{order}: {d} < {m} < {n}");
+    }
+}
+
+/// The checkerboard with Marshak faces solves with the parity solvers (ILU and multigrid
+/// preconditioners agree), converges, balances energy and is mirror-symmetric about
+/// x = 3.5, like the lattice.
+#[test]
+fn checkerboard_with_marshak_faces_is_mirror_symmetric() {
+    let n = 31;
+    for order in [1, 3] {
+        let mut p = builtin(
+            "checkerboard",
+            &BuiltinOptions {
+                res: Some(vec![n]),
+                ..Default::default()
+            },
+        )
+        .unwrap()
+        .problem;
+        p.boundary = Boundary::Marshak;
+        let ilu = solve(&p, order, Dim::Two, SolverKind::ParityIlu);
+        let mg = solve(&p, order, Dim::Two, SolverKind::ParityMg);
+        let (a, b) = (ilu.l00(), mg.l00());
+        let max = a.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let mut asym = 0.0f64;
+        let mut diff = 0.0f64;
+        for i in 0..n {
+            for j in 0..n {
+                let v = a[i * n + j];
+                asym = asym.max((v - a[(n - 1 - i) * n + j]).abs());
+                diff = diff.max((v - b[i * n + j]).abs());
+            }
+        }
+        eprintln!(
+            "P{order}: mirror asymmetry {:.2e}, ilu vs mg {:.2e} (relative), outflow {:?}",
+            asym / max,
+            diff / max,
+            ilu.energy.as_ref().map(|e| e.boundary_outflow)
+        );
+        assert!(asym < 1e-8 * max, "P{order}: asymmetry {asym}");
+        assert!(diff < 1e-7 * max, "P{order}: ilu vs mg {diff}");
+        assert!(ilu.energy.unwrap().boundary_outflow > 0.0);
+    }
+}
+
+/// Bad input: even N, the collocated stencil, matrix-free solvers, and too few cells.
+#[test]
+fn unsupported_combinations_are_refused() {
+    let p = slab_scene(20, 1.0, 0.9, Dim::Two);
+    let k2 = pn_kernel(2, Dim::Two, Staggering::Staggered).unwrap();
+    let e = solve_problem(&p, k2.kernel.as_ref(), SolverKind::ParityCg, &opts())
+        .err()
+        .unwrap();
+    assert!(format!("{e:#}").contains("odd order"), "{e:#}");
+    let kc = pn_kernel(3, Dim::Two, Staggering::Collocated).unwrap();
+    let e = solve_problem(&p, kc.kernel.as_ref(), SolverKind::Cgnr, &opts())
+        .err()
+        .unwrap();
+    assert!(format!("{e:#}").contains("staggered"), "{e:#}");
+    let k3 = pn_kernel(3, Dim::Two, Staggering::Staggered).unwrap();
+    let e = solve_problem(&p, k3.kernel.as_ref(), SolverKind::CgnrMf, &opts())
+        .err()
+        .unwrap();
+    assert!(format!("{e:#}").contains("matrix-free"), "{e:#}");
+    let thin = slab_scene(1, 1.0, 0.9, Dim::Two);
+    let e = solve_problem(&thin, k3.kernel.as_ref(), SolverKind::ParityCg, &opts())
+        .err()
+        .unwrap();
+    assert!(format!("{e:#}").contains("at least 2 cells"), "{e:#}");
+    // The assembled CGNR route takes it and agrees with the parity route.
+    let a = solve(&p, 3, Dim::Two, SolverKind::Cgnr);
+    let b = solve(&p, 3, Dim::Two, SolverKind::ParityCg);
+    let (ra, rb) = (slab_fluxes(&a.layout, &a.u).unwrap(), slab_fluxes(&b.layout, &b.u).unwrap());
+    assert!((ra.0 - rb.0).abs() < 1e-7 && (ra.1 - rb.1).abs() < 1e-7, "{ra:?} {rb:?}");
+}
