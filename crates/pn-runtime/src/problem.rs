@@ -631,3 +631,37 @@ fn check(name: &'static str, value: f64, p: Point) -> Result<(), CoefficientErro
         Ok(())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use BoundaryKind::{Dirichlet as D, Marshak as M, Neumann as N};
+
+    #[test]
+    fn boundary_text_form() {
+        assert_eq!("neumann".parse::<Boundary>().unwrap(), Boundary::Neumann);
+        assert_eq!("marshak".parse::<Boundary>().unwrap(), Boundary::Marshak);
+        let slab: Boundary = "x=marshak".parse().unwrap();
+        assert_eq!(slab.faces(), [[M, M], [N, N], [N, N]]);
+        assert_eq!(slab.name(), "x=marshak,y=neumann,z=neumann");
+        assert_eq!(slab.name().parse::<Boundary>().unwrap(), slab);
+        let b: Boundary = "marshak, z=neumann, xmax=dirichlet".parse().unwrap();
+        assert_eq!(b.faces(), [[M, D], [M, M], [N, N]]);
+        assert_eq!(b.name(), "xmin=marshak,xmax=dirichlet,y=marshak,z=neumann");
+        assert_eq!(b.name().parse::<Boundary>().unwrap(), b);
+        // Six equal faces are the uniform variant.
+        assert_eq!(
+            "x=dirichlet,y=dirichlet,dirichlet".parse::<Boundary>().unwrap(),
+            Boundary::Dirichlet
+        );
+        assert!(b.has_marshak(3) && !"z=marshak".parse::<Boundary>().unwrap().has_marshak(2));
+        assert!("z=marshak".parse::<Boundary>().unwrap().all_neumann(2));
+        for bad in ["", "vacuum", "w=marshak", "xmid=marshak", "x=foo", "x=marshak,,"] {
+            let e = bad.parse::<Boundary>().unwrap_err().to_string();
+            assert!(!e.is_empty(), "{bad}");
+        }
+        let json = serde_json::to_string(&slab).unwrap();
+        assert_eq!(json, "\"x=marshak,y=neumann,z=neumann\"");
+        assert_eq!(serde_json::from_str::<Boundary>(&json).unwrap(), slab);
+    }
+}

@@ -328,3 +328,36 @@ fn unsupported_combinations_are_refused() {
     let (ra, rb) = (slab_fluxes(&a.layout, &a.u).unwrap(), slab_fluxes(&b.layout, &b.u).unwrap());
     assert!((ra.0 - rb.0).abs() < 1e-7 && (ra.1 - rb.1).abs() < 1e-7, "{ra:?} {rb:?}");
 }
+
+/// What the Marshak rows do to the reduced system `S = D_e − B D_o⁻¹ C`
+/// (`pn_runtime::marshak`, "Structure"): the block form stays (the split succeeds), but `S` is
+/// not symmetric (with Neumann on the same P_1 grid it is), and the parity solver's probe sees it.
+#[test]
+fn marshak_faces_make_the_reduced_system_nonsymmetric() {
+    use pn_runtime::assemble::assemble;
+    use pn_runtime::layout::Layout;
+    use pn_runtime::solver::parity::reduced::{ReducedMode, ReducedOperator};
+    use pn_runtime::solver::parity::split::split;
+    use pn_runtime::solver::parity::SYMMETRY_TOL;
+    use pn_runtime::solver::pn_layout::even_mask;
+    let k = pn_kernel(1, Dim::Two, Staggering::Staggered).unwrap();
+    let mut p = builtin(
+        "checkerboard",
+        &BuiltinOptions {
+            res: Some(vec![9]),
+            ..Default::default()
+        },
+    )
+    .unwrap()
+    .problem;
+    for (bc, symmetric) in [(Boundary::Neumann, true), (Boundary::Marshak, false)] {
+        p.boundary = bc;
+        let layout = Layout::new(&p.grid, k.kernel.moments()).unwrap();
+        let sys = assemble(&p, k.kernel.as_ref(), &layout).unwrap();
+        let sp = split(&sys.matrix, &even_mask(&layout)).unwrap();
+        let op = ReducedOperator::new(&sp, ReducedMode::MatrixFree);
+        let asym = op.asymmetry(2);
+        eprintln!("P1 {bc:?}: asymmetry probe {asym:.2e}");
+        assert_eq!(asym <= SYMMETRY_TOL, symmetric, "{bc:?}: {asym:e}");
+    }
+}
