@@ -32,8 +32,8 @@ fn report(name: &str, args: &[&str]) -> serde_json::Value {
         "pn solve {args:?} failed: {}",
         String::from_utf8_lossy(&out.stderr)
     );
-    let r = serde_json::from_str(&std::fs::read_to_string(dir.join("report.json")).unwrap())
-        .unwrap();
+    let r =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("report.json")).unwrap()).unwrap();
     let _ = std::fs::remove_dir_all(&dir);
     r
 }
@@ -50,7 +50,10 @@ fn error(name: &str, args: &[&str]) -> String {
 #[test]
 fn slab_report() {
     let r = report("slab", &["slab", "--order", "3"]);
-    let (refl, trans) = (r["reflection"].as_f64().unwrap(), r["transmission"].as_f64().unwrap());
+    let (refl, trans) = (
+        r["reflection"].as_f64().unwrap(),
+        r["transmission"].as_f64().unwrap(),
+    );
     assert!((refl - 0.26935).abs() < 1e-4, "{refl}");
     assert!((trans - 0.22541).abs() < 1e-4, "{trans}");
     assert!((r["reference_reflection"].as_f64().unwrap() - 0.26935).abs() < 1e-5);
@@ -59,7 +62,10 @@ fn slab_report() {
     let e = &r["energy_balance"];
     assert!(e["relative_imbalance"].as_f64().unwrap() < 1e-8, "{e}");
     // Outflow = R + T per unit area (the slab is 1 wide in y).
-    assert!((e["boundary_outflow"].as_f64().unwrap() - refl - trans).abs() < 1e-9, "{e}");
+    assert!(
+        (e["boundary_outflow"].as_f64().unwrap() - refl - trans).abs() < 1e-9,
+        "{e}"
+    );
 }
 
 /// Other τ and albedo, and the 3D grid: the discrete values sit within 2e-4 of the 1D
@@ -68,10 +74,15 @@ fn slab_report() {
 fn slab_other_parameters_and_3d() {
     let r = report(
         "slab3d",
-        &["slab", "--order", "1", "--dim", "3", "--tau", "2", "--albedo", "0.5", "--res", "100"],
+        &[
+            "slab", "--order", "1", "--dim", "3", "--tau", "2", "--albedo", "0.5", "--res", "100",
+        ],
     );
     for k in ["reflection", "transmission"] {
-        let (got, want) = (r[k].as_f64().unwrap(), r[&format!("reference_{k}")].as_f64().unwrap());
+        let (got, want) = (
+            r[k].as_f64().unwrap(),
+            r[&format!("reference_{k}")].as_f64().unwrap(),
+        );
         assert!((got - want).abs() < 2e-4, "{k}: {got} vs {want}");
     }
     assert_eq!(r["dim"], 3);
@@ -84,7 +95,10 @@ fn milne_report() {
     let z0 = r["extrapolation_length"].as_f64().unwrap();
     assert!((z0 - 0.70821).abs() < 1e-3, "{z0}");
     assert!((r["reference_extrapolation_length"].as_f64().unwrap() - 0.70821).abs() < 1e-5);
-    assert_eq!(r["boundary"], "xmin=marshak,xmax=neumann,y=neumann,z=neumann");
+    assert_eq!(
+        r["boundary"],
+        "xmin=marshak,xmax=neumann,y=neumann,z=neumann"
+    );
 }
 
 /// `--bc marshak` and the per-face form on another scene: a box with vacuum faces loses
@@ -98,7 +112,10 @@ fn bc_marshak_on_the_checkerboard() {
         );
         let e = &r["energy_balance"];
         assert!(e["boundary_outflow"].as_f64().unwrap() > 0.0, "{bc}: {e}");
-        assert!(e["relative_imbalance"].as_f64().unwrap() < 1e-8, "{bc}: {e}");
+        assert!(
+            e["relative_imbalance"].as_f64().unwrap() < 1e-8,
+            "{bc}: {e}"
+        );
         assert!(r["converged"].as_bool().unwrap());
     }
 }
@@ -107,14 +124,20 @@ fn bc_marshak_on_the_checkerboard() {
 #[test]
 fn bad_input() {
     let e = error("even", &["slab", "--order", "2"]);
-    assert!(e.contains("odd order") && e.contains("--order 1 or 3"), "{e}");
+    assert!(
+        e.contains("odd order") && e.contains("--order 1 or 3"),
+        "{e}"
+    );
     let e = error("mf", &["slab", "--solver", "cgnr-mf"]);
     assert!(e.contains("matrix-free"), "{e}");
     let e = error("coll", &["slab", "--collocated"]);
     assert!(e.contains("staggered"), "{e}");
     let e = error("cda", &["slab", "--method", "cda"]);
     assert!(e.contains("P_N equations only"), "{e}");
-    let e = error("fld", &["checkerboard3d", "--method", "fld", "--bc", "marshak"]);
+    let e = error(
+        "fld",
+        &["checkerboard3d", "--method", "fld", "--bc", "marshak"],
+    );
     assert!(e.contains("--bc does not apply"), "{e}");
     let e = error("face", &["slab", "--bc", "w=marshak"]);
     assert!(e.contains("unknown face"), "{e}");

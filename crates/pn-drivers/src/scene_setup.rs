@@ -259,7 +259,11 @@ pub fn scene_from_request(req: &SolveRequest) -> Result<Scene> {
             pointsource: req.pointsource_params(),
             slab: pn_runtime::vacuum_scenes::SlabParams {
                 tau: req.tau,
-                albedo: if scene_arg == "slab" { req.albedo } else { None },
+                albedo: if scene_arg == "slab" {
+                    req.albedo
+                } else {
+                    None
+                },
             },
         };
         builtin(scene_arg, &opts)?

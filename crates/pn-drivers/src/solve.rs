@@ -76,7 +76,13 @@ pub fn run(req: &SolveRequest, stdout: &mut dyn Write) -> anyhow::Result<()> {
     crate::error_estimate::after_solve(req, problem, &sol, &out)?;
     if crate::vacuum_extras::applies(&scene.name) {
         crate::vacuum_extras::write_extras(
-            &out, &scene.name, problem, a.albedo, &sol, order, stdout,
+            &out,
+            &scene.name,
+            problem,
+            a.albedo,
+            &sol,
+            order,
+            stdout,
         )?;
     }
     if scene.name == "pointsource" {

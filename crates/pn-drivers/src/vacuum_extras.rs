@@ -37,8 +37,8 @@ pub fn write_extras(
     let path = out.join("report.json");
     let text = std::fs::read_to_string(&path)
         .with_context(|| format!("reading {} to add the {scene} results", path.display()))?;
-    let mut report: serde_json::Value = serde_json::from_str(&text)
-        .with_context(|| format!("parsing {}", path.display()))?;
+    let mut report: serde_json::Value =
+        serde_json::from_str(&text).with_context(|| format!("parsing {}", path.display()))?;
     let b = &problem.boundary;
     let odd = order % 2 == 1;
     let mut extra = serde_json::Map::new();
@@ -49,11 +49,17 @@ pub fn write_extras(
         let tau = problem.grid.max[0] - problem.grid.min[0];
         let c = albedo.unwrap_or(SLAB_ALBEDO);
         let vacuum = b.face(0, 0) == BoundaryKind::Marshak && b.face(0, 1) == BoundaryKind::Marshak;
-        write!(stdout, "slab τ = {tau}, albedo {c}: reflection {r:.6}, transmission {t:.6}")?;
+        write!(
+            stdout,
+            "slab τ = {tau}, albedo {c}: reflection {r:.6}, transmission {t:.6}"
+        )?;
         if odd && vacuum && c < 1.0 {
             let reference = pn_marshak_slab(order, tau, c)?;
             extra.insert("reference_reflection".into(), reference.reflection.into());
-            extra.insert("reference_transmission".into(), reference.transmission.into());
+            extra.insert(
+                "reference_transmission".into(),
+                reference.transmission.into(),
+            );
             write!(
                 stdout,
                 " (1D P_{order}–Marshak: {:.6}, {:.6})",

@@ -190,10 +190,7 @@ mod tests {
         );
         // Per face: reflecting at x min, dropped at x max.
         let bc: Boundary = "xmax=dirichlet".parse().unwrap();
-        assert_eq!(
-            l.resolve(0, [-1, 1, 1], bc),
-            Some(l.index(0, [0, 0, 0]))
-        );
+        assert_eq!(l.resolve(0, [-1, 1, 1], bc), Some(l.index(0, [0, 0, 0])));
         assert_eq!(l.resolve(0, [7, 1, 1], bc), None);
         assert!(l.check_parity(1, 0, [1, 0, 0]).is_ok());
         assert!(l.check_parity(1, 0, [2, 0, 0]).is_err());

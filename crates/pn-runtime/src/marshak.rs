@@ -170,7 +170,11 @@ impl MarshakRows {
         let sign = if side == 0 { 1.0 } else { -1.0 };
         // Centre indices along the axis: nearest first.
         let n = self.res[axis];
-        let (c0, c1) = if side == 0 { (0, 1) } else { (n - 1, n.saturating_sub(2)) };
+        let (c0, c1) = if side == 0 {
+            (0, 1)
+        } else {
+            (n - 1, n.saturating_sub(2))
+        };
         let weights: &[(usize, f64)] = match self.face_value {
             FaceValue::Nearest => &[(c0, 1.0)],
             FaceValue::Linear => &[(c0, 1.5), (c1, -0.5)],

@@ -303,7 +303,8 @@ impl serde::Serialize for Boundary {
 impl<'de> serde::Deserialize<'de> for Boundary {
     fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
         let text = String::deserialize(d)?;
-        text.parse().map_err(|e: anyhow::Error| serde::de::Error::custom(e.to_string()))
+        text.parse()
+            .map_err(|e: anyhow::Error| serde::de::Error::custom(e.to_string()))
     }
 }
 
@@ -651,12 +652,21 @@ mod tests {
         assert_eq!(b.name().parse::<Boundary>().unwrap(), b);
         // Six equal faces are the uniform variant.
         assert_eq!(
-            "x=dirichlet,y=dirichlet,dirichlet".parse::<Boundary>().unwrap(),
+            "x=dirichlet,y=dirichlet,dirichlet"
+                .parse::<Boundary>()
+                .unwrap(),
             Boundary::Dirichlet
         );
         assert!(b.has_marshak(3) && !"z=marshak".parse::<Boundary>().unwrap().has_marshak(2));
         assert!("z=marshak".parse::<Boundary>().unwrap().all_neumann(2));
-        for bad in ["", "vacuum", "w=marshak", "xmid=marshak", "x=foo", "x=marshak,,"] {
+        for bad in [
+            "",
+            "vacuum",
+            "w=marshak",
+            "xmid=marshak",
+            "x=foo",
+            "x=marshak,,",
+        ] {
             let e = bad.parse::<Boundary>().unwrap_err().to_string();
             assert!(!e.is_empty(), "{bad}");
         }

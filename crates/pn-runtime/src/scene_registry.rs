@@ -214,7 +214,13 @@ mod tests {
         }
         assert_eq!(
             names(SceneKind::Solve),
-            ["checkerboard", "checkerboard3d", "pointsource", "slab", "milne"]
+            [
+                "checkerboard",
+                "checkerboard3d",
+                "pointsource",
+                "slab",
+                "milne"
+            ]
         );
         assert_eq!(
             names(SceneKind::Render),

@@ -184,7 +184,8 @@ pub fn milne_extrapolation_length(grid: &Grid, layout: &Layout, u: &[f64]) -> Re
     let q = moment(layout, 0, 0)?;
     let h = grid.h(0);
     let depth = grid.max[0] - grid.min[0];
-    let centre = |x: f64| (((x - grid.min[0]) / h - 0.5).round().max(0.0) as usize).min(grid.res[0] - 1);
+    let centre =
+        |x: f64| (((x - grid.min[0]) / h - 0.5).round().max(0.0) as usize).min(grid.res[0] - 1);
     let (ia, ib) = (centre(0.5 * depth - 2.0), centre(0.5 * depth + 2.0));
     ensure!(ib > ia, "the milne grid is too coarse to measure a slope");
     let x = |i: usize| grid.min[0] + (i as f64 + 0.5) * h;

@@ -25,7 +25,12 @@ fn scene(name: &str, dim: Dim, res: usize, boundary: Boundary) -> Problem {
 fn cases() -> Vec<(String, Problem, i32)> {
     let mut out = Vec::new();
     let slab: Boundary = "x=marshak,ymax=dirichlet".parse().unwrap();
-    for bc in [Boundary::Neumann, Boundary::Dirichlet, Boundary::Marshak, slab] {
+    for bc in [
+        Boundary::Neumann,
+        Boundary::Dirichlet,
+        Boundary::Marshak,
+        slab,
+    ] {
         for order in [1, 3] {
             out.push((
                 format!("checkerboard P_{order} {bc:?}"),

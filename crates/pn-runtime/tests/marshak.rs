@@ -94,14 +94,23 @@ fn slab_converges_to_the_pn_marshak_values() {
         assert!((r - r_readme).abs() < 1e-4, "P{n} R {r} vs {r_readme}");
         assert!((t - t_readme).abs() < 1e-4, "P{n} T {t} vs {t_readme}");
         for (get, want) in [
-            (Box::new(|l: &(f64, f64)| l.0) as Box<dyn Fn(&(f64, f64)) -> f64>, exact.reflection),
+            (
+                Box::new(|l: &(f64, f64)| l.0) as Box<dyn Fn(&(f64, f64)) -> f64>,
+                exact.reflection,
+            ),
             (Box::new(|l: &(f64, f64)| l.1), exact.transmission),
         ] {
             let e: Vec<f64> = levels.iter().map(|l| (get(l) - want).abs()).collect();
             let rich = richardson(get(&levels[1]), get(&levels[2]));
-            assert!((rich - want).abs() < 1e-5, "P{n}: Richardson {rich} vs {want}");
+            assert!(
+                (rich - want).abs() < 1e-5,
+                "P{n}: Richardson {rich} vs {want}"
+            );
             let ratio = e[1] / e[2];
-            assert!((3.0..5.5).contains(&ratio), "P{n}: error ratio {ratio} ({e:?})");
+            assert!(
+                (3.0..5.5).contains(&ratio),
+                "P{n}: error ratio {ratio} ({e:?})"
+            );
         }
         // Toward transport (S_48: R 0.26741, T 0.22375) as N grows.
     }
@@ -122,7 +131,10 @@ fn slab_other_tau_and_albedo() {
                 exact.reflection, exact.transmission
             );
             assert!((r2 - exact.reflection).abs() < 1e-4, "τ {tau} c {c} P{n} R");
-            assert!((t2 - exact.transmission).abs() < 1e-4, "τ {tau} c {c} P{n} T");
+            assert!(
+                (t2 - exact.transmission).abs() < 1e-4,
+                "τ {tau} c {c} P{n} T"
+            );
             assert!((richardson(r1, r2) - exact.reflection).abs() < 1e-5);
             assert!((richardson(t1, t2) - exact.transmission).abs() < 1e-5);
         }
@@ -176,7 +188,9 @@ fn slab_along_every_axis_in_3d() {
         p.grid.max = [1.0; 3];
         let norm = 0.9 / (4.0 * std::f64::consts::PI).sqrt();
         p.sources[0].field = Field::analytic(move |x: Point| norm * (-x[axis]).exp());
-        p.boundary = ["x=marshak", "y=marshak", "z=marshak"][axis].parse().unwrap();
+        p.boundary = ["x=marshak", "y=marshak", "z=marshak"][axis]
+            .parse()
+            .unwrap();
         let sol = solve(&p, n, Dim::Three, SolverKind::ParityCg);
         // J_d = √(4π/3) L_1^{(d)} on the d faces: L_1^1 (x), L_1^{-1} (y), L_1^0 (z).
         let m = [1, -1, 0][axis];
@@ -251,7 +265,10 @@ fn point_source_box_marshak_beats_dirichlet() {
             error(Boundary::Neumann),
         );
         eprintln!("P{order} {res}³: mean relative difference marshak {m:.4} dirichlet {d:.4} neumann {n:.4}");
-        assert!(m.abs() < 0.5 * d.abs(), "P{order}: marshak {m} dirichlet {d}");
+        assert!(
+            m.abs() < 0.5 * d.abs(),
+            "P{order}: marshak {m} dirichlet {d}"
+        );
         assert!(d < m && m < n, "P{order}: {d} < {m} < {n}");
     }
 }
@@ -325,8 +342,14 @@ fn unsupported_combinations_are_refused() {
     // The assembled CGNR route takes it and agrees with the parity route.
     let a = solve(&p, 3, Dim::Two, SolverKind::Cgnr);
     let b = solve(&p, 3, Dim::Two, SolverKind::ParityCg);
-    let (ra, rb) = (slab_fluxes(&a.layout, &a.u).unwrap(), slab_fluxes(&b.layout, &b.u).unwrap());
-    assert!((ra.0 - rb.0).abs() < 1e-7 && (ra.1 - rb.1).abs() < 1e-7, "{ra:?} {rb:?}");
+    let (ra, rb) = (
+        slab_fluxes(&a.layout, &a.u).unwrap(),
+        slab_fluxes(&b.layout, &b.u).unwrap(),
+    );
+    assert!(
+        (ra.0 - rb.0).abs() < 1e-7 && (ra.1 - rb.1).abs() < 1e-7,
+        "{ra:?} {rb:?}"
+    );
 }
 
 /// What the Marshak rows do to the reduced system `S = D_e − B D_o⁻¹ C`

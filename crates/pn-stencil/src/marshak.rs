@@ -109,7 +109,7 @@ pub fn is_odd_under_reflection(l: usize, m: i64, axis: usize) -> Result<bool, St
     let (mut even, mut odd) = (true, true);
     let mut scale = 0.0f64;
     for p in probes {
-        let n = (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]) as f64;
+        let n: f64 = p[0] * p[0] + p[1] * p[1] + p[2] * p[2];
         let w = p.map(|c: f64| c / n.sqrt());
         let mut r = w;
         r[axis] = -r[axis];
@@ -276,7 +276,10 @@ mod tests {
             let cond = c.conditions.iter().flatten().next().unwrap();
             assert_eq!(cond.terms.len(), 1);
             assert_eq!(cond.terms[0].0, 0);
-            assert!((cond.terms[0].1 - 3f64.sqrt() / 2.0).abs() < 1e-14, "{cond:?}");
+            assert!(
+                (cond.terms[0].1 - 3f64.sqrt() / 2.0).abs() < 1e-14,
+                "{cond:?}"
+            );
         }
     }
 

@@ -103,7 +103,7 @@ fn marshak_row(order: usize, i: usize, sign: f64, half: &[Vec<f64>]) -> Vec<f64>
     (0..=order)
         .map(|l| {
             // ∫ over the incoming half: ∫_{−1}^0 P_a P_l = (−1)^{a+l} ∫_0^1 P_a P_l.
-            let s = if sign > 0.0 || (a + l) % 2 == 0 {
+            let s = if sign > 0.0 || (a + l).is_multiple_of(2) {
                 1.0
             } else {
                 -1.0
@@ -181,7 +181,7 @@ pub fn pn_marshak_slab(order: usize, tau: f64, albedo: f64) -> Result<SlabRefere
     let out_flux = |phi: &DVector<f64>, sign: f64| -> f64 {
         (0..n)
             .map(|l| {
-                let s = if sign > 0.0 || (1 + l) % 2 == 0 {
+                let s = if sign > 0.0 || (1 + l).is_multiple_of(2) {
                     1.0
                 } else {
                     -1.0
