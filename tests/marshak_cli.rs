@@ -146,3 +146,59 @@ fn bad_input() {
     let e = error("albedo", &["milne", "--albedo", "0.5"]);
     assert!(e.contains("--albedo"), "{e}");
 }
+
+/// A scene file takes the per-face form as `boundary = "..."`, and `report.json` gives it back.
+#[test]
+fn scene_file_boundary() {
+    let dir = out_dir("toml");
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("box.toml");
+    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/box.toml"))
+        .unwrap()
+        .replace(
+            "boundary = \"dirichlet\"",
+            "boundary = \"marshak,z=neumann\"",
+        )
+        .replace("[24, 24, 24]", "[8, 8, 8]");
+    std::fs::write(&path, text).unwrap();
+    let r = report("toml-run", &[path.to_str().unwrap(), "--order", "3"]);
+    let _ = std::fs::remove_dir_all(&dir);
+    assert_eq!(r["boundary"], "x=marshak,y=marshak,z=neumann");
+    let e = &r["energy_balance"];
+    assert!(e["relative_imbalance"].as_f64().unwrap() < 1e-8, "{e}");
+    assert!(e["boundary_outflow"].as_f64().unwrap() > 0.0, "{e}");
+}
+
+/// `pn stencil --marshak` prints the derived conditions: P_1's zero incoming partial
+/// current `L_1 + (√3/2) L_0 = 0` on every axis, N(N+1)/2 = 6 per axis for P_3 in 3D (JSON
+/// too); even N is refused.
+#[test]
+fn stencil_prints_the_conditions() {
+    let pn = |args: &[&str]| {
+        Command::new(env!("CARGO_BIN_EXE_pn"))
+            .arg("stencil")
+            .args(args)
+            .output()
+            .expect("run pn")
+    };
+    let out = pn(&["--order", "1", "--marshak"]);
+    assert!(out.status.success());
+    let text = String::from_utf8_lossy(&out.stdout);
+    for m in ["L_1^1", "L_1^-1", "L_1^0"] {
+        assert!(
+            text.contains(&format!("{m} + 0.866025403784 L_0^0 = 0")),
+            "{text}"
+        );
+    }
+    let out = pn(&["--order", "3", "--marshak", "--json"]);
+    assert!(out.status.success());
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let axes = v["marshak"].as_array().unwrap();
+    assert_eq!(axes.len(), 3);
+    for a in axes {
+        assert_eq!(a["conditions"].as_array().unwrap().len(), 6, "{a}");
+    }
+    let out = pn(&["--order", "2", "--marshak"]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("odd order"));
+}

@@ -30,7 +30,11 @@
 //! probes and take BiCGSTAB (or GMRES with multigrid) instead of CG.
 //!
 //! A position on two Marshak faces at once (an edge or corner unknown odd in both axes)
-//! takes the condition of the first such axis (x before y before z).
+//! takes the condition of the first such axis (x before y before z). No other row
+//! references such an unknown (its neighbours across either face are themselves Marshak
+//! rows, which reference centres only), so the choice does not reach the rest of the
+//! solution: a centred point source in a Marshak cube stays symmetric under x ↔ y to
+//! rounding (`crates/pn-runtime/tests/marshak.rs`).
 
 use crate::layout::Layout;
 use crate::problem::{BoundaryKind, Problem};
