@@ -77,9 +77,11 @@ fn richardson(coarse: f64, fine: f64) -> f64 {
 /// Slab τ = 1, c = 0.9, P_1 … P_7: at h = 0.01 within 1e-4 of the README (which the issue
 /// asks to 1e-3), second-order convergence (the error ratio between h = 0.04, 0.02, 0.01
 /// near 4), and the Richardson value within 1e-5 of the eigen-decomposition reference
-/// (the README's 5 digits agree with it to 6e-6, see `reference::slab`).
+/// (the README's 5 digits agree with it to 6e-6, see `reference::slab`); R and T approach the
+/// transport (S_48) values monotonically as N grows.
 #[test]
 fn slab_converges_to_the_pn_marshak_values() {
+    let mut fine = Vec::new();
     for (n, r_readme, t_readme) in SLAB_README {
         let exact = pn_marshak_slab(n, 1.0, 0.9).unwrap();
         let levels: Vec<(f64, f64)> = [25, 50, 100].map(|r| slab_rt(n, r, 1.0, 0.9)).to_vec();
@@ -112,7 +114,18 @@ fn slab_converges_to_the_pn_marshak_values() {
                 "P{n}: error ratio {ratio} ({e:?})"
             );
         }
-        // Toward transport (S_48: R 0.26741, T 0.22375) as N grows.
+        fine.push((r, t));
+    }
+    // Toward transport (the README's S_48: R 0.26741, T 0.22375) as N grows.
+    for w in fine.windows(2) {
+        assert!(
+            (w[1].0 - 0.26741).abs() < (w[0].0 - 0.26741).abs(),
+            "{fine:?}"
+        );
+        assert!(
+            (w[1].1 - 0.22375).abs() < (w[0].1 - 0.22375).abs(),
+            "{fine:?}"
+        );
     }
 }
 
