@@ -47,6 +47,8 @@ enum Command {
     ExportMitsuba(cli::export_mitsuba::ExportMitsubaArgs),
     /// Compare two EXR images: RMSE, relative MSE, mean relative error; difference image.
     Compare(cli::compare::CompareArgs),
+    /// pn against Mitsuba 3 at equal error in wall time: points.csv, error_time.png, results.md.
+    Race(Box<cli::race::RaceArgs>),
 }
 
 /// Runs `command`, printing to `out`.
@@ -65,6 +67,7 @@ fn run(command: &Command, env: &cli::Env, out: &mut dyn Write) -> anyhow::Result
         Command::Figure(a) => d::figure::run(&a.request(env), out),
         Command::ExportMitsuba(a) => d::export_mitsuba::run(&a.request(env), out),
         Command::Compare(a) => d::compare::run(&a.request(), out),
+        Command::Race(a) => d::race::run(&a.request(env)?, out),
     }?;
     out.flush()?;
     Ok(())

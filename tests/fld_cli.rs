@@ -71,6 +71,7 @@ fn pointsource_fld_end_to_end() {
             "2",
             "--tol",
             "1e-6",
+            "--fld-all-limiters",
         ],
         &out,
     );
@@ -122,6 +123,51 @@ fn pointsource_fld_end_to_end() {
     // The maximum is in the source cell n/2 = 7.
     let max = f.iter().cloned().fold(0.0, f64::max);
     assert_eq!(max, f[(7 * 15 + 7) * 15 + 7]);
+}
+
+/// Without `--fld-all-limiters` the point-source profile costs no extra solve: it holds the
+/// run's own limiter and the closed forms only.
+#[test]
+fn pointsource_fld_profile_shows_only_the_own_limiter_by_default() {
+    let d = Scratch::new("ps-own");
+    let out = d.0.join("o");
+    let args = [
+        "pointsource",
+        "--method",
+        "fld",
+        "--limiter",
+        "kershaw",
+        "--res",
+        "15",
+        "--sigma-t",
+        "2",
+        "--tol",
+        "1e-6",
+    ];
+    solve_ok(&args, &out);
+    let csv = std::fs::read_to_string(out.join("fld_profile.csv")).unwrap();
+    let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+    for col in [
+        "tau",
+        "fld_kershaw",
+        "p_5_exact",
+        "cda_closed_form",
+        "grosjean",
+    ] {
+        assert!(header.contains(&col), "{col} missing: {header:?}");
+    }
+    for col in [
+        "cda_discrete",
+        "fld_lp",
+        "fld_sum",
+        "fld_max",
+        "fld_larsen2",
+    ] {
+        assert!(
+            !header.contains(&col),
+            "{col} solved without the flag: {header:?}"
+        );
+    }
 }
 
 /// fluence.npy holds L_0^0, as for `--method cda`: with the CDA limiter in a strongly absorbing
@@ -243,7 +289,7 @@ fn bad_fld_input_is_rejected() {
     let s = scene.to_str().unwrap();
     let out = d.0.join("o");
     let o = out.to_str().unwrap();
-    let cases: [(&[&str], &str); 11] = [
+    let cases: [(&[&str], &str); 13] = [
         (
             &[s, "--method", "fld", "--limiter", "bogus"],
             "unknown flux limiter",
@@ -277,6 +323,14 @@ fn bad_fld_input_is_rejected() {
         (
             &[s, "--method", "fld", "--sigma-t-min", "0.1"],
             "--sigma-eps",
+        ),
+        (
+            &["pointsource", "--method", "pn", "--fld-all-limiters"],
+            "--method fld only",
+        ),
+        (
+            &[s, "--method", "fld", "--fld-all-limiters"],
+            "pointsource scene only",
         ),
     ];
     for (args, needle) in cases {

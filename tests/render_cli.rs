@@ -1,6 +1,8 @@
-//! `pn render` end to end on small scenes (16³ density, ≤ 16³ solve grid, 32×32 image,
-//! few spp): every method runs and writes its files; the multiple-scattering part behaves
-//! as the theory says; bad input gives one clear error.
+//! `pn render` end to end on small scenes (16³ density, ≤ 16³ solve grid, 32×32 image):
+//! every method runs and writes its files; the multiple-scattering part behaves as the
+//! theory says; the turntable and the renderer settings; a camera or light inside the
+//! medium, an empty medium and a medium out of view render finite images (black with a
+//! warning for the last two); bad input gives one clear error.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
 use pn_drivers::render::{render_scene, RenderOptions};
@@ -225,6 +227,193 @@ fn bad_input_is_one_clear_error() {
         assert!(err.contains(want), "{args:?}: {err}");
         assert!(!err.contains("panicked"), "{args:?}: {err}");
     }
+    assert!(!dir.join("out").exists());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+fn report(dir: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(dir.join("report.json")).unwrap()).unwrap()
+}
+
+/// `--turntable 3`: one solve, three views `view_000…002`; view 0 is the plain render of the
+/// scene camera (identical pixels: the deterministic renderer has no randomness), the
+/// report lists the views with their angles and times; `--renderer montecarlo` and the
+/// deterministic settings reach the report.
+#[test]
+fn turntable_views_and_renderer_settings() {
+    let dir = tmp("turntable");
+    let scene_path = dir.join("ball.toml");
+    std::fs::write(&scene_path, SCENE).unwrap();
+    let s = scene_path.to_str().unwrap();
+    let plain = dir.join("plain");
+    let o = pn(&[
+        "render",
+        s,
+        "--rays",
+        "1",
+        "--step",
+        "1",
+        "--filter",
+        "nearest",
+        "--out",
+        plain.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let r = report(&plain);
+    assert_eq!(r["renderer"], "deterministic");
+    assert_eq!(r["rays_per_pixel"], 1);
+    assert_eq!(r["step"], 1.0);
+    assert_eq!(r["filter"], "nearest");
+    assert!(r["seconds"]["light_depth"].as_f64().unwrap() >= 0.0);
+    let tt = dir.join("tt");
+    let o = pn(&[
+        "render",
+        s,
+        "--rays",
+        "1",
+        "--step",
+        "1",
+        "--filter",
+        "nearest",
+        "--turntable",
+        "3",
+        "--out",
+        tt.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let (_, _, a) = read_exr_gray(&plain.join("image.exr")).unwrap();
+    let (_, _, b) = read_exr_gray(&tt.join("view_000.exr")).unwrap();
+    assert_eq!(a, b);
+    for k in 0..3 {
+        assert!(
+            tt.join(format!("view_{k:03}.exr")).is_file()
+                && tt.join(format!("view_{k:03}.png")).is_file()
+        );
+    }
+    let (_, _, c) = read_exr_gray(&tt.join("view_001.exr")).unwrap();
+    assert_ne!(a, c, "view 1 sees the ball from another side");
+    let r = report(&tt);
+    let views = r["views"].as_array().unwrap();
+    assert_eq!(views.len(), 3);
+    assert_eq!(views[1]["angle_deg"], 120.0);
+    // Camera (0, 0.3, 3.5) turned 120° right-handed about +y: x = 3.5 sin 120°, z = 3.5 cos 120°.
+    let p = views[1]["position"].as_array().unwrap();
+    let p: Vec<f64> = p.iter().map(|v| v.as_f64().unwrap()).collect();
+    let th = 120f64.to_radians();
+    assert!(
+        (p[0] - 3.5 * th.sin()).abs() < 1e-9
+            && (p[1] - 0.3).abs() < 1e-9
+            && (p[2] - 3.5 * th.cos()).abs() < 1e-9,
+        "{p:?}"
+    );
+    let mc = dir.join("mc");
+    let o = pn(&[
+        "render",
+        s,
+        "--renderer",
+        "montecarlo",
+        "--method",
+        "none",
+        "--spp",
+        "2",
+        "--out",
+        mc.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let r = report(&mc);
+    assert_eq!(r["renderer"], "montecarlo");
+    assert!(r["step"].is_null());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Documented behaviours, not errors: a camera inside the medium and a point light inside
+/// it render finite images with light; an empty medium and a medium out of view give a
+/// black image and a warning. No pixel is NaN.
+#[test]
+fn awkward_scenes_render_finite_images() {
+    let dir = tmp("awkward");
+    let cases: [(&str, String, bool, Option<&str>); 4] = [
+        (
+            "camera-inside",
+            SCENE.replace("position = [0.0, 0.3, 3.5]", "position = [0.1, 0.2, 0.3]"),
+            true,
+            None,
+        ),
+        (
+            "light-inside",
+            SCENE.replace("position = [1.4, 1.2, 1.3]", "position = [0.1, -0.2, 0.0]"),
+            true,
+            None,
+        ),
+        (
+            "empty",
+            SCENE.replace("sigma_t_scale = 6.0", "sigma_t_scale = 0.0"),
+            false,
+            Some("empty"),
+        ),
+        (
+            "out-of-view",
+            SCENE.replace("target = [0.0, 0.0, 0.0]", "target = [0.0, 0.3, 8.0]"),
+            false,
+            Some("outside the camera's view"),
+        ),
+    ];
+    for (name, text, lit, warning) in cases {
+        let path = dir.join(format!("{name}.toml"));
+        std::fs::write(&path, text).unwrap();
+        let out = dir.join(name);
+        let o = pn(&[
+            "render",
+            path.to_str().unwrap(),
+            "--rays",
+            "1",
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(o.status.success(), "{name}: {err}");
+        let (_, _, data) = read_exr_gray(&out.join("image.exr")).unwrap();
+        assert!(data.iter().all(|v| v.is_finite() && *v >= 0.0), "{name}");
+        assert_eq!(data.iter().any(|v| *v > 0.0), lit, "{name}");
+        if let Some(w) = warning {
+            assert!(err.contains("warning") && err.contains(w), "{name}: {err}");
+            let r = report(&out);
+            assert!(r["warnings"][0].as_str().unwrap().contains(w), "{name}");
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Renderer settings out of range: one clear error naming the setting.
+#[test]
+fn bad_renderer_settings_are_one_clear_error() {
+    let dir = tmp("bad-settings");
+    let zero = dir.join("zero.toml");
+    std::fs::write(&zero, SCENE.replace("width = 32", "width = 0")).unwrap();
+    let cases: [(&[&str], &str); 8] = [
+        (&["--rays", "3"], "square number"),
+        (&["--rays", "0"], "square number"),
+        (&["--step", "0"], "step must lie"),
+        (&["--step", "100"], "step must lie"),
+        (&["--turntable", "0"], "--turntable"),
+        (&["--renderer", "magic"], "magic"),
+        (&["--filter", "cubic"], "cubic"),
+        (&["--step", "nan"], "step must lie"),
+    ];
+    for (extra, want) in cases {
+        let mut args = vec!["render", "sphere", "--method", "none"];
+        args.extend_from_slice(extra);
+        let out = dir.join("out");
+        args.extend(["--out", out.to_str().unwrap()]);
+        let o = pn(&args);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success(), "{extra:?} should fail");
+        assert!(err.contains(want), "{extra:?}: {err}");
+        assert!(!err.contains("panicked"), "{extra:?}: {err}");
+    }
+    let o = pn(&["render", zero.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("image size"), "{err}");
     assert!(!dir.join("out").exists());
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -2,6 +2,7 @@
 
 use clap::Args;
 use pn_drivers::export_mitsuba::ExportMitsubaRequest;
+use pn_runtime::render::DensityFilter;
 use std::path::PathBuf;
 
 use super::Env;
@@ -23,6 +24,10 @@ pub struct ExportMitsubaArgs {
     /// volpath max_depth: -1 = all orders of scattering, 2 = single scattering only.
     #[arg(long, default_value_t = -1, allow_negative_numbers = true)]
     pub max_depth: i64,
+    /// How the gridvolumes read the voxels: trilinear (Mitsuba's default) or nearest;
+    /// overrides the scene's [medium] filter.
+    #[arg(long)]
+    pub filter: Option<DensityFilter>,
     /// Also run the script (writes OUT/mitsuba.exr).
     #[arg(long)]
     pub run: bool,
@@ -41,6 +46,7 @@ impl ExportMitsubaArgs {
             spp: self.spp,
             seed: self.seed,
             max_depth: self.max_depth,
+            filter: self.filter,
             run: self.run,
             python: env.python(self.python.as_deref()),
         }

@@ -2,6 +2,8 @@
 
 use clap::Args;
 use pn_drivers::figure::FigureRequest;
+use pn_runtime::render::scene::RendererKind;
+use pn_runtime::render::DensityFilter;
 use std::path::PathBuf;
 
 use super::Env;
@@ -15,9 +17,22 @@ pub struct FigureArgs {
     /// Output directory (default out/figure-<scene>).
     #[arg(long)]
     pub out: Option<PathBuf>,
-    /// Samples per pixel (default: the scene's).
+    /// The renderer: deterministic (default; noise-free ray marching) or montecarlo.
+    #[arg(long)]
+    pub renderer: Option<RendererKind>,
+    /// Deterministic renderer: camera rays per pixel, a square number k² (default 4).
+    #[arg(long, allow_negative_numbers = true)]
+    pub rays: Option<usize>,
+    /// Deterministic renderer: step in units of the smallest voxel side (default 0.5).
+    #[arg(long, allow_negative_numbers = true)]
+    pub step: Option<f64>,
+    /// Samples per pixel of the Monte Carlo renderer (default: the scene's).
     #[arg(long, allow_negative_numbers = true)]
     pub spp: Option<usize>,
+    /// How density voxels are read: trilinear (Mitsuba's default) or nearest; overrides the
+    /// scene's [medium] filter.
+    #[arg(long)]
+    pub filter: Option<DensityFilter>,
     /// Solve-grid cells per axis across the medium box (default: the scene's).
     #[arg(long, allow_negative_numbers = true)]
     pub solve_res: Option<usize>,
@@ -47,6 +62,10 @@ impl FigureArgs {
             scene: self.scene.clone(),
             out: self.out.clone(),
             spp: self.spp,
+            renderer: self.renderer,
+            rays: self.rays,
+            step: self.step,
+            filter: self.filter,
             solve_res: self.solve_res,
             reference: self.reference.clone(),
             mitsuba: self.mitsuba,

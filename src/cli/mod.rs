@@ -6,6 +6,7 @@ pub mod compare;
 pub mod derive;
 pub mod export_mitsuba;
 pub mod figure;
+pub mod race;
 pub mod render;
 pub mod solve;
 pub mod stencil;

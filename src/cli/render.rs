@@ -3,7 +3,8 @@
 use clap::Args;
 use pn_drivers::render::{RenderOptions, RenderRequest};
 use pn_runtime::memory_estimate;
-use pn_runtime::render::scene::RenderMethod;
+use pn_runtime::render::scene::{RenderMethod, RendererKind};
+use pn_runtime::render::DensityFilter;
 use std::path::PathBuf;
 
 use super::Env;
@@ -19,9 +20,34 @@ pub struct RenderArgs {
     /// P_N order (--method pn).
     #[arg(long, allow_negative_numbers = true)]
     pub order: Option<usize>,
-    /// Samples per pixel.
+    /// The renderer: deterministic (default; noise-free ray marching) or montecarlo (delta
+    /// tracking, --spp samples per pixel).
+    #[arg(long)]
+    pub renderer: Option<RendererKind>,
+    /// Deterministic renderer: camera rays per pixel, a square number k² (a k×k pattern;
+    /// default 4).
+    #[arg(long, allow_negative_numbers = true)]
+    pub rays: Option<usize>,
+    /// Deterministic renderer: step in units of the smallest voxel side (default 0.5; the
+    /// quadrature error falls like step²).
+    #[arg(long, allow_negative_numbers = true)]
+    pub step: Option<f64>,
+    /// Deterministic renderer: trace the transmittance to the lights exactly at every step
+    /// instead of interpolating the light-depth grid (slower; removes the grid's error).
+    #[arg(long)]
+    pub exact_transmittance: bool,
+    /// Samples per pixel of the Monte Carlo renderer.
     #[arg(long, allow_negative_numbers = true)]
     pub spp: Option<usize>,
+    /// How density voxels are read: trilinear (Mitsuba's default) or nearest; overrides the
+    /// scene's [medium] filter.
+    #[arg(long)]
+    pub filter: Option<DensityFilter>,
+    /// Render K views from one solve: view k is the scene camera's position rotated by
+    /// 2πk/K about the axis through the camera target parallel to its up vector,
+    /// right-handed about up (view 0 = the scene camera); writes view_000.exr/png, ….
+    #[arg(long, value_name = "K", allow_negative_numbers = true)]
+    pub turntable: Option<usize>,
     /// Solve-grid cells across the medium box: one number for all axes or NX,NY,NZ.
     #[arg(long, value_delimiter = ',', allow_negative_numbers = true)]
     pub solve_res: Option<Vec<usize>>,
@@ -47,6 +73,12 @@ impl RenderArgs {
             method: self.method,
             order: self.order,
             spp: self.spp,
+            renderer: self.renderer,
+            rays: self.rays,
+            step: self.step,
+            exact_transmittance: self.exact_transmittance,
+            filter: self.filter,
+            turntable: self.turntable,
             solve_res: self.solve_res.clone(),
             out: self.out.clone(),
             stats: self.stats,

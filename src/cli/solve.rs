@@ -126,6 +126,11 @@ pub struct SolveFlags {
     /// --method fld: extinction threshold σ_ε (1/length; default 1e-3 / longest domain edge).
     #[arg(long, allow_hyphen_values = true)]
     pub sigma_eps: Option<f64>,
+    /// --method fld on pointsource: also solve CDA and the other limiters (lp, sum, max,
+    /// kershaw, larsen2) for fld_profile.png/.csv, the FLD paper's Figure 5 (five more solves;
+    /// without it the profile shows the run's own limiter beside the closed forms).
+    #[arg(long)]
+    pub fld_all_limiters: bool,
     /// Linear solver: parity-cg (eliminates the odd moments; preconditioned CG, or GMRES/
     /// BiCGSTAB when the closure makes the even system nonsymmetric; the preconditioner is
     /// multigrid for large systems, ILU(0) for small ones), parity-mg / parity-ilu (force
@@ -194,6 +199,7 @@ impl SolveFlags {
             omega: self.omega,
             fld_solver: self.fld_solver.map(Route::from),
             sigma_eps: self.sigma_eps,
+            fld_all_limiters: self.fld_all_limiters,
             solver: self.solver,
             sigma_t_min: self.sigma_t_min,
             max_memory: self.max_memory,

@@ -3,7 +3,7 @@
 
 use anyhow::Context;
 use pn_runtime::render::mitsuba::{self, ExportOptions, RunOptions};
-use pn_runtime::render::RenderScene;
+use pn_runtime::render::{DensityFilter, RenderScene};
 use std::io::Write;
 use std::path::PathBuf;
 
@@ -20,6 +20,9 @@ pub struct ExportMitsubaRequest {
     pub seed: Option<u64>,
     /// volpath `max_depth`: −1 = all orders of scattering, 2 = single scattering only.
     pub max_depth: i64,
+    /// Density filter of the exported `gridvolume`s, overriding the scene's `[medium]
+    /// filter` (`None`: the scene's).
+    pub filter: Option<DensityFilter>,
     /// Also run the script (writes `OUT/mitsuba.exr`).
     pub run: bool,
     /// The Python interpreter with Mitsuba chosen by the caller (`pn`: `--python`, else
@@ -29,8 +32,8 @@ pub struct ExportMitsubaRequest {
 }
 
 impl Default for ExportMitsubaRequest {
-    /// The `nebula` scene into `out/mitsuba`, the scene's samples and seed, all orders of
-    /// scattering, not run.
+    /// The `nebula` scene into `out/mitsuba`, the scene's samples, seed and filter, all
+    /// orders of scattering, not run.
     fn default() -> Self {
         Self {
             scene: "nebula".into(),
@@ -38,6 +41,7 @@ impl Default for ExportMitsubaRequest {
             spp: None,
             seed: None,
             max_depth: -1,
+            filter: None,
             run: false,
             python: None,
         }
@@ -46,7 +50,10 @@ impl Default for ExportMitsubaRequest {
 
 /// Runs `pn export-mitsuba`, naming the written files (and the render) on `stdout`.
 pub fn run(args: &ExportMitsubaRequest, stdout: &mut dyn Write) -> anyhow::Result<()> {
-    let scene = RenderScene::load(&args.scene)?;
+    let mut scene = RenderScene::load(&args.scene)?;
+    if let Some(f) = args.filter {
+        scene.medium.filter = f;
+    }
     let mut opts = ExportOptions::from_scene(&scene);
     opts.spp = args.spp.unwrap_or(opts.spp);
     opts.seed = args.seed.unwrap_or(opts.seed);
@@ -55,9 +62,10 @@ pub fn run(args: &ExportMitsubaRequest, stdout: &mut dyn Write) -> anyhow::Resul
         .with_context(|| format!("exporting {} for Mitsuba", scene.name))?;
     writeln!(
         stdout,
-        "wrote {} and {}",
+        "wrote {} and {} (density filter {})",
         e.density.display(),
-        e.script.display()
+        e.script.display(),
+        e.filter
     )?;
     if args.run {
         let python = mitsuba::find_python(args.python.as_deref())?;

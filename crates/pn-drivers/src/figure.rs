@@ -1,6 +1,7 @@
 //! `pn figure nebula`: the comparison figure (docs/rendering.md). Renders one scene with
-//! single scattering only, CDA, FLD, P_1, P_3 and P_5 (the same camera rays and seeds for
-//! all), and — when a Mitsuba reference is given (`--reference`), already present as
+//! single scattering only, CDA, FLD, P_1, P_3 and P_5 (the same renderer for all: by default
+//! the deterministic one, so the panels differ by the method alone; with `--renderer
+//! montecarlo` the same camera rays and seeds), and — when a Mitsuba reference is given (`--reference`), already present as
 //! `<out>/mitsuba.exr`, or rendered on request (`--mitsuba`) — compares each against it.
 //!
 //! Writes `<out>/<method>/{image.exr,image.png,report.json}` (and `difference.png`, the
@@ -15,8 +16,8 @@ use anyhow::{ensure, Context, Result};
 use plotters::prelude::*;
 use pn_runtime::render::compare::{metrics, write_difference_png, GrayImage, Metrics};
 use pn_runtime::render::image_io::{exposure, read_exr_gray, srgb8};
-use pn_runtime::render::scene::RenderMethod;
-use pn_runtime::render::RenderScene;
+use pn_runtime::render::scene::{RenderMethod, RendererKind};
+use pn_runtime::render::{DensityFilter, RenderScene};
 use pn_runtime::solver::SolverTuning;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -28,8 +29,16 @@ pub struct FigureRequest {
     pub scene: String,
     /// Output directory (default `out/figure-<scene>`).
     pub out: Option<PathBuf>,
-    /// Samples per pixel (default: the scene's).
+    /// Samples per pixel of the Monte Carlo renderer (default: the scene's).
     pub spp: Option<usize>,
+    /// The renderer (default: the scene's, deterministic unless it says otherwise).
+    pub renderer: Option<RendererKind>,
+    /// Camera rays per pixel of the deterministic renderer, k² (default: the scene's).
+    pub rays: Option<usize>,
+    /// Step of the deterministic renderer in voxel sides (default: the scene's).
+    pub step: Option<f64>,
+    /// Density filter, overriding the scene's `[medium] filter`.
+    pub filter: Option<DensityFilter>,
     /// Solve-grid cells per axis across the medium box (default: the scene's).
     pub solve_res: Option<usize>,
     /// Mitsuba reference EXR (default: `<out>/mitsuba.exr` when it exists).
@@ -54,6 +63,10 @@ impl Default for FigureRequest {
             scene: "nebula".into(),
             out: None,
             spp: None,
+            renderer: None,
+            rays: None,
+            step: None,
+            filter: None,
             solve_res: None,
             reference: None,
             mitsuba: false,
@@ -97,6 +110,18 @@ pub fn run(a: &FigureRequest, stdout: &mut dyn std::io::Write) -> Result<()> {
     let mut scene = RenderScene::load(&a.scene)?;
     if let Some(s) = a.spp {
         scene.render.spp = s;
+    }
+    if let Some(r) = a.renderer {
+        scene.render.renderer = r;
+    }
+    if let Some(r) = a.rays {
+        scene.render.rays = r;
+    }
+    if let Some(s) = a.step {
+        scene.render.step = s;
+    }
+    if let Some(f) = a.filter {
+        scene.medium.filter = f;
     }
     if let Some(r) = a.solve_res {
         scene.solve.resolution = [r; 3];

@@ -148,6 +148,10 @@ fn as_solution(grid: &pn_runtime::problem::Grid, run: &FldRun, tol: f64) -> Resu
 /// `stdout`.
 pub fn run(a: &SolveRequest, stdout: &mut dyn Write) -> Result<()> {
     let scene = scene_from_request(a)?;
+    ensure!(
+        !a.fld_all_limiters || scene.name == "pointsource",
+        "--fld-all-limiters applies to the pointsource scene only (its fld_profile figure)"
+    );
     for n in &scene.notes {
         eprintln!("note: {n}");
     }
@@ -228,8 +232,16 @@ pub fn run(a: &SolveRequest, stdout: &mut dyn Write) -> Result<()> {
         .with_context(|| format!("writing results to {}", out.display()))?;
     write_report(&out, &report)?;
     if scene.name == "pointsource" {
-        plot::write_figure5(&out, &a.pointsource_params(), &fp, &settings, &kernel, &run)
-            .context("writing the FLD point-source profile")?;
+        plot::write_figure5(
+            &out,
+            &a.pointsource_params(),
+            &fp,
+            &settings,
+            &kernel,
+            &run,
+            a.fld_all_limiters,
+        )
+        .context("writing the FLD point-source profile")?;
     }
 
     let g = &problem.grid;

@@ -32,6 +32,7 @@ pub fn reject_fld_flags(a: &SolveRequest) -> Result<()> {
         (a.omega.is_some(), "--omega"),
         (a.fld_solver.is_some(), "--fld-solver"),
         (a.sigma_eps.is_some(), "--sigma-eps"),
+        (a.fld_all_limiters, "--fld-all-limiters"),
     ] {
         ensure!(!set, "{flag} applies to --method fld only");
     }

@@ -53,6 +53,7 @@ pub mod figure;
 pub mod fld_method;
 pub mod fld_setup;
 pub mod pointsource_extras;
+pub mod race;
 pub mod render;
 pub mod scene_setup;
 pub mod solve;

@@ -16,10 +16,13 @@ use pn_runtime::pipeline::solve_problem;
 use pn_runtime::problem::Grid;
 use pn_runtime::render::first_scatter::first_scatter_problem;
 use pn_runtime::render::image_io::{write_exr_gray, write_png_tonemapped};
+use pn_runtime::render::light_depth::LightDepth;
+use pn_runtime::render::march::{MarchSettings, Marcher};
 use pn_runtime::render::renderer::{Image, MsField, Renderer};
-use pn_runtime::render::scene::RenderMethod;
+use pn_runtime::render::scene::{RenderMethod, RendererKind};
+use pn_runtime::render::shadow::Extinction;
 use pn_runtime::render::solve_setup::solve_grid;
-use pn_runtime::render::{DensityGrid, RenderScene};
+use pn_runtime::render::{Camera, DensityFilter, DensityGrid, RenderScene};
 use pn_runtime::solver::{SolverKind, SolverOptions, SolverTuning};
 use pn_runtime::unstagger::CellMoments;
 use serde::Serialize;
@@ -36,8 +39,20 @@ pub struct RenderRequest {
     pub method: Option<RenderMethod>,
     /// P_N order (method pn; default: the scene's).
     pub order: Option<usize>,
-    /// Samples per pixel (default: the scene's).
+    /// Samples per pixel of the Monte Carlo renderer (default: the scene's).
     pub spp: Option<usize>,
+    /// The renderer (default: the scene's, deterministic unless it says otherwise).
+    pub renderer: Option<RendererKind>,
+    /// Camera rays per pixel of the deterministic renderer, k² (default: the scene's).
+    pub rays: Option<usize>,
+    /// Step of the deterministic renderer in voxel sides (default: the scene's).
+    pub step: Option<f64>,
+    /// Deterministic renderer: exact transmittance to the lights at every step.
+    pub exact_transmittance: bool,
+    /// Density filter, overriding the scene's `[medium] filter`.
+    pub filter: Option<DensityFilter>,
+    /// Render K views of one solve around the target ([`turntable_camera`]).
+    pub turntable: Option<usize>,
     /// Solve-grid cells across the medium box: one number for all axes or three.
     pub solve_res: Option<Vec<usize>>,
     /// Output directory (default `out/render-<scene>`).
@@ -56,6 +71,12 @@ impl Default for RenderRequest {
             method: None,
             order: None,
             spp: None,
+            renderer: None,
+            rays: None,
+            step: None,
+            exact_transmittance: false,
+            filter: None,
+            turntable: None,
             solve_res: None,
             out: None,
             stats: false,
@@ -114,13 +135,18 @@ pub struct UnknownStats {
 pub struct Timings {
     /// Building the density grid.
     pub density: f64,
-    /// Deep shadow maps at the solve-cell centres.
+    /// Deep shadow maps of the first-scatter source (transmittance from every density-voxel
+    /// centre to each light; 0 for method none).
     pub shadow_maps: f64,
     /// Resampling σ_t, σ_s and projecting the first-scatter source.
     pub sources: f64,
     /// Assembly + linear (or FLD) solve.
     pub solve: f64,
-    /// Rendering.
+    /// The deterministic renderer's optical-depth grid to the lights (once for all views;
+    /// taken from the shadow maps when a solve ran, traced for method none; 0 for the
+    /// Monte Carlo renderer).
+    pub light_depth: f64,
+    /// Rendering (all views).
     pub render: f64,
     /// Everything.
     pub total: f64,
@@ -156,9 +182,24 @@ pub struct RenderReport {
     pub method: String,
     /// P_N order (pn only).
     pub order: Option<usize>,
-    /// Samples per pixel.
+    /// The renderer: "deterministic" or "montecarlo".
+    pub renderer: String,
+    /// Camera rays per pixel (deterministic renderer: the k×k pattern; Monte Carlo: spp).
+    pub rays_per_pixel: usize,
+    /// Step of the deterministic renderer in voxel sides (None for Monte Carlo).
+    pub step: Option<f64>,
+    /// The step in world units (None for Monte Carlo).
+    pub step_length: Option<f64>,
+    /// Transmittance cutoff of the deterministic renderer (None for Monte Carlo).
+    pub cutoff: Option<f64>,
+    /// Deterministic renderer: transmittance to the lights traced at every step (true) or
+    /// from the light-depth grid (false; None for Monte Carlo).
+    pub exact_transmittance: Option<bool>,
+    /// Density filter ("trilinear" or "nearest").
+    pub filter: String,
+    /// Samples per pixel (Monte Carlo renderer; the scene's value otherwise).
     pub spp: usize,
-    /// Seed.
+    /// Seed (Monte Carlo renderer).
     pub seed: u64,
     /// Image size.
     pub width: usize,
@@ -166,7 +207,7 @@ pub struct RenderReport {
     pub height: usize,
     /// Density-grid resolution.
     pub density_resolution: [usize; 3],
-    /// Free-flight sampling.
+    /// How the image was integrated.
     pub tracking: String,
     /// Unknowns (None for method none or an empty medium).
     pub unknowns: Option<UnknownStats>,
@@ -182,15 +223,49 @@ pub struct RenderReport {
     pub peak_memory_bytes: Option<u64>,
     /// Worker threads.
     pub threads: usize,
+    /// The turntable views (empty for a single view).
+    pub views: Vec<ViewReport>,
+    /// Warnings (also printed on stderr): an empty medium, a medium out of view.
+    pub warnings: Vec<String>,
+}
+
+/// One view of a turntable.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ViewReport {
+    /// View index k.
+    pub index: usize,
+    /// Rotation angle 2πk/K about the axis through the target parallel to up (degrees).
+    pub angle_deg: f64,
+    /// Camera position of the view.
+    pub position: [f64; 3],
+    /// Seconds to render it.
+    pub render_seconds: f64,
+    /// Mean pixel value.
+    pub mean_radiance: f64,
 }
 
 /// A finished render.
 pub struct RenderRun {
-    /// The image.
+    /// The image (view 0 of a turntable).
     pub image: Image,
+    /// The turntable's images, view 0 first (empty for a single view).
+    pub views: Vec<Image>,
     /// Its report.
     pub report: RenderReport,
 }
+
+/// Camera `k` of a `views`-view turntable around `camera`: its position rotated by
+/// 2πk/`views` about the axis through the target parallel to up, right-handed about up
+/// ([`Camera::orbit`]); view 0 is `camera` itself.
+pub fn turntable_camera(camera: &Camera, k: usize, views: usize) -> Camera {
+    if k == 0 {
+        return camera.clone();
+    }
+    camera.orbit(2.0 * std::f64::consts::PI * k as f64 / views as f64)
+}
+
+/// Most turntable views.
+pub const MAX_VIEWS: usize = 3600;
 
 /// Applies the request's overrides to `scene` and checks it again.
 pub fn apply_overrides(scene: &mut RenderScene, a: &RenderRequest) -> Result<()> {
@@ -206,6 +281,27 @@ pub fn apply_overrides(scene: &mut RenderScene, a: &RenderRequest) -> Result<()>
     }
     if let Some(s) = a.spp {
         scene.render.spp = s;
+    }
+    if let Some(r) = a.renderer {
+        scene.render.renderer = r;
+    }
+    if let Some(r) = a.rays {
+        scene.render.rays = r;
+    }
+    if let Some(s) = a.step {
+        scene.render.step = s;
+    }
+    if a.exact_transmittance {
+        scene.render.exact_transmittance = true;
+    }
+    if let Some(f) = a.filter {
+        scene.medium.filter = f;
+    }
+    if let Some(k) = a.turntable {
+        ensure!(
+            (1..=MAX_VIEWS).contains(&k),
+            "--turntable takes a number of views in 1..={MAX_VIEWS}, got {k}"
+        );
     }
     if let Some(r) = &a.solve_res {
         scene.solve.resolution = match r.as_slice() {
@@ -252,6 +348,20 @@ fn unknowns_on(
 
 /// Solves and renders `scene` (overrides already applied).
 pub fn render_scene(scene: &RenderScene, options: &RenderOptions) -> Result<RenderRun> {
+    render_views(scene, options, 1)
+}
+
+/// Solves `scene` once and renders `views` turntable views of it ([`turntable_camera`];
+/// one view: the scene's camera).
+pub fn render_views(
+    scene: &RenderScene,
+    options: &RenderOptions,
+    views: usize,
+) -> Result<RenderRun> {
+    ensure!(
+        (1..=MAX_VIEWS).contains(&views),
+        "the number of views must lie in 1..={MAX_VIEWS}, got {views}"
+    );
     let RenderOptions {
         threads,
         max_memory,
@@ -268,12 +378,14 @@ pub fn render_scene(scene: &RenderScene, options: &RenderOptions) -> Result<Rend
         shadow_maps: 0.0,
         sources: 0.0,
         solve: 0.0,
+        light_depth: 0.0,
         render: 0.0,
         total: 0.0,
     };
     let mut unknowns = None;
     let mut solver = None;
     let mut ms = None;
+    let mut shadow_maps = None;
     if s.method != RenderMethod::None {
         let kernel = kernel_for(scene)?;
         let (solved, grid) =
@@ -322,36 +434,146 @@ pub fn render_scene(scene: &RenderScene, options: &RenderOptions) -> Result<Rend
                 ..report
             });
             ms = Some(MsField::new(grid, moments, scene.phase)?);
+            shadow_maps = Some(fs.shadows);
         }
     }
-    let t2 = Instant::now();
-    let renderer = Renderer {
-        scene,
-        density: &density,
-        ms: ms.as_ref(),
+    let mut warnings = Vec::new();
+    let support = density
+        .support()
+        .filter(|_| scene.medium.sigma_t_scale > 0.0);
+    if support.is_none() {
+        warnings.push(
+            "the medium is empty (no density > 0, or sigma_t_scale = 0): the image is black"
+                .to_string(),
+        );
+    }
+    let r = &scene.render;
+    let deterministic = r.renderer == RendererKind::Deterministic;
+    let t_ld = Instant::now();
+    // The solve's deep shadow maps hold T at the voxel centres: τ = −ln T, no new rays.
+    let light_depth = if deterministic {
+        let ext = Extinction {
+            grid: &density,
+            scale: scene.medium.sigma_t_scale,
+        };
+        Some(pn_runtime::threads::with_threads(
+            threads,
+            || match shadow_maps
+                .as_ref()
+                .and_then(|m| LightDepth::from_shadow_maps(&ext, &scene.lights, m))
+            {
+                Some(ld) => ld,
+                None => LightDepth::compute(&ext, &scene.lights),
+            },
+        )?)
+    } else {
+        None
     };
-    let image = pn_runtime::threads::with_threads(threads, || {
-        renderer.render(scene.render.spp, scene.render.seed, progress)
-    })?;
-    timings.render = t2.elapsed().as_secs_f64();
+    timings.light_depth = t_ld.elapsed().as_secs_f64();
+    let settings = MarchSettings {
+        rays: r.rays,
+        step: r.step,
+        cutoff: r.cutoff,
+        exact_transmittance: r.exact_transmittance,
+    };
+    let marcher = light_depth
+        .as_ref()
+        .map(|ld| Marcher::new(scene, &density, ms.as_ref(), ld, settings));
+    let mut images = Vec::with_capacity(views);
+    let mut view_reports = Vec::new();
+    for k in 0..views {
+        let camera = turntable_camera(&scene.camera, k, views);
+        if let Some((lo, hi)) = support {
+            if !camera.sees_box(lo, hi) {
+                let which = if views > 1 {
+                    format!("view {k}: ")
+                } else {
+                    String::new()
+                };
+                warnings.push(format!(
+                    "{which}the medium (box {lo:?} to {hi:?}) is outside the camera's view: \
+                     the image is black"
+                ));
+            }
+        }
+        let t2 = Instant::now();
+        let image = match &marcher {
+            Some(m) => pn_runtime::threads::with_threads(threads, || m.render(&camera, progress))?,
+            None => {
+                let view_scene;
+                let sc = if k == 0 {
+                    scene
+                } else {
+                    view_scene = RenderScene {
+                        camera: camera.clone(),
+                        ..scene.clone()
+                    };
+                    &view_scene
+                };
+                let renderer = Renderer {
+                    scene: sc,
+                    density: &density,
+                    ms: ms.as_ref(),
+                };
+                pn_runtime::threads::with_threads(threads, || {
+                    renderer.render(r.spp, r.seed, progress)
+                })?
+            }
+        };
+        let secs = t2.elapsed().as_secs_f64();
+        timings.render += secs;
+        if views > 1 {
+            view_reports.push(ViewReport {
+                index: k,
+                angle_deg: 360.0 * k as f64 / views as f64,
+                position: camera.position,
+                render_seconds: secs,
+                mean_radiance: mean(&image.data),
+            });
+        }
+        images.push(image);
+    }
+    for w in &warnings {
+        eprintln!("warning: {w}");
+    }
     timings.total = t_all.elapsed().as_secs_f64();
+    let image = images[0].clone();
     let n = image.data.len() as f64;
+    let hmin = density.h().iter().fold(f64::INFINITY, |m, v| m.min(*v));
     let report = RenderReport {
         scene: scene.name.clone(),
         method: s.method.name().into(),
         order: (s.method == RenderMethod::Pn).then_some(s.order),
-        spp: scene.render.spp,
-        seed: scene.render.seed,
+        renderer: r.renderer.name().into(),
+        rays_per_pixel: if deterministic { r.rays } else { r.spp },
+        step: deterministic.then_some(r.step),
+        step_length: deterministic.then_some(r.step * hmin),
+        cutoff: deterministic.then_some(r.cutoff),
+        exact_transmittance: deterministic.then_some(r.exact_transmittance),
+        filter: density.filter.name().into(),
+        spp: r.spp,
+        seed: r.seed,
         width: image.width,
         height: image.height,
         density_resolution: density.res,
-        tracking: "delta tracking with the global majorant; next-event estimation with exact \
-                   voxel-traversal transmittance"
-            .into(),
+        tracking: if deterministic {
+            if r.exact_transmittance {
+                "ray marching, exponential midpoint rule on the filter's lattice pieces; \
+                 exact transmittance to the lights (traversal at every step)"
+            } else {
+                "ray marching, exponential midpoint rule on the filter's lattice pieces; \
+                 transmittance to the lights from the optical-depth grid at the voxel \
+                 centres"
+            }
+        } else {
+            "delta tracking with the global majorant; next-event estimation with exact \
+             voxel-traversal transmittance"
+        }
+        .into(),
         unknowns,
         solver,
         seconds: timings,
-        mean_radiance: image.data.iter().map(|v| *v as f64).sum::<f64>() / n,
+        mean_radiance: mean(&image.data),
         rms_standard_error: (image
             .std_err
             .iter()
@@ -361,8 +583,18 @@ pub fn render_scene(scene: &RenderScene, options: &RenderOptions) -> Result<Rend
             .sqrt(),
         peak_memory_bytes: pn_runtime::memory::peak_memory_bytes(),
         threads: pn_runtime::threads::effective_threads(threads),
+        views: view_reports,
+        warnings,
     };
-    Ok(RenderRun { image, report })
+    Ok(RenderRun {
+        image,
+        views: if views > 1 { images } else { Vec::new() },
+        report,
+    })
+}
+
+fn mean(data: &[f32]) -> f64 {
+    data.iter().map(|v| *v as f64).sum::<f64>() / data.len().max(1) as f64
 }
 
 /// Solves the multiple scattering: P_N / CDA through the stencil and parity-CG, FLD through
@@ -453,19 +685,40 @@ fn solve_ms(
     Ok((sol.moments, report))
 }
 
-/// Writes `image.exr`, `image.png` and `report.json` into `dir`.
+/// Writes `image.exr`, `image.png` and `report.json` into `dir` (a turntable:
+/// `view_000.exr`, `view_000.png`, … instead of `image.*`).
 pub fn write_run(dir: &Path, run: &RenderRun) -> Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
-    let im = &run.image;
-    write_exr_gray(&dir.join("image.exr"), im.width, im.height, &im.data)?;
-    write_png_tonemapped(&dir.join("image.png"), im.width, im.height, &im.data, None)?;
+    if run.views.is_empty() {
+        let im = &run.image;
+        write_exr_gray(&dir.join("image.exr"), im.width, im.height, &im.data)?;
+        write_png_tonemapped(&dir.join("image.png"), im.width, im.height, &im.data, None)?;
+    } else {
+        // One exposure for all views (from view 0), so that the PNGs compare.
+        let expo = pn_runtime::render::image_io::exposure(&run.views[0].data);
+        for (k, im) in run.views.iter().enumerate() {
+            write_exr_gray(
+                &dir.join(format!("view_{k:03}.exr")),
+                im.width,
+                im.height,
+                &im.data,
+            )?;
+            write_png_tonemapped(
+                &dir.join(format!("view_{k:03}.png")),
+                im.width,
+                im.height,
+                &im.data,
+                Some(expo),
+            )?;
+        }
+    }
     let path = dir.join("report.json");
     std::fs::write(&path, serde_json::to_string_pretty(&run.report)? + "\n")
         .with_context(|| format!("cannot write {}", path.display()))
 }
 
-/// Runs `pn render`: renders, writes `image.exr`, `image.png` and `report.json` and prints
-/// a summary to `stdout`.
+/// Runs `pn render`: renders, writes `image.exr`, `image.png` (or the turntable's
+/// `view_NNN.*`) and `report.json` and prints a summary to `stdout`.
 pub fn run(a: &RenderRequest, stdout: &mut dyn Write) -> Result<()> {
     let mut scene = RenderScene::load(&a.scene)?;
     apply_overrides(&mut scene, a)?;
@@ -473,24 +726,37 @@ pub fn run(a: &RenderRequest, stdout: &mut dyn Write) -> Result<()> {
         .out
         .clone()
         .unwrap_or_else(|| PathBuf::from("out").join(format!("render-{}", scene.name)));
-    let run = render_scene(&scene, &a.options)?;
+    let run = render_views(&scene, &a.options, a.turntable.unwrap_or(1))?;
     write_run(&out, &run)?;
     let r = &run.report;
     let what = match r.order {
         Some(n) => format!("P_{n}"),
         None => r.method.to_uppercase(),
     };
+    let how = match (r.step, r.cutoff) {
+        (Some(step), Some(_)) => format!(
+            "deterministic, {} rays/px, step {step} voxel",
+            r.rays_per_pixel
+        ),
+        _ => format!("Monte Carlo, {} spp", r.spp),
+    };
+    let views = if r.views.is_empty() {
+        String::new()
+    } else {
+        format!(" ({} views)", r.views.len())
+    };
     writeln!(
         stdout,
-        "{} {what}: {}×{} px, {} spp; shadow maps {:.3} s, sources {:.3} s, solve {:.3} s, \
-         render {:.3} s -> {}",
+        "{} {what}: {}×{} px, {how}, {} filter; shadow maps {:.3} s, sources {:.3} s, solve \
+         {:.3} s, light depth {:.3} s, render {:.3} s{views} -> {}",
         r.scene,
         r.width,
         r.height,
-        r.spp,
+        r.filter,
         r.seconds.shadow_maps,
         r.seconds.sources,
         r.seconds.solve,
+        r.seconds.light_depth,
         r.seconds.render,
         out.display()
     )?;

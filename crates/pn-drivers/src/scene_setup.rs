@@ -128,6 +128,9 @@ pub struct SolveRequest {
     pub fld_solver: Option<Route>,
     /// FLD: the extinction threshold σ_ε (default 1e-3 / longest domain edge).
     pub sigma_eps: Option<f64>,
+    /// FLD on `pointsource`: also solve CDA and the other limiters for `fld_profile.png`
+    /// (five more solves; off by default, when the profile shows the run's own limiter only).
+    pub fld_all_limiters: bool,
     /// The linear solver (FLD Picard: of each step).
     pub solver: SolverKind,
     /// Raise σ_t to at least this value (required where σ_t reaches 0).
@@ -175,6 +178,7 @@ impl Default for SolveRequest {
             omega: None,
             fld_solver: None,
             sigma_eps: None,
+            fld_all_limiters: false,
             solver: SolverKind::ParityCg,
             sigma_t_min: None,
             max_memory: None,

@@ -22,7 +22,7 @@ const SIGMA_T: f64 = 2.0;
 const ALBEDO: f64 = 0.2;
 
 /// Homogeneous box [−0.5, 0.5]³ (the central 2×2×2 voxels of the 4³ "box" medium on
-/// [−1, 1]³), σ_t = 2, albedo 0.2, HG g = 0.3.
+/// [−1, 1]³, read with the nearest filter), σ_t = 2, albedo 0.2, HG g = 0.3.
 fn scene(point_light: [f64; 3], camera: [f64; 3], target: [f64; 3]) -> RenderScene {
     let text = format!(
         r#"
@@ -31,6 +31,7 @@ kind = "box"
 resolution = [4, 4, 4]
 sigma_t_scale = {SIGMA_T}
 albedo = {ALBEDO}
+filter = "nearest"
 [phase]
 kind = "hg"
 g = 0.3

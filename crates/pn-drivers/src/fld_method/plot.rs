@@ -4,8 +4,10 @@
 //! approximation and the semi-analytic P_N solution (N = [`FIG5_PN_ORDER`]). Written as
 //! `fld_profile.png` and `fld_profile.csv`.
 //!
-//! The limiters other than the run's own are solved by the same route and settings, each
-//! starting from the run's solution (the same answer, fewer iterations).
+//! Only with `all_limiters` (`pn solve --fld-all-limiters`) are CDA and the limiters other
+//! than the run's own solved, by the same route and settings, each starting from the run's
+//! solution (the same answer, fewer iterations); otherwise the figure shows the run's own
+//! limiter beside the closed forms, and a request costs one solve.
 
 use anyhow::Result;
 use plotters::prelude::*;
@@ -39,7 +41,8 @@ struct Curve {
     values: Vec<f64>,
 }
 
-/// Solves the other limiters, samples everything along +x and writes the CSV and the PNG.
+/// Samples the run (and, with `all_limiters`, CDA and the other limiters, solved here)
+/// along +x and writes the CSV and the PNG.
 pub fn write_figure5(
     out: &Path,
     params: &PointSourceParams,
@@ -47,6 +50,7 @@ pub fn write_figure5(
     settings: &FldSettings,
     kernel: &KernelChoice,
     run: &FldRun,
+    all_limiters: bool,
 ) -> Result<()> {
     let PointSourceParams {
         sigma_t,
@@ -82,7 +86,9 @@ pub fn write_figure5(
     };
 
     let mut curves = Vec::new();
-    for limiter in LIMITERS {
+    let own = [settings.params.limiter];
+    let limiters: &[Limiter] = if all_limiters { &LIMITERS } else { &own };
+    for &limiter in limiters {
         let name = if limiter == Limiter::Cda {
             "CDA (discrete)".to_string()
         } else {

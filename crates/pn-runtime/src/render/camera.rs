@@ -127,6 +127,57 @@ impl Camera {
         }
     }
 
+    /// The turntable view at `angle` (radians): the position rotated about the axis through
+    /// `target` parallel to `up` by `angle`, right-handed about `up` (counter-clockwise seen
+    /// from the tip of `up`: Rodrigues' formula p' = t + v cos θ + (u × v) sin θ +
+    /// u (u·v)(1 − cos θ), v = position − target, u = up/|up|); target, up, fov and image size
+    /// unchanged. `pn render --turntable K` renders views θ_k = 2πk/K, k = 0..K (view 0 is
+    /// this camera).
+    pub fn orbit(&self, angle: f64) -> Camera {
+        let u = normalize(self.up);
+        let v = sub(self.position, self.target);
+        let (s, c) = angle.sin_cos();
+        let uxv = cross(u, v);
+        let uv = dot(u, v);
+        let position =
+            [0, 1, 2].map(|d| self.target[d] + v[d] * c + uxv[d] * s + u[d] * uv * (1.0 - c));
+        Camera {
+            position,
+            ..self.clone()
+        }
+    }
+
+    /// Whether any part of the box `[min, max]` can appear in the image: false when the box
+    /// lies entirely behind the camera or its projection misses the image rectangle
+    /// (conservative: true when the box straddles the camera's plane or contains the camera).
+    pub fn sees_box(&self, min: [f64; 3], max: [f64; 3]) -> bool {
+        let f = self.frame();
+        let corners: [[f64; 3]; 8] = std::array::from_fn(|c| {
+            std::array::from_fn(|d| if c >> d & 1 == 1 { max[d] } else { min[d] })
+        });
+        let v = corners.map(|p| sub(p, self.position));
+        let z = v.map(|v| dot(v, f.forward));
+        if z.iter().all(|z| *z <= 0.0) {
+            return false; // entirely behind the camera
+        }
+        if z.iter().any(|z| *z <= 0.0) {
+            return true; // straddles the camera's plane (or contains the camera)
+        }
+        let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+        for (v, z) in v.iter().zip(z) {
+            let xy = [
+                dot(*v, f.right) / (z * f.half_width),
+                dot(*v, f.up) / (z * f.half_height),
+            ];
+            for d in 0..2 {
+                lo[d] = lo[d].min(xy[d]);
+                hi[d] = hi[d].max(xy[d]);
+            }
+        }
+        // The box is convex: its image is inside the hull of the projected corners.
+        lo[0] <= 1.0 && hi[0] >= -1.0 && lo[1] <= 1.0 && hi[1] >= -1.0
+    }
+
     /// Unit direction of the ray through image point (`x`, `y`) in pixel units (x right,
     /// y down; pixel (px, py) spans [px, px+1) × [py, py+1)).
     pub fn ray_dir(&self, frame: &CameraFrame, x: f64, y: f64) -> [f64; 3] {
@@ -165,6 +216,35 @@ mod tests {
         // Top edge: half-height = tan 45° · 2/4 = 0.5, +y.
         let top = c.ray_dir(&f, 2.0, 0.0);
         assert!((top[1] / -top[2] - 0.5).abs() < 1e-15);
+    }
+
+    #[test]
+    fn orbit_is_right_handed_about_up_and_keeps_the_distance() {
+        let c = cam(); // at +z looking at the origin, up +y
+        let q = c.orbit(std::f64::consts::FRAC_PI_2);
+        // A quarter turn about +y takes +z to +x.
+        assert!((q.position[0] - 4.0).abs() < 1e-12 && q.position[2].abs() < 1e-12);
+        let full = c.orbit(2.0 * std::f64::consts::PI);
+        assert!((0..3).all(|d| (full.position[d] - c.position[d]).abs() < 1e-12));
+        // About a target off the origin and an up with a component along the view.
+        let mut c2 = cam();
+        c2.target = [1.0, 2.0, 0.0];
+        c2.up = [0.0, 1.0, 0.5];
+        let q = c2.orbit(1.1);
+        let r = |p: [f64; 3]| norm(sub(p, c2.target));
+        assert!((r(q.position) - r(c2.position)).abs() < 1e-12);
+        let u = normalize(c2.up);
+        let along = |p: [f64; 3]| dot(sub(p, c2.target), u);
+        assert!((along(q.position) - along(c2.position)).abs() < 1e-12);
+    }
+
+    #[test]
+    fn boxes_out_of_view_are_detected() {
+        let c = cam(); // at z = 4 looking down −z, fov 90°
+        assert!(c.sees_box([-0.5; 3], [0.5; 3]));
+        assert!(!c.sees_box([-0.5, -0.5, 5.0], [0.5, 0.5, 6.0])); // behind
+        assert!(!c.sees_box([20.0, -0.5, -0.5], [21.0, 0.5, 0.5])); // far to the right
+        assert!(c.sees_box([-1.0, -1.0, 3.0], [1.0, 1.0, 5.0])); // contains the camera
     }
 
     #[test]

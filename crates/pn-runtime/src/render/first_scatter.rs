@@ -11,9 +11,23 @@
 //!
 //! with T the deep-shadow-map transmittance and E the unattenuated irradiance (Φ/(4πr²) for
 //! a point light, whose d and E depend on x). The source is evaluated at the density-voxel
-//! centres (T from a deep shadow map at the voxel centres) and volume-averaged onto the
-//! solve cells, which conserves the first-scatter power on a coarse solve grid; σ_t and σ_s
-//! are volume averages too. Everything is handed to the assembly as voxel fields. The solution of the P_N system with this source is the collided radiance
+//! centres (T from a deep shadow map at the voxel centres, exact optical depth through the
+//! filtered density, [`super::shadow`]; σ_s there is the voxel's own scale·ρ·albedo for both
+//! filters, since trilinear interpolation reproduces the values at the centres), read
+//! between the centres **with the medium's filter** (trilinear: interpolated like the
+//! density; nearest: constant per voxel) and volume-averaged exactly onto the solve cells
+//! ([`cell_average`]). Every filter basis function integrates to one voxel volume, so the
+//! total first-scatter power on any solve grid is Σ_voxels σ_s T E V for both filters. σ_t
+//! and σ_s are exact cell averages of the filtered medium ([`resample`]).
+//!
+//! **Error.** The only approximation is the reconstruction of the source σ_s T E p between
+//! voxel centres: its trilinear (or piecewise-constant) interpolant instead of the product
+//! of the filtered σ_s with the exact T between the centres, an O(h_voxel²) interpolation
+//! error (O(h_voxel) for nearest) of a smooth function, below the solve grid's own
+//! resolution error whenever the solve grid is not finer than the voxels.
+//!
+//! Everything is handed to the assembly as voxel fields. The solution of the P_N system
+//! with this source is the collided radiance
 //! L_ms (light scattered at least once); the uncollided part and single scattering are added
 //! by the renderer.
 
@@ -99,9 +113,11 @@ pub fn density_as_grid(density: &DensityGrid) -> Grid {
 }
 
 /// Builds the problem on the solve grid `grid`: σ_t and σ_s are cell averages of the
-/// density ([`resample`]); the source moments up to `max_band` are computed **at the
-/// density resolution** — deep shadow maps at the voxel centres, [`source_moments`] per
-/// voxel — and then volume-averaged onto the solve cells ([`cell_average`]). So a coarse
+/// density read with its filter ([`resample`]); the source moments up to `max_band` are
+/// computed **at the density resolution** — deep shadow maps at the voxel centres,
+/// [`source_moments`] per voxel — and then read with the same filter and volume-averaged
+/// onto the solve cells ([`cell_average`]). `density` is the scene's
+/// [`RenderScene::density_grid`] (it carries the filter). So a coarse
 /// solve grid still receives the exact total first-scatter power of the fine grid
 /// (Σ σ_s T E V over the voxels), instead of sampling T at a coarse cell centre that may
 /// lie several mean free paths deep.

@@ -2,9 +2,10 @@
 //! (docs/design.md §6, docs/rendering.md).
 //!
 //! * [`scene`]: the TOML render scene ([`RenderScene`]) and the built-in scenes;
-//! * [`medium`]: the piecewise-constant density grid and the procedural media;
+//! * [`medium`]: the density grid, its filter (trilinear as Mitsuba, or nearest) and the
+//!   procedural media;
 //! * [`lights`], [`camera`]: lights, phase function values and the pinhole camera;
-//! * [`shadow`]: exact optical depth by voxel traversal, deep shadow maps;
+//! * [`shadow`]: exact optical depth (traversal of the filter's lattice), deep shadow maps;
 //! * [`solve_setup`], [`first_scatter`]: the cropped solve grid, resampled coefficients and
 //!   the first-scatter source moments (a [`crate::problem::Problem`]);
 //! * [`renderer`]: delta tracking, next-event estimation and the solution lookup;
@@ -15,7 +16,9 @@ pub mod camera;
 pub mod compare;
 pub mod first_scatter;
 pub mod image_io;
+pub mod light_depth;
 pub mod lights;
+pub mod march;
 pub mod medium;
 pub mod mitsuba;
 pub mod renderer;
@@ -25,5 +28,5 @@ pub mod solve_setup;
 
 pub use camera::Camera;
 pub use lights::Light;
-pub use medium::{DensityGrid, Procedural};
+pub use medium::{DensityFilter, DensityGrid, Procedural};
 pub use scene::{MediumSpec, RenderScene, RenderSettings, SolveSettings};

@@ -1,6 +1,10 @@
-//! The renderer: camera rays, free-flight sampling by **delta tracking with the global
-//! majorant** (unbiased; the majorant is `sigma_t_scale × max density`), and at the first
-//! real collision the collision estimate
+//! The Monte Carlo renderer (`--renderer montecarlo`; the default is the deterministic
+//! [`super::march`]): camera rays, free-flight sampling by **delta tracking with the global
+//! majorant** (unbiased; the majorant is `sigma_t_scale × max density`, which bounds the
+//! trilinear field too: a trilinear value is a convex combination of voxel values), σ_t and
+//! the albedo read at the point with the grid's filter ([`DensityGrid::density_at`],
+//! [`super::scene::MediumSpec::coefficients_at`]), and at the first real collision the
+//! collision estimate
 //!
 //! ```text
 //! albedo(x) · [ Σ_lights p(d·ω_o) T(x, light) E(x)            (single scattering, NEE)
@@ -156,13 +160,33 @@ pub struct Renderer<'a> {
 }
 
 impl Renderer<'_> {
-    /// In-scattered radiance estimate of one camera ray (one sample).
+    /// The global majorant σ_t,max (a pass over every voxel: compute it once per image).
+    pub fn majorant(&self) -> f64 {
+        Extinction {
+            grid: self.density,
+            scale: self.scene.medium.sigma_t_scale,
+        }
+        .majorant()
+    }
+
+    /// In-scattered radiance estimate of one camera ray (one sample; finds the majorant
+    /// first, see [`Self::sample_with_majorant`] for many samples).
     pub fn sample(&self, origin: [f64; 3], dir: [f64; 3], rng: &mut Rng) -> f64 {
+        self.sample_with_majorant(origin, dir, self.majorant(), rng)
+    }
+
+    /// [`Self::sample`] with the majorant of [`Self::majorant`] given.
+    pub fn sample_with_majorant(
+        &self,
+        origin: [f64; 3],
+        dir: [f64; 3],
+        majorant: f64,
+        rng: &mut Rng,
+    ) -> f64 {
         let ext = Extinction {
             grid: self.density,
             scale: self.scene.medium.sigma_t_scale,
         };
-        let majorant = ext.majorant();
         if majorant <= 0.0 {
             return 0.0;
         }
@@ -176,17 +200,14 @@ impl Renderer<'_> {
                 return 0.0;
             }
             let x = [0, 1, 2].map(|d| origin[d] + t * dir[d]);
-            let Some([i, j, k]) = self.density.voxel_of(x) else {
-                continue;
-            };
-            let sigma_t = ext.scale * self.density.at(i, j, k);
+            let (sigma_t, sigma_s) = self.scene.medium.coefficients_at(self.density, x);
             if rng.uniform() * majorant >= sigma_t {
                 continue; // null collision
             }
-            let albedo = self.scene.medium.albedo_at(self.density.index(i, j, k));
-            if albedo == 0.0 {
+            if sigma_s == 0.0 {
                 return 0.0;
             }
+            let albedo = sigma_s / sigma_t;
             let wo = dir.map(|c| -c);
             return albedo * (self.single(&ext, x, wo) + self.multiple(x, wo));
         }
@@ -217,6 +238,19 @@ impl Renderer<'_> {
 
     /// Mean and standard error of pixel (px, py) with `spp` samples.
     pub fn pixel(&self, px: usize, py: usize, spp: usize, seed: u64) -> (f64, f64) {
+        self.pixel_with_majorant(px, py, spp, seed, self.majorant())
+    }
+
+    /// [`Self::pixel`] with the majorant given (the renderer finds it once per image: it
+    /// is a pass over every voxel).
+    fn pixel_with_majorant(
+        &self,
+        px: usize,
+        py: usize,
+        spp: usize,
+        seed: u64,
+        majorant: f64,
+    ) -> (f64, f64) {
         let cam = &self.scene.camera;
         let frame = cam.frame();
         let mut rng = Rng::new(seed, (py * cam.width + px) as u64);
@@ -228,7 +262,7 @@ impl Renderer<'_> {
                 (rng.uniform(), rng.uniform())
             };
             let dir = cam.ray_dir(&frame, px as f64 + sx, py as f64 + sy);
-            let v = self.sample(cam.position, dir, &mut rng);
+            let v = self.sample_with_majorant(cam.position, dir, majorant, &mut rng);
             sum += v;
             sum2 += v * v;
         }
@@ -247,12 +281,15 @@ impl Renderer<'_> {
     pub fn render(&self, spp: usize, seed: u64, progress: bool) -> Image {
         let cam = &self.scene.camera;
         let (w, h) = (cam.width, cam.height);
+        let majorant = self.majorant();
         let bar = crate::solver::progress_bar(h, progress);
         bar.set_message("image rows");
         let rows: Vec<Vec<(f64, f64)>> = (0..h)
             .into_par_iter()
             .map(|py| {
-                let row = (0..w).map(|px| self.pixel(px, py, spp, seed)).collect();
+                let row = (0..w)
+                    .map(|px| self.pixel_with_majorant(px, py, spp, seed, majorant))
+                    .collect();
                 bar.inc(1);
                 row
             })

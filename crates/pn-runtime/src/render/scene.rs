@@ -11,6 +11,7 @@
 //! bbox_max = [1.0, 1.0, 1.0]   # "grid": the .vol header's box unless given
 //! sigma_t_scale = 20.0      # σ_t(x) = sigma_t_scale · density(x)  (1/length)
 //! albedo = 0.9              # or albedo_file = "a.npy" (same grid)
+//! filter = "trilinear"      # how voxels are read: "trilinear" (default, Mitsuba's) | "nearest"
 //! [phase]
 //! kind = "hg"               # "isotropic" | "hg"
 //! g = 0.3
@@ -38,8 +39,13 @@
 //! tolerance = 1e-6
 //! sigma_t_min = 0.0         # 0 or absent: automatic where vacuum is present
 //! [render]
-//! spp = 64
-//! seed = 1
+//! renderer = "deterministic" # or "montecarlo"
+//! rays = 4                  # deterministic: camera rays per pixel, k² (a k×k pattern)
+//! step = 0.5                # deterministic: step in voxel sides (error O(step²))
+//! cutoff = 1e-4             # deterministic: stop a ray when its transmittance is below
+//! exact_transmittance = false # deterministic: trace T to the lights at every step
+//! spp = 64                  # montecarlo: samples per pixel
+//! seed = 1                  # montecarlo: seed of the per-pixel random streams
 //! ```
 //!
 //! Unknown keys are refused; parse errors carry the line and column; relative file paths
@@ -48,7 +54,7 @@
 
 use super::camera::{norm, Camera};
 use super::lights::Light;
-use super::medium::{check_box, DensityGrid, Procedural};
+use super::medium::{check_box, DensityFilter, DensityGrid, Procedural};
 use crate::npy::read_npy;
 use crate::problem::Phase;
 use crate::scene_registry::{self, SceneKind};
@@ -98,6 +104,9 @@ pub struct MediumSpec {
     pub sigma_t_scale: f64,
     /// Albedo σ_s/σ_t.
     pub albedo: Albedo,
+    /// How the density (and an albedo grid) is read between voxel centres
+    /// (`[medium] filter`, default trilinear as Mitsuba; see [`super::medium`]).
+    pub filter: DensityFilter,
 }
 
 impl MediumSpec {
@@ -108,6 +117,30 @@ impl MediumSpec {
             Albedo::Constant(a) => *a,
             Albedo::Voxels(v) => v[index] as f64,
         }
+    }
+
+    /// Albedo at the point `p`, read like the density: an albedo grid with `density`'s
+    /// filter (trilinear or nearest, on the same voxels; the clamped value in the outer half
+    /// voxel, 0 outside the box), a constant albedo everywhere. `density` must be this
+    /// medium's grid ([`RenderScene::density_grid`]).
+    ///
+    /// As in Mitsuba's `heterogeneous` medium, σ_s(x) = albedo(x)·σ_t(x) with **both**
+    /// filtered: between voxel centres σ_s is the product of two trilinear fields, not the
+    /// interpolation of the per-voxel σ_s.
+    pub fn albedo_at_point(&self, density: &DensityGrid, p: [f64; 3]) -> f64 {
+        match &self.albedo {
+            Albedo::Constant(a) => *a,
+            Albedo::Voxels(v) => density.sample(v, p),
+        }
+    }
+
+    /// σ_t(p) and σ_s(p) = albedo(p)·σ_t(p), both filtered ([`Self::albedo_at_point`]).
+    pub fn coefficients_at(&self, density: &DensityGrid, p: [f64; 3]) -> (f64, f64) {
+        let st = self.sigma_t_scale * density.density_at(p);
+        if st == 0.0 {
+            return (0.0, 0.0);
+        }
+        (st, st * self.albedo_at_point(density, p))
     }
 
     /// Kind name as in the scene file ("grid" for files).
@@ -178,14 +211,72 @@ pub struct SolveSettings {
     pub sigma_t_min: Option<f64>,
 }
 
+/// Which renderer draws the image.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum RendererKind {
+    /// Ray marching with a fixed pattern of camera rays: noise-free
+    /// ([`super::march`]; the default).
+    #[default]
+    Deterministic,
+    /// Delta tracking with next-event estimation, `spp` random samples per pixel
+    /// ([`super::renderer`]).
+    MonteCarlo,
+}
+
+impl std::str::FromStr for RendererKind {
+    type Err = anyhow::Error;
+    fn from_str(s: &str) -> anyhow::Result<Self> {
+        match s {
+            "deterministic" => Ok(Self::Deterministic),
+            "montecarlo" => Ok(Self::MonteCarlo),
+            _ => bail!("unknown renderer {s:?} (expected deterministic or montecarlo)"),
+        }
+    }
+}
+
+impl RendererKind {
+    /// Lower-case name, as in the scene file and `--renderer`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Deterministic => "deterministic",
+            Self::MonteCarlo => "montecarlo",
+        }
+    }
+}
+
 /// `[render]`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RenderSettings {
-    /// Samples per pixel.
+    /// The renderer.
+    pub renderer: RendererKind,
+    /// Samples per pixel (Monte Carlo renderer).
     pub spp: usize,
-    /// Seed of the per-pixel random streams.
+    /// Seed of the per-pixel random streams (Monte Carlo renderer).
     pub seed: u64,
+    /// Camera rays per pixel of the deterministic renderer: a square number k² (k×k
+    /// stratified sub-pixel positions).
+    pub rays: usize,
+    /// Step of the deterministic renderer in units of the smallest voxel side.
+    pub step: f64,
+    /// The deterministic renderer stops a ray when its transmittance falls below this.
+    pub cutoff: f64,
+    /// The deterministic renderer traces the transmittance to the lights exactly at every
+    /// step instead of interpolating the light-depth grid (slower; no grid error).
+    pub exact_transmittance: bool,
 }
+
+/// Default camera rays per pixel of the deterministic renderer (2×2).
+pub const DEFAULT_RAYS: usize = 4;
+/// Default step of the deterministic renderer (voxel sides).
+pub const DEFAULT_STEP: f64 = 0.5;
+/// Default transmittance cutoff of the deterministic renderer.
+pub const DEFAULT_CUTOFF: f64 = 1e-4;
+/// Most camera rays per pixel (16×16).
+pub const MAX_RAYS: usize = 256;
+/// Accepted steps (voxel sides): smaller ones cost time without visible gain, larger ones
+/// skip voxels.
+pub const STEP_RANGE: (f64, f64) = (1e-3, 4.0);
 
 /// A complete render scene.
 #[derive(Clone, Debug, PartialEq)]
@@ -241,6 +332,7 @@ struct MediumToml {
     sigma_t_scale: f64,
     albedo: Option<f64>,
     albedo_file: Option<PathBuf>,
+    filter: Option<String>,
 }
 
 #[derive(Deserialize, Debug)]
@@ -286,8 +378,13 @@ struct SolveToml {
 #[derive(Deserialize, Debug)]
 #[serde(deny_unknown_fields)]
 struct RenderToml {
+    renderer: Option<RendererKind>,
     spp: Option<usize>,
     seed: Option<u64>,
+    rays: Option<usize>,
+    step: Option<f64>,
+    cutoff: Option<f64>,
+    exact_transmittance: Option<bool>,
 }
 
 const DEFAULT_BBOX: ([f64; 3], [f64; 3]) = ([-1.0; 3], [1.0; 3]);
@@ -352,13 +449,15 @@ impl RenderScene {
         })
     }
 
-    /// The density grid of the medium (generated for procedural media).
+    /// The density grid of the medium (generated for procedural media), read with the
+    /// medium's [`MediumSpec::filter`].
     pub fn density_grid(&self) -> anyhow::Result<DensityGrid> {
         let m = &self.medium;
-        match &m.source {
-            MediumSource::Procedural(p) => p.grid(m.resolution, m.bbox_min, m.bbox_max, m.seed),
-            MediumSource::File { grid, .. } => Ok((**grid).clone()),
-        }
+        let g = match &m.source {
+            MediumSource::Procedural(p) => p.grid(m.resolution, m.bbox_min, m.bbox_max, m.seed)?,
+            MediumSource::File { grid, .. } => (**grid).clone(),
+        };
+        Ok(g.with_filter(m.filter))
     }
 }
 
@@ -478,6 +577,10 @@ fn build_medium(m: MediumToml, base: &Path) -> anyhow::Result<MediumSpec> {
         }
     };
     check_box(bbox_min, bbox_max).context("medium")?;
+    let filter = match &m.filter {
+        None => DensityFilter::default(),
+        Some(f) => f.parse::<DensityFilter>().context("medium.filter")?,
+    };
     let albedo = match (m.albedo, m.albedo_file) {
         (Some(_), Some(_)) => bail!("give medium.albedo or medium.albedo_file, not both"),
         (None, None) => bail!("medium.albedo (or medium.albedo_file) is required"),
@@ -518,6 +621,7 @@ fn build_medium(m: MediumToml, base: &Path) -> anyhow::Result<MediumSpec> {
         bbox_max,
         sigma_t_scale: m.sigma_t_scale,
         albedo,
+        filter,
     })
 }
 
@@ -625,12 +729,22 @@ fn build(t: SceneToml, base: &Path) -> anyhow::Result<RenderScene> {
     };
     solve.validate().context("[solve]")?;
     let r = t.render.unwrap_or(RenderToml {
+        renderer: None,
         spp: None,
         seed: None,
+        rays: None,
+        step: None,
+        cutoff: None,
+        exact_transmittance: None,
     });
     let render = RenderSettings {
+        renderer: r.renderer.unwrap_or_default(),
         spp: r.spp.unwrap_or(64),
         seed: r.seed.unwrap_or(1),
+        rays: r.rays.unwrap_or(DEFAULT_RAYS),
+        step: r.step.unwrap_or(DEFAULT_STEP),
+        cutoff: r.cutoff.unwrap_or(DEFAULT_CUTOFF),
+        exact_transmittance: r.exact_transmittance.unwrap_or(false),
     };
     render.validate().context("[render]")?;
     Ok(RenderScene {
@@ -692,12 +806,31 @@ impl SolveSettings {
 }
 
 impl RenderSettings {
-    /// Checks the sample count.
+    /// Checks the sample count, the ray count (a square number in 1..=[`MAX_RAYS`]), the
+    /// step (in [`STEP_RANGE`]) and the cutoff (in [0, 1)).
     pub fn validate(&self) -> anyhow::Result<()> {
         ensure!(
             (1..=MAX_SPP).contains(&self.spp),
             "spp must lie in 1..={MAX_SPP}, got {}",
             self.spp
+        );
+        let k = (self.rays as f64).sqrt().round() as usize;
+        ensure!(
+            (1..=MAX_RAYS).contains(&self.rays) && k * k == self.rays,
+            "rays (camera rays per pixel) must be a square number k² in 1..={MAX_RAYS} \
+             (1, 4, 9, 16, …: a k×k pattern), got {}",
+            self.rays
+        );
+        let (lo, hi) = STEP_RANGE;
+        ensure!(
+            self.step.is_finite() && (lo..=hi).contains(&self.step),
+            "step must lie in [{lo}, {hi}] voxel sides, got {}",
+            self.step
+        );
+        ensure!(
+            self.cutoff.is_finite() && (0.0..1.0).contains(&self.cutoff),
+            "cutoff (transmittance at which a ray stops) must lie in [0, 1), got {}",
+            self.cutoff
         );
         Ok(())
     }
@@ -791,6 +924,47 @@ height = 8
         assert!(e.contains("irradiance"), "{e}");
         let e = err(&MINIMAL.replace("fov = 40.0", "fov = \"wide\""));
         assert!(e.contains("line 15, column 7"), "{e}");
+    }
+
+    #[test]
+    fn the_density_filter_is_read_and_applied() {
+        let s = parse(MINIMAL).unwrap();
+        assert_eq!(s.medium.filter, DensityFilter::Trilinear);
+        assert_eq!(s.density_grid().unwrap().filter, DensityFilter::Trilinear);
+        let s =
+            parse(&MINIMAL.replace("albedo = 0.5", "albedo = 0.5\nfilter = \"nearest\"")).unwrap();
+        assert_eq!(s.medium.filter, DensityFilter::Nearest);
+        assert_eq!(s.density_grid().unwrap().filter, DensityFilter::Nearest);
+        let e = err(&MINIMAL.replace("albedo = 0.5", "albedo = 0.5\nfilter = \"cubic\""));
+        assert!(
+            e.contains("medium.filter") && e.contains("\"cubic\"") && e.contains("trilinear"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn render_settings_have_defaults_and_are_checked() {
+        let s = parse(MINIMAL).unwrap();
+        assert_eq!(s.render.renderer, RendererKind::Deterministic);
+        assert_eq!((s.render.rays, s.render.step), (DEFAULT_RAYS, DEFAULT_STEP));
+        let with = |r: &str| format!("{MINIMAL}[render]\n{r}\n");
+        let s = parse(&with("renderer = \"montecarlo\"\nrays = 9\nstep = 0.25")).unwrap();
+        assert_eq!(s.render.renderer, RendererKind::MonteCarlo);
+        assert_eq!((s.render.rays, s.render.step), (9, 0.25));
+        for (bad, want) in [
+            ("rays = 3", "square number"),
+            ("rays = 0", "square number"),
+            ("rays = 1024", "square number"),
+            ("step = 0.0", "step must lie"),
+            ("step = 10.0", "step must lie"),
+            ("step = nan", "step must lie"),
+            ("cutoff = 1.0", "cutoff"),
+            ("cutoff = -0.1", "cutoff"),
+            ("renderer = \"magic\"", "unknown variant"),
+        ] {
+            let e = err(&with(bad));
+            assert!(e.contains(want), "{bad}: {e}");
+        }
     }
 
     #[test]

@@ -1,0 +1,124 @@
+//! The race's log–log plot: relative RMSE against wall seconds, one curve per method family,
+//! each point labelled with its setting, the reference's own noise as a dashed line.
+
+use anyhow::{ensure, Result};
+use plotters::prelude::*;
+use pn_runtime::plot::{draw_error, finish_chart, framed_chart, white_canvas};
+use pn_runtime::reference::register_plot_fonts;
+use std::path::Path;
+
+/// One curve: its name and (seconds, error, label) points in time order.
+#[derive(Clone, Debug)]
+pub struct Curve {
+    /// Legend text.
+    pub name: String,
+    /// Points.
+    pub points: Vec<(f64, f64, String)>,
+    /// Mitsuba curves are drawn dashed-grey/black, pn curves in colour.
+    pub mitsuba: bool,
+}
+
+/// Draws `curves` into `path` (PNG) with the title and the reference-noise line.
+pub fn draw(path: &Path, title: &str, curves: &[Curve], ref_noise: f64) -> Result<()> {
+    register_plot_fonts()?;
+    let ok = |v: f64| v.is_finite() && v > 0.0;
+    let pts: Vec<(f64, f64)> = curves
+        .iter()
+        .flat_map(|c| c.points.iter().map(|p| (p.0, p.1)))
+        .filter(|p| ok(p.0) && ok(p.1))
+        .collect();
+    ensure!(!pts.is_empty(), "nothing to plot");
+    let (t0, t1) = pts.iter().fold((f64::INFINITY, 0.0f64), |(a, b), p| {
+        (a.min(p.0), b.max(p.0))
+    });
+    let (mut e0, e1) = pts.iter().fold((f64::INFINITY, 0.0f64), |(a, b), p| {
+        (a.min(p.1), b.max(p.1))
+    });
+    if ok(ref_noise) {
+        e0 = e0.min(ref_noise);
+    }
+    let err = |e: &dyn std::fmt::Display| draw_error(path, e);
+    let root = white_canvas(path, (1100, 780))?;
+    let mut chart = framed_chart(&root, title, 24)
+        .build_cartesian_2d(
+            (t0 / 1.5..t1 * 1.5).log_scale(),
+            (e0 / 1.4..e1 * 1.4).log_scale(),
+        )
+        .map_err(|e| err(&e))?;
+    chart
+        .configure_mesh()
+        .x_desc("wall seconds, whole command (log)")
+        .y_desc("relative RMSE against the reference (log)")
+        .axis_desc_style(("sans-serif", 20))
+        .label_style(("sans-serif", 16))
+        .x_label_formatter(&|v| format!("{v:.3}"))
+        .y_label_formatter(&|v| format!("{v:.3}"))
+        .draw()
+        .map_err(|e| err(&e))?;
+    if ok(ref_noise) {
+        let style = ShapeStyle::from(&RGBColor(120, 120, 120)).stroke_width(1);
+        chart
+            .draw_series(DashedLineSeries::new(
+                vec![(t0 / 1.5, ref_noise), (t1 * 1.5, ref_noise)],
+                6,
+                4,
+                style,
+            ))
+            .map_err(|e| err(&e))?
+            .label(format!("reference noise {ref_noise:.4}"))
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 24, y)], style));
+    }
+    let mitsuba_colors = [BLACK, RGBColor(130, 130, 130)];
+    let pn_colors = [
+        RGBColor(230, 120, 0),
+        RGBColor(30, 90, 220),
+        RGBColor(0, 150, 70),
+        RGBColor(200, 30, 60),
+        RGBColor(150, 60, 200),
+        RGBColor(0, 170, 170),
+        RGBColor(180, 140, 0),
+    ];
+    let (mut mi, mut pi) = (0, 0);
+    for c in curves {
+        let color = if c.mitsuba {
+            mi += 1;
+            mitsuba_colors[(mi - 1) % mitsuba_colors.len()]
+        } else {
+            pi += 1;
+            pn_colors[(pi - 1) % pn_colors.len()]
+        };
+        let p: Vec<(f64, f64, String)> = c
+            .points
+            .iter()
+            .filter(|p| ok(p.0) && ok(p.1))
+            .cloned()
+            .collect();
+        if p.is_empty() {
+            continue;
+        }
+        let line = ShapeStyle::from(&color).stroke_width(2);
+        let marker = ShapeStyle::from(&color).filled();
+        chart
+            .draw_series(LineSeries::new(p.iter().map(|q| (q.0, q.1)), line))
+            .map_err(|e| err(&e))?
+            .label(c.name.as_str())
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 24, y)], line));
+        if c.mitsuba {
+            chart
+                .draw_series(p.iter().map(|q| TriangleMarker::new((q.0, q.1), 5, marker)))
+                .map_err(|e| err(&e))?;
+        } else {
+            chart
+                .draw_series(p.iter().map(|q| Circle::new((q.0, q.1), 4, marker)))
+                .map_err(|e| err(&e))?;
+        }
+        let font = ("sans-serif", 13).into_font().color(&color);
+        chart
+            .draw_series(
+                p.iter()
+                    .map(|q| Text::new(q.2.clone(), (q.0 * 1.04, q.1 * 1.03), font.clone())),
+            )
+            .map_err(|e| err(&e))?;
+    }
+    finish_chart(&mut chart, &root, path, 16, SeriesLabelPosition::UpperRight)
+}

@@ -1,0 +1,328 @@
+//! The pn side of `pn race`: each point is a whole `pn render` subprocess (the running
+//! binary), timed around the process, with the time split read from its `report.json`.
+
+use super::proc::{run_timed, Timed};
+use anyhow::{bail, ensure, Context, Result};
+use std::fmt;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// A deterministic method: CDA, P_N of an order, or single scattering only.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Family {
+    /// Single scattering only (`--method none`).
+    None,
+    /// Classical diffusion.
+    Cda,
+    /// P_N of this order.
+    Pn(usize),
+}
+
+impl Family {
+    /// The `pn render` arguments selecting it.
+    fn args(self) -> Vec<String> {
+        match self {
+            Family::None => vec!["--method".into(), "none".into()],
+            Family::Cda => vec!["--method".into(), "cda".into()],
+            Family::Pn(n) => vec![
+                "--method".into(),
+                "pn".into(),
+                "--order".into(),
+                n.to_string(),
+            ],
+        }
+    }
+
+    /// The method column (`none`, `cda`, `pn`).
+    pub fn method(self) -> &'static str {
+        match self {
+            Family::None => "none",
+            Family::Cda => "cda",
+            Family::Pn(_) => "pn",
+        }
+    }
+
+    /// The order column (empty but for P_N).
+    pub fn order(self) -> Option<usize> {
+        match self {
+            Family::Pn(n) => Some(n),
+            _ => None,
+        }
+    }
+}
+
+impl fmt::Display for Family {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Family::None => write!(f, "single scattering"),
+            Family::Cda => write!(f, "CDA"),
+            Family::Pn(n) => write!(f, "P_{n}"),
+        }
+    }
+}
+
+/// One pn setting of the race: method, solve resolution (cells across the medium box) and,
+/// optionally, the deterministic renderer's rays per pixel and step.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PnPoint {
+    /// The method.
+    pub family: Family,
+    /// Solve-grid cells per axis (ignored for single scattering).
+    pub solve_res: usize,
+    /// `pn render --rays` (None: the renderer's default).
+    pub rays: Option<usize>,
+    /// `pn render --step` (None: the renderer's default).
+    pub step: Option<f64>,
+}
+
+impl PnPoint {
+    /// Parses `cda@24`, `p5@32` (`P5@32`), `none`, each optionally followed by
+    /// `:rays=K` and/or `:step=S` (`p5@32:rays=1:step=1`).
+    pub fn parse(s: &str) -> Result<Self> {
+        let lower = s.trim().to_ascii_lowercase();
+        let mut parts = lower.split(':');
+        let t = parts.next().unwrap_or("");
+        let (mut rays, mut step) = (None, None);
+        for opt in parts {
+            match opt.split_once('=') {
+                Some(("rays", v)) => {
+                    let n: usize = v
+                        .parse()
+                        .with_context(|| format!("pn point {s:?}: rays must be an integer"))?;
+                    ensure!(n >= 1, "pn point {s:?}: rays must be at least 1");
+                    rays = Some(n);
+                }
+                Some(("step", v)) => {
+                    let x: f64 = v
+                        .parse()
+                        .with_context(|| format!("pn point {s:?}: step must be a number"))?;
+                    ensure!(
+                        x.is_finite() && x > 0.0,
+                        "pn point {s:?}: step must be positive"
+                    );
+                    step = Some(x);
+                }
+                _ => bail!("pn point {s:?}: options are :rays=K and :step=S, got {opt:?}"),
+            }
+        }
+        if t == "none" {
+            return Ok(Self {
+                family: Family::None,
+                solve_res: 0,
+                rays,
+                step,
+            });
+        }
+        let Some((f, r)) = t.split_once('@') else {
+            bail!("pn point {s:?}: expected METHOD@RES, e.g. p5@24 or cda@32");
+        };
+        let family = match f {
+            "cda" => Family::Cda,
+            _ => {
+                let n = f
+                    .strip_prefix('p')
+                    .and_then(|n| n.parse::<usize>().ok())
+                    .with_context(|| {
+                        format!("pn point {s:?}: the method is cda or pN (p1, p3, p5, …)")
+                    })?;
+                ensure!(
+                    (1..=60).contains(&n),
+                    "pn point {s:?}: order {n} outside 1..=60"
+                );
+                Family::Pn(n)
+            }
+        };
+        let solve_res: usize = r
+            .parse()
+            .with_context(|| format!("pn point {s:?}: the resolution must be an integer"))?;
+        ensure!(
+            (4..=512).contains(&solve_res),
+            "pn point {s:?}: solve resolution {solve_res} outside 4..=512"
+        );
+        Ok(Self {
+            family,
+            solve_res,
+            rays,
+            step,
+        })
+    }
+
+    /// The point as [`PnPoint::parse`] reads it: `p5@24`, `cda@32:rays=1`, `none`.
+    pub fn label(&self) -> String {
+        let mut s = match self.family {
+            Family::None => "none".into(),
+            Family::Cda => format!("cda@{}", self.solve_res),
+            Family::Pn(n) => format!("p{n}@{}", self.solve_res),
+        };
+        if let Some(r) = self.rays {
+            s += &format!(":rays={r}");
+        }
+        if let Some(x) = self.step {
+            s += &format!(":step={x}");
+        }
+        s
+    }
+
+    /// The family column of the CSV: `cda`, `p5`, `none`.
+    pub fn family_key(&self) -> String {
+        match self.family {
+            Family::None => "none".into(),
+            Family::Cda => "cda".into(),
+            Family::Pn(n) => format!("p{n}"),
+        }
+    }
+
+    /// A folder name for the point's render.
+    pub fn folder(&self) -> String {
+        self.label().replace(['@', ':'], "_").replace('=', "")
+    }
+
+    /// The `pn render` arguments of the renderer settings.
+    pub fn render_args(&self) -> Vec<String> {
+        let mut v = vec![];
+        if let Some(r) = self.rays {
+            v.extend(["--rays".to_string(), r.to_string()]);
+        }
+        if let Some(x) = self.step {
+            v.extend(["--step".to_string(), x.to_string()]);
+        }
+        v
+    }
+
+    /// A readable name: `P_5 @ 24³`.
+    pub fn pretty(&self) -> String {
+        match self.family {
+            Family::None => "single scattering".into(),
+            f => format!("{f} @ {}³", self.solve_res),
+        }
+    }
+}
+
+/// How to run `pn render`.
+#[derive(Clone, Debug)]
+pub struct PnRunner {
+    /// The `pn` binary.
+    pub binary: PathBuf,
+    /// The scene argument (file or built-in name).
+    pub scene: String,
+    /// Extra arguments for every render (renderer settings).
+    pub render_args: Vec<String>,
+    /// `--threads` to pass on.
+    pub threads: Option<usize>,
+}
+
+/// A finished `pn render`.
+#[derive(Clone, Debug)]
+pub struct PnResult {
+    /// Wall seconds of the whole process.
+    pub wall: f64,
+    /// The report's `seconds` object (phase name → seconds).
+    pub phases: Vec<(String, f64)>,
+    /// The images it wrote (`image.exr`, or the turntable's views in order).
+    pub images: Vec<PathBuf>,
+    /// Solver iterations (if any).
+    pub iterations: Option<u64>,
+    /// Whether the solver converged (true when there was no solve).
+    pub converged: bool,
+}
+
+impl PnResult {
+    /// The seconds of phase `name`, if the report has it.
+    pub fn phase(&self, name: &str) -> Option<f64> {
+        self.phases.iter().find(|(k, _)| k == name).map(|(_, v)| *v)
+    }
+}
+
+impl PnRunner {
+    /// Runs `pn render` for `point` into `out` with `extra` arguments (after the runner's
+    /// render arguments, so they override them), timing the whole process.
+    pub fn render(&self, point: &PnPoint, out: &Path, extra: &[String]) -> Result<PnResult> {
+        let mut cmd = Command::new(&self.binary);
+        cmd.arg("render").arg(&self.scene).args(point.family.args());
+        if point.family != Family::None {
+            cmd.args(["--solve-res", &point.solve_res.to_string()]);
+        }
+        if let Some(t) = self.threads {
+            cmd.args(["--threads", &t.to_string()]);
+        }
+        cmd.args(&self.render_args)
+            .args(point.render_args())
+            .args(extra)
+            .arg("--out")
+            .arg(out);
+        let Timed { wall, .. } = run_timed(&mut cmd, &format!("pn render ({})", point.label()))?;
+        let report_path = out.join("report.json");
+        let report: serde_json::Value = serde_json::from_str(
+            &std::fs::read_to_string(&report_path)
+                .with_context(|| format!("cannot read {}", report_path.display()))?,
+        )
+        .with_context(|| format!("malformed {}", report_path.display()))?;
+        let phases = report["seconds"]
+            .as_object()
+            .map(|o| {
+                o.iter()
+                    .filter_map(|(k, v)| v.as_f64().map(|s| (k.clone(), s)))
+                    .collect()
+            })
+            .unwrap_or_default();
+        let mut images = vec![];
+        let single = out.join("image.exr");
+        if single.is_file() {
+            images.push(single);
+        } else {
+            // A turntable: every EXR in the folder, in name order (view 0 first).
+            let mut v: Vec<PathBuf> = std::fs::read_dir(out)
+                .with_context(|| format!("cannot list {}", out.display()))?
+                .filter_map(|e| e.ok().map(|e| e.path()))
+                .filter(|p| p.extension().is_some_and(|x| x == "exr"))
+                .collect();
+            v.sort();
+            images = v;
+        }
+        ensure!(
+            !images.is_empty(),
+            "pn render ({}) wrote no EXR into {}",
+            point.label(),
+            out.display()
+        );
+        Ok(PnResult {
+            wall,
+            phases,
+            images,
+            iterations: report["solver"]["iterations"].as_u64(),
+            converged: report["solver"]["converged"].as_bool().unwrap_or(true),
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn points_parse_and_refuse_nonsense() {
+        let p = PnPoint::parse("P5@24").unwrap();
+        assert_eq!(p.family, Family::Pn(5));
+        assert_eq!((p.solve_res, p.label().as_str()), (24, "p5@24"));
+        assert_eq!(PnPoint::parse("cda@16").unwrap().family, Family::Cda);
+        assert_eq!(PnPoint::parse("none").unwrap().family, Family::None);
+        let p = PnPoint::parse("p3@32:rays=1:step=0.25").unwrap();
+        assert_eq!((p.rays, p.step), (Some(1), Some(0.25)));
+        assert_eq!(p.label(), "p3@32:rays=1:step=0.25");
+        assert_eq!(p.folder(), "p3_32_rays1_step0.25");
+        assert_eq!(p.render_args(), ["--rays", "1", "--step", "0.25"]);
+        for bad in [
+            "p5",
+            "q3@24",
+            "p0@24",
+            "p5@x",
+            "p5@2",
+            "p61@16",
+            "p5@24:rays=0",
+            "p5@24:step=-1",
+            "p5@24:spp=3",
+        ] {
+            assert!(PnPoint::parse(bad).is_err(), "{bad}");
+        }
+    }
+}

@@ -1,0 +1,528 @@
+//! The optical depth from every point of the medium to each light, precomputed on a grid
+//! for the deterministic renderer ([`super::march`]).
+//!
+//! The nodes are the **density-voxel centres**; at each node the optical depth τ to the
+//! light is the exact integral of [`Extinction::optical_depth`] (traversal of the filter's
+//! lattice, [`super::shadow`]) — the same rays as the first-scatter source's deep shadow maps,
+//! so a render that solved first takes τ = −ln T from those ([`LightDepth::from_shadow_maps`])
+//! instead of tracing them again (point lights; directional ones use planes, below). Between the nodes τ is interpolated trilinearly (clamped
+//! to the outermost centres in the outer half voxel) and the transmittance is `exp(−τ)`:
+//! interpolating τ rather than T keeps the interpolant exact for a τ linear in x (a
+//! homogeneous slab lit along an axis) and avoids the bias of interpolating a convex
+//! function of depth (between two nodes of very different depth, interpolating T
+//! overestimates e^{−τ}).
+//!
+//! The interpolation error is O(h²·|∂²τ|) with h the voxel size (O(h·|∇τ|) in the outer half
+//! voxel, where the density of a medium with vacuum around it is 0); it does not shrink with
+//! the renderer's step (see the error budget in [`super::march`]). τ is continuous
+//! everywhere (also for a point light inside the medium, where it behaves like σ_t·r), so
+//! the interpolant is too.
+//!
+//! **Directional lights: planes across the light.** Along the light τ grows by σ_t·h per
+//! voxel (≈ 1 in a dense cloud) and its slope σ_t has kinks at every voxel-centre plane, so
+//! interpolating τ *along* the light between voxel centres errs by up to ≈ σ_t h/4 — the
+//! main error of the voxel-centre grid (measured on the built-in cloud: −0.97 % bias, 3.6 %
+//! relative RMS against exact transmittance). For a directional light the grid is therefore
+//! built in the light's frame ([`PlaneDepth`]): planes perpendicular to the travel direction
+//! d, one smallest voxel side apart, each holding τ on a square lattice of spacing
+//! `h_⊥ = `[`PLANE_SPACING`]` × smallest voxel side`, computed exactly column by column
+//! (one [`Extinction::optical_depth`] per plane interval). A lookup at x takes the plane
+//! upstream of x, interpolates τ *bilinearly in the plane only*, and adds the exact optical
+//! depth of the short segment (shorter than one voxel side) from x back to that plane.
+//! The only approximation left is the transverse interpolation, O(h_⊥²·|∂²_⊥τ|) where τ is
+//! smooth across the light and O(h_⊥·|∇_⊥τ|) next to a shadow edge; it is measured against
+//! exact transmittance in `render::march` (test `light_depth_grid_error_on_the_cloud`).
+//! Point lights keep the voxel-centre grid.
+//!
+//! Columns stop at τ = [`TAU_CUTOFF`] (T < 10⁻¹⁷): deeper planes hold +∞ (T = 0), an
+//! absolute error below 10⁻¹⁷·E.
+
+use super::lights::Light;
+use super::medium::floor_fast;
+use super::medium::DensityGrid;
+use super::shadow::{DeepShadowMaps, Extinction};
+use rayon::prelude::*;
+
+/// Largest stored optical depth: e^{−745} is the smallest positive f64, so deeper is black
+/// (and a transmittance of exactly 0 maps to this finite depth).
+pub const MAX_TAU: f64 = 745.0;
+
+/// Transverse lattice spacing of the light-frame planes of a directional light, in units of
+/// the smallest voxel side (the planes themselves are one voxel side apart).
+pub const PLANE_SPACING: f64 = 0.5;
+
+/// Optical depth at which a light-frame column stops (T = e^{−40} < 10⁻¹⁷).
+pub const TAU_CUTOFF: f64 = 40.0;
+
+/// τ to a directional light on planes perpendicular to its travel direction (module docs).
+#[derive(Clone, Debug)]
+pub struct PlaneDepth {
+    /// Unit travel direction d of the light.
+    d: [f64; 3],
+    /// Unit vectors spanning the planes (e1 × e2 = d).
+    e1: [f64; 3],
+    e2: [f64; 3],
+    /// Lattice origin in the light frame: (u0, v0) in the plane, s0 = the first plane.
+    u0: f64,
+    v0: f64,
+    s0: f64,
+    /// Transverse spacing and plane distance.
+    hu: f64,
+    ds: f64,
+    /// Lattice points per axis: u, v and planes.
+    nu: usize,
+    nv: usize,
+    ns: usize,
+    /// `tau[(k·nu + i)·nv + j]`: τ at plane k, lattice point (i, j) (f32: 7 digits in τ, an
+    /// error of 10⁻⁷ relative in T).
+    tau: Vec<f32>,
+}
+
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+impl PlaneDepth {
+    /// Traces the columns of a light travelling along the unit vector `d` through the
+    /// support of `ext`'s density (`None` for an empty medium).
+    pub fn compute(ext: &Extinction, d: [f64; 3]) -> Option<Self> {
+        let g = ext.grid;
+        let (lo, hi) = g.support()?;
+        // e1 ⟂ d from the axis least aligned with d, e2 = d × e1.
+        let axis = (0..3)
+            .min_by(|&a, &b| d[a].abs().total_cmp(&d[b].abs()))
+            .unwrap_or(0);
+        let mut a = [0.0; 3];
+        a[axis] = 1.0;
+        let ad = dot(a, d);
+        let e1 = {
+            let v = [0, 1, 2].map(|c| a[c] - ad * d[c]);
+            let n = dot(v, v).sqrt();
+            v.map(|c| c / n)
+        };
+        let e2 = [
+            d[1] * e1[2] - d[2] * e1[1],
+            d[2] * e1[0] - d[0] * e1[2],
+            d[0] * e1[1] - d[1] * e1[0],
+        ];
+        // The support box's extent in the light frame.
+        let mut ext_min = [f64::INFINITY; 3];
+        let mut ext_max = [f64::NEG_INFINITY; 3];
+        for c in 0..8 {
+            let p = [0, 1, 2].map(|q| if c >> q & 1 == 1 { hi[q] } else { lo[q] });
+            for (q, e) in [e1, e2, d].into_iter().enumerate() {
+                let t = dot(p, e);
+                ext_min[q] = ext_min[q].min(t);
+                ext_max[q] = ext_max[q].max(t);
+            }
+        }
+        let hmin = g.h().iter().fold(f64::INFINITY, |m, v| m.min(*v));
+        let (hu, ds) = (PLANE_SPACING * hmin, hmin);
+        let count = |q: usize, step: f64| ((ext_max[q] - ext_min[q]) / step).ceil() as usize + 1;
+        let (nu, nv, ns) = (count(0, hu), count(1, hu), count(2, ds));
+        let (u0, v0, s0) = (ext_min[0], ext_min[1], ext_min[2]);
+        // Columns in parallel: column (i, j) walks the planes k = 0, 1, … downstream.
+        let columns: Vec<Vec<f32>> = (0..nu * nv)
+            .into_par_iter()
+            .map(|c| {
+                let (u, v) = (u0 + (c / nv) as f64 * hu, v0 + (c % nv) as f64 * hu);
+                let at = |s: f64| [0, 1, 2].map(|q| u * e1[q] + v * e2[q] + s * d[q]);
+                let mut col = vec![0.0f32; ns];
+                let mut tau = 0.0;
+                for (k, slot) in col.iter_mut().enumerate().skip(1) {
+                    if tau > TAU_CUTOFF {
+                        *slot = f32::INFINITY;
+                        continue;
+                    }
+                    tau += ext.optical_depth(at(s0 + (k - 1) as f64 * ds), d, ds);
+                    *slot = tau as f32;
+                }
+                col
+            })
+            .collect();
+        let mut tau = vec![0.0f32; nu * nv * ns];
+        for (c, col) in columns.iter().enumerate() {
+            for (k, t) in col.iter().enumerate() {
+                tau[k * nu * nv + c] = *t;
+            }
+        }
+        Some(Self {
+            d,
+            e1,
+            e2,
+            u0,
+            v0,
+            s0,
+            hu,
+            ds,
+            nu,
+            nv,
+            ns,
+            tau,
+        })
+    }
+
+    /// τ from `x` to the light: the exact optical depth from `x` back to the plane upstream
+    /// of it plus τ on that plane, bilinear between its lattice points (module docs).
+    #[inline]
+    pub fn tau(&self, ext: &Extinction, x: [f64; 3]) -> f64 {
+        let s = dot(x, self.d) - self.s0;
+        if s <= 0.0 {
+            return 0.0; // upstream of the whole support
+        }
+        let k = (floor_fast(s / self.ds) as usize).min(self.ns - 1);
+        let back = s - k as f64 * self.ds;
+        let near = if back > 0.0 {
+            ext.optical_depth(x, self.d.map(|c| -c), back)
+        } else {
+            0.0
+        };
+        let top_u = (self.nu - 1) as f64;
+        let top_v = (self.nv - 1) as f64;
+        let fu = ((dot(x, self.e1) - self.u0) / self.hu).clamp(0.0, top_u);
+        let fv = ((dot(x, self.e2) - self.v0) / self.hu).clamp(0.0, top_v);
+        let (i, j) = (floor_fast(fu) as usize, floor_fast(fv) as usize);
+        let (i1, j1) = ((i + 1).min(self.nu - 1), (j + 1).min(self.nv - 1));
+        let (tu, tv) = (fu - i as f64, fv - j as f64);
+        let plane = &self.tau[k * self.nu * self.nv..(k + 1) * self.nu * self.nv];
+        let at = |a: usize, b: usize| plane[a * self.nv + b] as f64;
+        let (t00, t01, t10, t11) = (at(i, j), at(i, j1), at(i1, j), at(i1, j1));
+        if !(t00.is_finite() && t01.is_finite() && t10.is_finite() && t11.is_finite()) {
+            return f64::INFINITY;
+        }
+        let lerp = |p: f64, q: f64, w: f64| p + w * (q - p);
+        near + lerp(lerp(t00, t01, tv), lerp(t10, t11, tv), tu)
+    }
+
+    /// Bytes held.
+    pub fn bytes(&self) -> usize {
+        self.tau.len() * std::mem::size_of::<f32>()
+    }
+}
+
+/// τ to each light at the density-voxel centres.
+#[derive(Clone, Debug)]
+pub struct LightDepth {
+    /// World position of node (0, 0, 0): the centre of voxel (0, 0, 0).
+    origin: [f64; 3],
+    /// Node spacing (the voxel size).
+    h: [f64; 3],
+    /// Nodes per axis (the density resolution).
+    res: [usize; 3],
+    /// `tau[light][(i·ny + j)·nz + k]` (x slowest, the order of [`DeepShadowMaps`]).
+    tau: Vec<Vec<f64>>,
+    /// Light-frame planes per light (directional lights; `None`: the voxel-centre grid).
+    planes: Vec<Option<PlaneDepth>>,
+}
+
+impl LightDepth {
+    /// The grids for every light: light-frame planes ([`PlaneDepth`]) for directional
+    /// lights, the voxel-centre grid ([`Self::compute_voxel_centres`]) for point lights.
+    pub fn compute(ext: &Extinction, lights: &[Light]) -> Self {
+        let mut ld =
+            Self::compute_voxel_centres_where(ext, lights, |l| matches!(l, Light::Point { .. }));
+        ld.planes = Self::planes(ext, lights);
+        ld
+    }
+
+    /// Light-frame planes of the directional lights (`None` for point lights).
+    fn planes(ext: &Extinction, lights: &[Light]) -> Vec<Option<PlaneDepth>> {
+        lights
+            .iter()
+            .map(|l| match l {
+                Light::Directional { direction, .. } => {
+                    let n = dot(*direction, *direction).sqrt();
+                    PlaneDepth::compute(ext, direction.map(|c| c / n))
+                }
+                Light::Point { .. } => None,
+            })
+            .collect()
+    }
+
+    /// Traces τ at the voxel-centre nodes for every light (also directional ones), in
+    /// parallel: the nodes within one voxel of an occupied voxel (the only ones a lookup
+    /// inside the density's support reaches); the others hold 0. Kept to measure the
+    /// light-frame planes against (module docs).
+    pub fn compute_voxel_centres(ext: &Extinction, lights: &[Light]) -> Self {
+        Self::compute_voxel_centres_where(ext, lights, |_| true)
+    }
+
+    fn compute_voxel_centres_where(
+        ext: &Extinction,
+        lights: &[Light],
+        traced: impl Fn(&Light) -> bool,
+    ) -> Self {
+        let g = ext.grid;
+        let mut ld = Self::empty(g, lights.len());
+        let Some((lo, hi)) = g.occupied_range() else {
+            return ld;
+        };
+        let first = lo.map(|c| c.saturating_sub(1));
+        let last = [0, 1, 2].map(|d| (hi[d] + 1).min(g.res[d] - 1));
+        let [_, ny, nz] = g.res;
+        let centres = ld.origin;
+        let h = ld.h;
+        for (light, tau) in lights.iter().zip(&mut ld.tau) {
+            if !traced(light) {
+                continue;
+            }
+            tau.par_chunks_mut(ny * nz)
+                .enumerate()
+                .filter(|(i, _)| (first[0]..=last[0]).contains(i))
+                .for_each(|(i, plane)| {
+                    for j in first[1]..=last[1] {
+                        for k in first[2]..=last[2] {
+                            let x = [
+                                centres[0] + i as f64 * h[0],
+                                centres[1] + j as f64 * h[1],
+                                centres[2] + k as f64 * h[2],
+                            ];
+                            let inc = light.incident(x);
+                            plane[j * nz + k] = if inc.distance == 0.0 {
+                                0.0
+                            } else {
+                                ext.optical_depth(x, inc.travel.map(|c| -c), inc.distance)
+                                    .min(MAX_TAU)
+                            };
+                        }
+                    }
+                });
+        }
+        ld
+    }
+
+    /// τ = −ln T from deep shadow maps computed at the voxel centres of `density` (as
+    /// [`super::first_scatter::first_scatter_problem`] does), one map per light, for the
+    /// point lights; directional lights get their light-frame planes as in
+    /// [`Self::compute`]. `None` when the maps do not have one value per voxel and light.
+    pub fn from_shadow_maps(
+        ext: &Extinction,
+        lights: &[Light],
+        maps: &DeepShadowMaps,
+    ) -> Option<Self> {
+        let density = ext.grid;
+        let n: usize = density.res.iter().product();
+        if maps.maps.len() != lights.len() || maps.maps.iter().any(|m| m.len() != n) {
+            return None;
+        }
+        let mut ld = Self::empty(density, maps.maps.len());
+        ld.tau = maps
+            .maps
+            .iter()
+            .map(|m| {
+                m.iter()
+                    .map(|t| {
+                        if *t > 0.0 {
+                            (-t.ln()).min(MAX_TAU)
+                        } else {
+                            MAX_TAU
+                        }
+                    })
+                    .collect()
+            })
+            .collect();
+        ld.planes = Self::planes(ext, lights);
+        Some(ld)
+    }
+
+    fn empty(g: &DensityGrid, lights: usize) -> Self {
+        let h = g.h();
+        let n: usize = g.res.iter().product();
+        Self {
+            origin: [0, 1, 2].map(|d| g.bbox_min[d] + 0.5 * h[d]),
+            h,
+            res: g.res,
+            tau: vec![vec![0.0; n]; lights],
+            planes: vec![None; lights],
+        }
+    }
+
+    /// Lights held.
+    pub fn lights(&self) -> usize {
+        self.tau.len()
+    }
+
+    /// Optical depth from `x` to light `light`: from its light-frame planes where it has
+    /// them ([`PlaneDepth::tau`], which traces the last part exactly through `ext`), else
+    /// trilinear between the voxel centres (clamped to the outermost ones).
+    #[inline]
+    pub fn tau(&self, ext: &Extinction, light: usize, x: [f64; 3]) -> f64 {
+        match &self.planes[light] {
+            Some(p) => p.tau(ext, x),
+            None => self.tau_voxel_centres(light, x),
+        }
+    }
+
+    /// Bytes held by the grids.
+    pub fn bytes(&self) -> usize {
+        self.tau.iter().map(|t| t.len() * 8).sum::<usize>()
+            + self
+                .planes
+                .iter()
+                .flatten()
+                .map(PlaneDepth::bytes)
+                .sum::<usize>()
+    }
+
+    /// The voxel-centre grid's τ (trilinear, clamped to the outermost centres).
+    #[inline]
+    fn tau_voxel_centres(&self, light: usize, x: [f64; 3]) -> f64 {
+        let mut lo = [0usize; 3];
+        let mut hi = [0usize; 3];
+        let mut t = [0.0f64; 3];
+        for d in 0..3 {
+            let top = (self.res[d] - 1) as f64;
+            let u = ((x[d] - self.origin[d]) / self.h[d]).clamp(0.0, top);
+            let f = floor_fast(u);
+            lo[d] = f as usize;
+            hi[d] = (lo[d] + 1).min(self.res[d] - 1);
+            t[d] = u - f;
+        }
+        let [_, ny, nz] = self.res;
+        let data = &self.tau[light];
+        let at = |i: usize, j: usize, k: usize| data[(i * ny + j) * nz + k];
+        let lerp = |a: f64, b: f64, s: f64| a + s * (b - a);
+        let c00 = lerp(at(lo[0], lo[1], lo[2]), at(lo[0], lo[1], hi[2]), t[2]);
+        let c01 = lerp(at(lo[0], hi[1], lo[2]), at(lo[0], hi[1], hi[2]), t[2]);
+        let c10 = lerp(at(hi[0], lo[1], lo[2]), at(hi[0], lo[1], hi[2]), t[2]);
+        let c11 = lerp(at(hi[0], hi[1], lo[2]), at(hi[0], hi[1], hi[2]), t[2]);
+        lerp(lerp(c00, c01, t[1]), lerp(c10, c11, t[1]), t[0])
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn linear_depth_is_interpolated_exactly_and_matches_the_traversal() {
+        // Homogeneous box [0,2]×[0,1]×[0,1], light straight down (−y): τ = σ_t (1 − y),
+        // linear, so trilinear interpolation is exact (to rounding).
+        let g = DensityGrid::new([4, 3, 2], [0.0; 3], [2.0, 1.0, 1.0], vec![1.0; 24]).unwrap();
+        let ext = Extinction {
+            grid: &g,
+            scale: 3.0,
+        };
+        let light = Light::Directional {
+            direction: [0.0, -1.0, 0.0],
+            irradiance: 1.0,
+        };
+        for ld in [
+            LightDepth::compute_voxel_centres(&ext, std::slice::from_ref(&light)),
+            LightDepth::compute(&ext, std::slice::from_ref(&light)),
+        ] {
+            assert_eq!(ld.lights(), 1);
+            // Between the outermost centres (y ∈ [1/6, 5/6]); the planes anywhere.
+            for x in [[0.3, 0.2, 0.7], [1.99, 0.8, 0.01], [1.0, 0.5, 0.5]] {
+                let want = 3.0 * (1.0 - x[1]);
+                assert!((ld.tau(&ext, 0, x) - want).abs() < 1e-12, "{x:?}");
+            }
+        }
+        // An oblique point light: at the nodes the grid holds the exact traversal.
+        let p = Light::Point {
+            position: [2.5, 1.5, 0.3],
+            power: 1.0,
+        };
+        let ld = LightDepth::compute(&ext, std::slice::from_ref(&p));
+        let x = [0.75, 0.5, 0.25];
+        let inc = p.incident(x);
+        let exact = ext.optical_depth(x, inc.travel.map(|c| -c), inc.distance);
+        assert!((ld.tau(&ext, 0, x) - exact).abs() < 1e-12);
+        // The same from the deep shadow maps' transmittance (τ = −ln T).
+        let maps = DeepShadowMaps::compute(
+            &ext,
+            &crate::render::first_scatter::density_as_grid(&g),
+            std::slice::from_ref(&p),
+        );
+        let from_maps =
+            LightDepth::from_shadow_maps(&ext, std::slice::from_ref(&p), &maps).unwrap();
+        assert!((from_maps.tau(&ext, 0, x) - exact).abs() < 1e-12);
+    }
+
+    #[test]
+    fn an_empty_medium_has_zero_depth() {
+        let g = DensityGrid::new([2, 2, 2], [0.0; 3], [1.0; 3], vec![0.0; 8]).unwrap();
+        let ext = Extinction {
+            grid: &g,
+            scale: 3.0,
+        };
+        let light = Light::Directional {
+            direction: [0.0, -1.0, 0.0],
+            irradiance: 1.0,
+        };
+        let ld = LightDepth::compute(&ext, &[light]);
+        assert_eq!(ld.tau(&ext, 0, [0.5; 3]), 0.0);
+    }
+
+    /// The light-frame planes of an oblique directional light through a random trilinear
+    /// grid: at the lattice points they hold the exact depth (so a lookup at a point on a
+    /// plane and lattice line is exact), anywhere else the error is the transverse
+    /// interpolation's, far below the voxel-centre grid's along-the-light error.
+    #[test]
+    fn planes_are_exact_on_their_lattice_and_beat_the_voxel_centre_grid() {
+        let n = 6;
+        let mut state = 12345u64;
+        let data: Vec<f32> = (0..n * n * n)
+            .map(|_| {
+                state = state
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
+                (state >> 40) as f32 / (1u64 << 24) as f32
+            })
+            .collect();
+        let g = DensityGrid::new([n; 3], [0.0; 3], [1.0; 3], data).unwrap();
+        let ext = Extinction {
+            grid: &g,
+            scale: 6.0 * n as f64, // σ_t h up to 6: a dense cloud
+        };
+        let dir = [0.5f64, -1.0, -0.3];
+        let norm = dot(dir, dir).sqrt();
+        let d = dir.map(|c| c / norm);
+        let light = Light::Directional {
+            direction: d,
+            irradiance: 1.0,
+        };
+        let planes = LightDepth::compute(&ext, std::slice::from_ref(&light));
+        let centres = LightDepth::compute_voxel_centres(&ext, std::slice::from_ref(&light));
+        let p = planes.planes[0].as_ref().unwrap();
+        let exact = |x: [f64; 3]| ext.optical_depth(x, d.map(|c| -c), f64::INFINITY);
+        // A lattice point of plane k, moved downstream by part of a plane interval.
+        let (i, j, k) = (p.nu / 2, p.nv / 2, p.ns / 2);
+        let x = [0, 1, 2].map(|q| {
+            (p.u0 + i as f64 * p.hu) * p.e1[q]
+                + (p.v0 + j as f64 * p.hu) * p.e2[q]
+                + (p.s0 + (k as f64 + 0.4) * p.ds) * p.d[q]
+        });
+        assert!(g.contains(x));
+        let want = exact(x);
+        assert!(
+            (planes.tau(&ext, 0, x) - want).abs() < 1e-5 * want.max(1.0),
+            "{} vs {want}",
+            planes.tau(&ext, 0, x)
+        );
+        // Random points inside: RMS error of T = e^{−τ} against exact transmittance.
+        let (mut e_planes, mut e_centres, mut count) = (0.0, 0.0, 0);
+        for _ in 0..2000 {
+            let x = [0, 1, 2].map(|_| {
+                state = state
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
+                0.02 + 0.96 * ((state >> 11) as f64 / (1u64 << 53) as f64)
+            });
+            let t = (-exact(x)).exp();
+            e_planes += ((-planes.tau(&ext, 0, x)).exp() - t).powi(2);
+            e_centres += ((-centres.tau(&ext, 0, x)).exp() - t).powi(2);
+            count += 1;
+        }
+        let (rp, rc) = (
+            (e_planes / count as f64).sqrt(),
+            (e_centres / count as f64).sqrt(),
+        );
+        // Measured: 2.4e-2 against 8.5e-2 (σ_t h up to 6 on white noise, the worst case for
+        // the transverse interpolation); require at least a factor 2.
+        assert!(
+            rp < 0.5 * rc,
+            "planes RMS {rp:.3e} vs voxel centres {rc:.3e}"
+        );
+    }
+}

@@ -1,0 +1,133 @@
+//! `pn race`: its arguments.
+
+use anyhow::Context;
+use clap::Args;
+use pn_drivers::race::{parse_points, RaceRequest};
+use std::path::PathBuf;
+
+use super::Env;
+
+/// Arguments of `pn race`.
+#[derive(Args, Debug, Clone)]
+pub struct RaceArgs {
+    /// Scene files (.toml) or built-in scenes (cloud, nebula, …); each gets its own folder.
+    #[arg(required_unless_present = "markdown_only")]
+    pub scenes: Vec<String>,
+    /// Output folder: per scene points.csv, error_time.png, crossings.txt, single_scatter.csv,
+    /// turntable.csv; for all summary.csv and results.md.
+    #[arg(long, default_value = "out/race")]
+    pub out: PathBuf,
+    /// Reference cache folder (default out/race-cache).
+    #[arg(long)]
+    pub cache: Option<PathBuf>,
+    /// Python interpreter with mitsuba and pyoidn (default $PN_MITSUBA_PYTHON, else
+    /// .venv-mitsuba/bin/python; create it with scripts/mitsuba-venv.sh).
+    #[arg(long)]
+    pub python: Option<PathBuf>,
+    /// Reference spp in all, as two halves with different seeds (default 4096; 64 with --quick).
+    #[arg(long, allow_negative_numbers = true)]
+    pub reference_spp: Option<usize>,
+    /// Mitsuba spp ladder, comma separated (default 1,4,16,64,256; 1,4 with --quick).
+    #[arg(long, value_delimiter = ',', allow_negative_numbers = true)]
+    pub mitsuba_spp: Option<Vec<usize>>,
+    /// The Mitsuba spp whose error the crossing points refer to (default 64).
+    #[arg(long, allow_negative_numbers = true)]
+    pub target_spp: Option<usize>,
+    /// Skip the denoised Mitsuba curve.
+    #[arg(long)]
+    pub no_denoise: bool,
+    /// pn points METHOD@RES[:rays=K][:step=S], comma separated: cda@24, p5@32:rays=1, …
+    /// (default cda, P_1, P_3 at
+    /// 16,24,32,48 and P_5 at 16,24,32; p1@16 with --quick).
+    #[arg(long)]
+    pub pn_points: Option<String>,
+    /// Extra `pn render` arguments for every pn render, in one string (e.g. "--spp 16").
+    #[arg(long, allow_hyphen_values = true, default_value = "")]
+    pub render_args: String,
+    /// Turntable views (0: no turntable; default 16, 2 with --quick).
+    #[arg(long, allow_negative_numbers = true)]
+    pub turntable: Option<usize>,
+    /// The pn point of the turntable (default: the fastest reaching the target error).
+    #[arg(long)]
+    pub turntable_point: Option<String>,
+    /// Skip the single-scattering comparison.
+    #[arg(long)]
+    pub no_single_scatter: bool,
+    /// Split the first scene's pn error into quadrature, solve resolution and truncation.
+    #[arg(long)]
+    pub ablation: bool,
+    /// The ablation's base point (default p3@24).
+    #[arg(long)]
+    pub ablation_base: Option<String>,
+    /// The ablation's fine solve resolution (default 48).
+    #[arg(long, allow_negative_numbers = true)]
+    pub ablation_res: Option<usize>,
+    /// The ablation's higher P_N order (default: the base order + 2).
+    #[arg(long, allow_negative_numbers = true)]
+    pub ablation_order: Option<usize>,
+    /// `pn render` arguments of the ablation's fine quadrature, in one string.
+    #[arg(long, allow_hyphen_values = true, default_value = "")]
+    pub ablation_fine_args: String,
+    /// A small smoke run: 64-spp reference, Mitsuba at 1 and 4 spp, one pn point, 2 views.
+    #[arg(long)]
+    pub quick: bool,
+    /// Worker threads of the pn renders (default: all cores).
+    #[arg(long, allow_negative_numbers = true)]
+    pub threads: Option<usize>,
+    /// Only rewrite results.md from the CSV files in --out.
+    #[arg(long)]
+    pub markdown_only: bool,
+    /// Keep <out>/<scene>/work/ (the export, every image and render) after each scene.
+    #[arg(long)]
+    pub keep_work: bool,
+}
+
+fn words(s: &str) -> Vec<String> {
+    s.split_whitespace().map(str::to_string).collect()
+}
+
+impl RaceArgs {
+    /// The driver's request (the pn points run this very binary).
+    pub fn request(&self, env: &Env) -> anyhow::Result<RaceRequest> {
+        let one = |s: &Option<String>, flag: &str| -> anyhow::Result<_> {
+            s.as_deref()
+                .map(|t| {
+                    let mut v = parse_points(t).with_context(|| format!("--{flag}"))?;
+                    anyhow::ensure!(v.len() == 1, "--{flag} takes one point, got {t:?}");
+                    Ok(v.remove(0))
+                })
+                .transpose()
+        };
+        Ok(RaceRequest {
+            scenes: self.scenes.clone(),
+            out: self.out.clone(),
+            cache: self.cache.clone(),
+            python: env.python(self.python.as_deref()),
+            pn_binary: std::env::current_exe()
+                .context("cannot find the running pn binary for the pn renders")?,
+            reference_spp: self.reference_spp,
+            mitsuba_spp: self.mitsuba_spp.clone(),
+            target_spp: self.target_spp,
+            denoise: !self.no_denoise,
+            pn_points: self
+                .pn_points
+                .as_deref()
+                .map(parse_points)
+                .transpose()
+                .context("--pn-points")?,
+            render_args: words(&self.render_args),
+            turntable: self.turntable,
+            turntable_point: one(&self.turntable_point, "turntable-point")?,
+            single_scatter: !self.no_single_scatter,
+            ablation: self.ablation,
+            ablation_base: one(&self.ablation_base, "ablation-base")?,
+            ablation_res: self.ablation_res,
+            ablation_order: self.ablation_order,
+            ablation_fine_args: words(&self.ablation_fine_args),
+            quick: self.quick,
+            threads: self.threads,
+            markdown_only: self.markdown_only,
+            keep_work: self.keep_work,
+        })
+    }
+}

@@ -1,0 +1,161 @@
+//! `pn race` from the command line: the quick smoke run on a tiny scene (needs Mitsuba and
+//! pyoidn; skipped with a message without them unless PN_REQUIRE_MITSUBA=1), the reference
+//! cache, the Markdown writer, and the errors that need no Mitsuba.
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
+
+use std::path::Path;
+
+mod support;
+use support::{mitsuba_python, ok, pn, work_dir};
+
+/// A 16³ cloud seen in a 24×24 image: every render takes well under a second.
+const TINY: &str = r#"
+[medium]
+kind = "cloud"
+seed = 5
+resolution = [16, 16, 16]
+bbox_min = [-1.0, -1.0, -1.0]
+bbox_max = [1.0, 1.0, 1.0]
+sigma_t_scale = 10.0
+albedo = 0.9
+[phase]
+kind = "hg"
+g = 0.3
+[[light]]
+kind = "directional"
+direction = [0.5, -1.0, -0.3]
+irradiance = 1.0
+[camera]
+position = [0.0, 0.0, 4.0]
+target = [0.0, 0.0, 0.0]
+up = [0.0, 1.0, 0.0]
+fov = 40.0
+width = 24
+height = 24
+[solve]
+method = "pn"
+order = 1
+resolution = [8, 8, 8]
+[render]
+spp = 4
+seed = 1
+"#;
+
+fn csv(path: &Path) -> Vec<std::collections::HashMap<String, String>> {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    lines
+        .map(|l| {
+            header
+                .iter()
+                .map(|h| h.to_string())
+                .zip(l.split(',').map(str::to_string))
+                .collect()
+        })
+        .collect()
+}
+
+#[test]
+fn quick_race_writes_tables_plot_and_markdown_and_caches_the_reference() {
+    let Some(python) = mitsuba_python() else {
+        return;
+    };
+    let d = work_dir("race_cli_quick");
+    std::fs::create_dir_all(&d).unwrap();
+    let scene = d.join("tiny.toml");
+    std::fs::write(&scene, TINY).unwrap();
+    let (out, cache) = (d.join("race"), d.join("cache"));
+    let args = [
+        "race",
+        scene.to_str().unwrap(),
+        "--quick",
+        "--pn-points",
+        "p1@8",
+        "--out",
+        out.to_str().unwrap(),
+        "--cache",
+        cache.to_str().unwrap(),
+        "--python",
+        python.to_str().unwrap(),
+    ];
+    let o = pn(&args);
+    ok(&o);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(stdout.contains("rendering into"), "{stdout}");
+    let dir = out.join("tiny");
+    for f in [
+        "points.csv",
+        "error_time.png",
+        "crossings.txt",
+        "single_scatter.csv",
+    ] {
+        assert!(dir.join(f).is_file(), "{f} missing");
+    }
+    // The exports and images are gone: the folder holds tables, plots and text only.
+    assert!(!dir.join("work").exists());
+    let rows = csv(&dir.join("points.csv"));
+    // Mitsuba at 1 and 4 spp, plain and denoised, and the one pn point.
+    let fams: Vec<&str> = rows.iter().map(|r| r["family"].as_str()).collect();
+    assert_eq!(
+        fams,
+        ["mitsuba", "mitsuba+oidn", "mitsuba", "mitsuba+oidn", "p1"]
+    );
+    for r in &rows {
+        let e: f64 = r["rel_rmse"].parse().unwrap();
+        let s: f64 = r["seconds"].parse().unwrap();
+        assert!(e > 0.0 && e.is_finite() && s > 0.0, "{r:?}");
+    }
+    // Plain Mitsuba's error falls with the spp (4× the samples: about half the error; the
+    // bound leaves room for the 32-spp reference's own noise).
+    let e1: f64 = rows[0]["rel_rmse"].parse().unwrap();
+    let e4: f64 = rows[2]["rel_rmse"].parse().unwrap();
+    assert!(e4 < 0.8 * e1, "1 spp {e1}, 4 spp {e4}");
+    let md = std::fs::read_to_string(out.join("results.md")).unwrap();
+    assert!(md.contains("## tiny") && md.contains("tiny/error_time.png"));
+    assert!(out.join("summary.csv").is_file());
+
+    // Second run: the reference comes from the cache; only the Markdown again.
+    let o = pn(&args);
+    ok(&o);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        stdout.contains("cached in") && !stdout.contains("rendering into"),
+        "{stdout}"
+    );
+    std::fs::remove_file(out.join("results.md")).unwrap();
+    ok(&pn(&[
+        "race",
+        "--markdown-only",
+        "--out",
+        out.to_str().unwrap(),
+    ]));
+    assert!(out.join("results.md").is_file());
+}
+
+#[test]
+fn bad_input_is_a_clear_error() {
+    let d = work_dir("race_cli_errors");
+    let out = d.join("race");
+    let o = pn(&[
+        "race",
+        "nebula",
+        "--python",
+        "/nonexistent/python",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("mitsuba-venv.sh"));
+    let o = pn(&["race", "nebula", "--pn-points", "p5"]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("METHOD@RES"));
+    let o = pn(&[
+        "race",
+        "--markdown-only",
+        "--out",
+        d.join("none").to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("summary.csv"));
+}
