@@ -37,6 +37,7 @@ impl Run {
                 dim: Some(Dim::Three),
                 res: Some(vec![self.res]),
                 pointsource: self.params,
+                ..Default::default()
             },
         )
         .unwrap();

@@ -54,7 +54,8 @@ impl From<FldSolverArg> for Route {
 /// Arguments of `pn solve`.
 #[derive(Args, Debug, Clone)]
 pub struct SolveArgs {
-    /// A built-in scene (checkerboard, checkerboard3d, pointsource) or a .toml scene file.
+    /// A built-in scene (checkerboard, checkerboard3d, pointsource, slab, milne) or a .toml
+    /// scene file.
     pub scene: String,
     /// Everything else (boxed: keeps the `pn` command enum small).
     #[command(flatten)]
@@ -65,7 +66,8 @@ pub struct SolveArgs {
 /// all axes; everything else as in `pn solve`).
 #[derive(Args, Debug, Clone)]
 pub struct ConvergeArgs {
-    /// A built-in scene (checkerboard, checkerboard3d, pointsource) or a .toml scene file.
+    /// A built-in scene (checkerboard, checkerboard3d, pointsource, slab, milne) or a .toml
+    /// scene file.
     pub scene: String,
     /// The options of `pn solve`; here `--res R1,R2,...` lists the resolutions (coarsest
     /// first, each an integer multiple of the first) and `--out` is the study's directory.
@@ -85,7 +87,11 @@ pub struct SolveFlags {
     /// Cells per axis: one number for all axes, or NX,NY[,NZ].
     #[arg(long, value_delimiter = ',', allow_negative_numbers = true)]
     pub res: Option<Vec<usize>>,
-    /// Boundary closure: neumann (extrapolation) or dirichlet (zero).
+    /// Boundary closure: neumann (extrapolation, reflecting), dirichlet (zero) or marshak
+    /// (vacuum; staggered P_N with odd N, assembled solvers), for all faces or per face as
+    /// FACES=KIND items, FACES one of x, y, z, xmin, xmax, ymin, ymax, zmin, zmax, plus
+    /// optionally a bare kind for the faces not named (default neumann); e.g.
+    /// x=marshak or marshak,z=neumann.
     #[arg(long)]
     pub bc: Option<Boundary>,
     /// Tolerance on the relative residual ‖b − Au‖₂/‖b‖₂.
@@ -151,9 +157,13 @@ pub struct SolveFlags {
     /// pointsource: extinction σ_t (default 8).
     #[arg(long, allow_hyphen_values = true)]
     pub sigma_t: Option<f64>,
-    /// pointsource: albedo (default 0.9).
+    /// pointsource and slab: albedo (default 0.9).
     #[arg(long, allow_hyphen_values = true)]
     pub albedo: Option<f64>,
+    /// slab: optical thickness (default 1; σ_t = 1); milne: depth of the half-space
+    /// (default 30).
+    #[arg(long, allow_hyphen_values = true)]
+    pub tau: Option<f64>,
     /// pointsource: Henyey–Greenstein g (default 0, isotropic).
     #[arg(long, allow_hyphen_values = true)]
     pub g: Option<f64>,
@@ -197,6 +207,7 @@ impl SolveFlags {
             error_estimate: self.error_estimate,
             sigma_t: self.sigma_t,
             albedo: self.albedo,
+            tau: self.tau,
             g: self.g,
             half_width: self.half_width,
             source: self.source,

@@ -25,6 +25,10 @@ pub struct StencilArgs {
     /// Print JSON: `{"moments":[{"l","m","offset":[x,y,z]}], "rows":[…]}`.
     #[arg(long)]
     pub json: bool,
+    /// Also print the Marshak vacuum conditions of every axis (odd N, staggered), derived
+    /// from the half-range Gram matrix (JSON: a "marshak" entry).
+    #[arg(long, conflicts_with_all = ["collocated", "cda", "diffusion"])]
+    pub marshak: bool,
 }
 
 impl StencilArgs {
@@ -37,6 +41,7 @@ impl StencilArgs {
             cda: self.cda,
             diffusion: self.diffusion,
             json: self.json,
+            marshak: self.marshak,
         }
     }
 }

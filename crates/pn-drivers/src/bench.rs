@@ -160,6 +160,7 @@ fn pointsource_rows(args: &BenchRequest, rows: &mut Vec<Row>) -> anyhow::Result<
         dim: Some(Dim::Three),
         res: Some(vec![n]),
         pointsource: params,
+        ..Default::default()
     };
     let h = 2.0 * params.half_width / n as f64;
     let tau_per_cell = params.sigma_t * h;

@@ -59,3 +59,4 @@ pub mod scene_setup;
 pub mod solve;
 pub mod stencil;
 pub mod tradeoff;
+pub mod vacuum_extras;

@@ -97,7 +97,8 @@ impl std::str::FromStr for Route {
 /// resolutions). `None` means "the scene's value" or the documented default.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SolveRequest {
-    /// A built-in scene (checkerboard, checkerboard3d, pointsource) or a `.toml` scene file.
+    /// A built-in scene (checkerboard, checkerboard3d, pointsource, slab, milne) or a `.toml`
+    /// scene file.
     pub scene: String,
     /// P_N order (default: the scene's, 5 for checkerboard).
     pub order: Option<usize>,
@@ -143,8 +144,10 @@ pub struct SolveRequest {
     pub error_estimate: bool,
     /// pointsource: extinction σ_t (default 8).
     pub sigma_t: Option<f64>,
-    /// pointsource: albedo (default 0.9).
+    /// pointsource and slab: albedo (default 0.9).
     pub albedo: Option<f64>,
+    /// slab: optical thickness τ (default 1); milne: depth of the half-space (default 30).
+    pub tau: Option<f64>,
     /// pointsource: Henyey–Greenstein g (default 0).
     pub g: Option<f64>,
     /// pointsource: the domain is [0, 2w]³ (default w = 1).
@@ -183,6 +186,7 @@ impl Default for SolveRequest {
             error_estimate: false,
             sigma_t: None,
             albedo: None,
+            tau: None,
             g: None,
             half_width: None,
             source: None,
@@ -229,12 +233,17 @@ pub fn scene_from_request(req: &SolveRequest) -> Result<Scene> {
     let dim = req.dim;
     let is_file = scene_arg.ends_with(".toml") || Path::new(scene_arg.as_str()).is_file();
     let ps_flags = req.sigma_t.is_some()
-        || req.albedo.is_some()
         || req.g.is_some()
         || req.half_width.is_some()
         || req.source.is_some();
     if ps_flags && scene_arg != "pointsource" {
-        bail!("--sigma-t, --albedo, --g, --half-width and --source only apply to the pointsource scene");
+        bail!("--sigma-t, --g, --half-width and --source only apply to the pointsource scene");
+    }
+    if req.albedo.is_some() && !matches!(scene_arg.as_str(), "pointsource" | "slab") {
+        bail!("--albedo only applies to the pointsource and slab scenes");
+    }
+    if req.tau.is_some() && !matches!(scene_arg.as_str(), "slab" | "milne") {
+        bail!("--tau only applies to the slab and milne scenes");
     }
     let mut scene = if is_file {
         let mut s = load_scene(Path::new(scene_arg.as_str()))?;
@@ -252,6 +261,14 @@ pub fn scene_from_request(req: &SolveRequest) -> Result<Scene> {
             dim,
             res: req.res.clone(),
             pointsource: req.pointsource_params(),
+            slab: pn_runtime::vacuum_scenes::SlabParams {
+                tau: req.tau,
+                albedo: if scene_arg == "slab" {
+                    req.albedo
+                } else {
+                    None
+                },
+            },
         };
         builtin(scene_arg, &opts)?
     };

@@ -74,6 +74,17 @@ pub fn run(req: &SolveRequest, stdout: &mut dyn Write) -> anyhow::Result<()> {
     write_outputs(&out, &problem.grid, &sol, &report)
         .with_context(|| format!("writing results to {}", out.display()))?;
     crate::error_estimate::after_solve(req, problem, &sol, &out)?;
+    if crate::vacuum_extras::applies(&scene.name) {
+        crate::vacuum_extras::write_extras(
+            &out,
+            &scene.name,
+            problem,
+            a.albedo,
+            &sol,
+            order,
+            stdout,
+        )?;
+    }
     if scene.name == "pointsource" {
         crate::pointsource_extras::write_extras(
             &out,

@@ -4,6 +4,7 @@
 //! Offsets are in half cells: 0 = cell centre, 1 = shifted half a cell toward +axis.
 use anyhow::Context;
 use pn_codegen::discretize;
+use pn_stencil::marshak::{marshak_closure, MarshakClosure};
 use pn_stencil::{Dim, StencilIr};
 use serde_json::json;
 use std::io::Write;
@@ -25,6 +26,9 @@ pub struct StencilRequest {
     pub diffusion: bool,
     /// JSON: `{"moments":[{"l","m","offset":[x,y,z]}], "rows":[…]}`.
     pub json: bool,
+    /// Also print the Marshak vacuum conditions of every axis, derived from the half-range
+    /// Gram matrix ([`pn_stencil::marshak`]; staggered P_N with odd N).
+    pub marshak: bool,
 }
 
 impl Default for StencilRequest {
@@ -37,6 +41,7 @@ impl Default for StencilRequest {
             cda: false,
             diffusion: false,
             json: false,
+            marshak: false,
         }
     }
 }
@@ -175,13 +180,94 @@ pub fn to_text(ir: &StencilIr) -> String {
     s
 }
 
+/// The Marshak closures of every axis of `ir` (docs/design.md §3, "Domain and boundary").
+fn marshak_closures(ir: &StencilIr) -> anyhow::Result<Vec<MarshakClosure>> {
+    let order = ir.moments.iter().map(|m| m.l).max().unwrap_or(0);
+    anyhow::ensure!(
+        ir.moments.len() > 1 && order % 2 == 1,
+        "--marshak needs a staggered P_N stencil of odd order (got {} with N = {order})",
+        ir.name
+    );
+    (0..ir.dim.axes())
+        .map(|d| marshak_closure(&ir.moments, d).map_err(|e| anyhow::anyhow!("{e}")))
+        .collect()
+}
+
+/// The Marshak conditions as JSON: per axis, `{axis, conditions: [{moment, l, m, terms:
+/// [{moment, l, m, coefficient}]}]}` for the min face (the max face negates every coefficient).
+fn marshak_json(ir: &StencilIr, closures: &[MarshakClosure]) -> serde_json::Value {
+    let axes: Vec<_> = closures
+        .iter()
+        .map(|c| {
+            let conds: Vec<_> = c
+                .conditions
+                .iter()
+                .flatten()
+                .map(|cond| {
+                    let p = &ir.moments[cond.moment];
+                    let terms: Vec<_> = cond
+                        .terms
+                        .iter()
+                        .map(|&(e, v)| {
+                            let q = &ir.moments[e];
+                            json!({"moment": e, "l": q.l, "m": q.m, "coefficient": v})
+                        })
+                        .collect();
+                    json!({"moment": cond.moment, "l": p.l, "m": p.m, "terms": terms})
+                })
+                .collect();
+            let axis = ["x", "y", "z"][c.axis];
+            json!({"axis": axis, "conditions": conds})
+        })
+        .collect();
+    json!(axes)
+}
+
+/// The Marshak conditions, readable.
+fn marshak_text(ir: &StencilIr, closures: &[MarshakClosure]) -> String {
+    use std::fmt::Write;
+    let mut s = String::from(
+        "\nMarshak vacuum conditions on the min face of each axis (the max face negates every \
+         coefficient; the even moments are those half a cell inside, extrapolated to the face):\n",
+    );
+    for c in closures {
+        let _ = writeln!(
+            s,
+            "  axis {}: {} conditions",
+            ["x", "y", "z"][c.axis],
+            c.count()
+        );
+        for cond in c.conditions.iter().flatten() {
+            let mut line = moment_name(ir, cond.moment);
+            for &(e, v) in &cond.terms {
+                let sign = if v < 0.0 { '-' } else { '+' };
+                let _ = write!(line, " {sign} {:.12} {}", v.abs(), moment_name(ir, e));
+            }
+            let _ = writeln!(s, "    {line} = 0");
+        }
+    }
+    s
+}
+
 /// Runs `pn stencil`, printing to `stdout`.
 pub fn run(args: &StencilRequest, stdout: &mut dyn Write) -> anyhow::Result<()> {
     let ir = build_ir(args)?;
+    let closures = if args.marshak {
+        Some(marshak_closures(&ir)?)
+    } else {
+        None
+    };
     if args.json {
-        writeln!(stdout, "{}", serde_json::to_string_pretty(&to_json(&ir))?)?;
+        let mut v = to_json(&ir);
+        if let (Some(c), Some(obj)) = (&closures, v.as_object_mut()) {
+            obj.insert("marshak".into(), marshak_json(&ir, c));
+        }
+        writeln!(stdout, "{}", serde_json::to_string_pretty(&v)?)?;
     } else {
         write!(stdout, "{}", to_text(&ir))?;
+        if let Some(c) = &closures {
+            write!(stdout, "{}", marshak_text(&ir, c))?;
+        }
     }
     Ok(())
 }

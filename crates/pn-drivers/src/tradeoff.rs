@@ -150,6 +150,7 @@ fn measure(
             dim: Some(Dim::Three),
             res: Some(vec![n]),
             pointsource: params,
+            ..Default::default()
         },
     )?;
     let kernel = if method == "cda" {

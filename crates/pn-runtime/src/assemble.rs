@@ -7,6 +7,7 @@
 
 use crate::context::RowContext;
 use crate::layout::Layout;
+use crate::marshak::{MarshakRows, DEFAULT_FACE_VALUE};
 use crate::problem::Problem;
 use anyhow::Context;
 use pn_stencil::StencilKernel;
@@ -66,11 +67,15 @@ pub fn assemble(
     layout: &Layout,
 ) -> anyhow::Result<System> {
     check_kernel(problem, kernel, layout)?;
+    let marshak = MarshakRows::new(problem, layout, DEFAULT_FACE_VALUE)?;
     let n = layout.len();
     let n_chunks = n.div_ceil(CHUNK);
     let chunks: Vec<Chunk> = (0..n_chunks)
         .into_par_iter()
-        .map(|c| assemble_chunk(problem, kernel, layout, c * CHUNK..((c + 1) * CHUNK).min(n)))
+        .map(|c| {
+            let rows = c * CHUNK..((c + 1) * CHUNK).min(n);
+            assemble_chunk(problem, kernel, layout, marshak.as_ref(), rows)
+        })
         .collect::<anyhow::Result<_>>()?;
 
     let nnz: usize = chunks.iter().map(|c| c.cols.len()).sum();
@@ -94,11 +99,13 @@ pub fn assemble(
     Ok(System { matrix, rhs })
 }
 
-/// Assembles the rows `rows` (storage indices) into a [`Chunk`].
+/// Assembles the rows `rows` (storage indices) into a [`Chunk`]; the rows on Marshak faces
+/// (when `marshak` is given) are the Marshak conditions.
 pub(crate) fn assemble_chunk(
     problem: &Problem,
     kernel: &dyn StencilKernel,
     layout: &Layout,
+    marshak: Option<&MarshakRows>,
     rows: std::ops::Range<usize>,
 ) -> anyhow::Result<Chunk> {
     let len = rows.len();
@@ -113,6 +120,16 @@ pub(crate) fn assemble_chunk(
     let mut ctx = RowContext::new(problem, [0; 3]);
     for g in rows {
         let (q, idx) = layout.locate(g);
+        if let Some((m, face)) = marshak.and_then(|m| Some((m, m.face_of(q, idx)?))) {
+            entries.clear();
+            m.row(layout, q, idx, face, &mut entries);
+            entries.sort_unstable_by_key(|e| e.0);
+            out.row_nnz.push(entries.len());
+            out.cols.extend(entries.iter().map(|e| e.0));
+            out.vals.extend(entries.iter().map(|e| e.1));
+            out.rhs.push(0.0);
+            continue;
+        }
         let pos = layout.half_coord(q, idx);
         ctx.set_row(pos);
         let pattern = kernel.pattern(q);

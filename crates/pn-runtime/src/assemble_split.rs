@@ -8,11 +8,12 @@
 //! [`crate::assemble::assemble`]) and each block is split and appended before the next is
 //! assembled, so the peak is the blocks plus one block of rows. The capacity of `B` and
 //! `C̃` is reserved up front from the stencil pattern (an upper bound: boundary closure only
-//! removes entries), so they are never reallocated; each block of rows is copied into them in
+//! removes entries, and a Marshak face row counts with its own length), so they are never reallocated; each block of rows is copied into them in
 //! parallel.
 
 use crate::assemble::{assemble_chunk, check_kernel, Chunk, CHUNK};
 use crate::layout::Layout;
+use crate::marshak::{MarshakRows, DEFAULT_FACE_VALUE};
 use crate::problem::Problem;
 use crate::solver::parity::split::{classes, BlockMat, Classes, ParityError, Split};
 use crate::solver::pn_layout::even_mask;
@@ -78,6 +79,7 @@ pub fn assemble_split(
     layout: &Layout,
 ) -> anyhow::Result<Result<SplitSystem, ParityError>> {
     check_kernel(problem, kernel, layout)?;
+    let marshak = MarshakRows::new(problem, layout, DEFAULT_FACE_VALUE)?;
     let n = layout.len();
     let even = even_mask(layout);
     let Classes {
@@ -96,7 +98,9 @@ pub fn assemble_split(
             .pattern(q)
             .iter()
             .filter(|t| !(t.moment == q && t.offset == [0, 0, 0]))
-            .count();
+            .count()
+            // A Marshak row may have more entries than the stencil's row it replaces.
+            .max(marshak.as_ref().map_or(0, |m| m.max_row_len()));
         *(if mp.l % 2 == 0 {
             &mut b_cap
         } else {
@@ -126,7 +130,8 @@ pub fn assemble_split(
             .into_par_iter()
             .map(|r0| {
                 let rows = r0..(r0 + CHUNK).min(end);
-                let chunk = assemble_chunk(problem, kernel, layout, rows.clone())?;
+                let chunk =
+                    assemble_chunk(problem, kernel, layout, marshak.as_ref(), rows.clone())?;
                 Ok(split_chunk(&chunk, rows.start, &even, &local))
             })
             .collect::<anyhow::Result<_>>()?;

@@ -5,7 +5,7 @@
 //! max side is the "extra boundary unknown" of docs/design.md §3). Unknowns are stored moment
 //! by moment; within a moment, x is the slowest axis: `offset[q] + (ix·ny + iy)·nz + iz`.
 
-use crate::problem::{Boundary, Grid};
+use crate::problem::{Boundary, BoundaryKind, Grid};
 use pn_stencil::{Dim, HalfOffset, MomentPlacement};
 
 /// Per-moment extents and offsets into the global unknown vector.
@@ -97,7 +97,10 @@ impl Layout {
     /// boundary condition: `None` when Dirichlet drops the reference.
     ///
     /// Neumann (extrapolation) clamps each axis index to the moment's range, i.e. the same
-    /// moment at the nearest inside position (docs/design.md §3).
+    /// moment at the nearest inside position (docs/design.md §3); each face uses its own
+    /// kind. A Marshak face is never reached by a reference: the rows that would reach
+    /// across it (those of the face unknowns) are replaced by the Marshak conditions
+    /// ([`crate::marshak`]); should one reach it anyway it is dropped, as under Dirichlet.
     pub fn resolve(&self, q: usize, half: [i64; 3], bc: Boundary) -> Option<usize> {
         let s = self.moments[q].shift;
         let e = self.extents[q];
@@ -111,9 +114,9 @@ impl Layout {
             };
             let max = e[d] as i64 - 1;
             if raw < 0 || raw > max {
-                match bc {
-                    Boundary::Neumann => idx[d] = raw.clamp(0, max) as usize,
-                    Boundary::Dirichlet => return None,
+                match bc.face(d, usize::from(raw > max)) {
+                    BoundaryKind::Neumann => idx[d] = raw.clamp(0, max) as usize,
+                    BoundaryKind::Dirichlet | BoundaryKind::Marshak => return None,
                 }
             } else {
                 idx[d] = raw as usize;
@@ -185,6 +188,10 @@ mod tests {
             l.resolve(0, [7, 1, 1], Boundary::Neumann),
             Some(l.index(0, [2, 0, 0]))
         );
+        // Per face: reflecting at x min, dropped at x max.
+        let bc: Boundary = "xmax=dirichlet".parse().unwrap();
+        assert_eq!(l.resolve(0, [-1, 1, 1], bc), Some(l.index(0, [0, 0, 0])));
+        assert_eq!(l.resolve(0, [7, 1, 1], bc), None);
         assert!(l.check_parity(1, 0, [1, 0, 0]).is_ok());
         assert!(l.check_parity(1, 0, [2, 0, 0]).is_err());
     }

@@ -5,9 +5,10 @@
 //! the generator is a dependency.
 //!
 //! * Problem description: [`field`], [`problem`] (including [`problem::sigma_tr`]),
-//!   [`scenes`] (built-in), [`scene_file`] (TOML), [`vol`] and [`npy`] (voxel data and array
+//!   [`scenes`] (built-in; [`vacuum_scenes`]: `slab` and `milne`), [`scene_file`] (TOML), [`vol`] and [`npy`] (voxel data and array
 //!   files); [`scene_registry`] lists every built-in scene of `pn solve` and `pn render`.
-//! * Discrete system: [`layout`] (unknowns and boundary closure), [`context`] (fields at
+//! * Discrete system: [`layout`] (unknowns and boundary closure), [`marshak`] (the Marshak
+//!   vacuum faces' rows), [`context`] (fields at
 //!   staggered positions), [`assemble`] (sprs CSR), [`assemble_split`] (straight into the
 //!   parity blocks), [`matfree`] (the matrix-free operator).
 //! * Solving: [`operator`] (operator and preconditioner traits), [`linalg`], [`solver`] (one
@@ -16,8 +17,8 @@
 //!   diffusion), [`convergence`] (resolution studies).
 //! * Results: [`unstagger`], [`energy`], [`output`], [`plot`], [`memory`] and
 //!   [`memory_estimate`]; [`threads`] for `--threads`.
-//! * [`reference`]: analytic and semi-analytic reference solutions (point source, StaRMAP
-//!   files); [`render`]: first-scatter sources, the volumetric renderer and the Mitsuba
+//! * [`reference`]: analytic and semi-analytic reference solutions (point source, the 1D
+//!   P_N–Marshak slab and Milne problems, StaRMAP files); [`render`]: first-scatter sources, the volumetric renderer and the Mitsuba
 //!   export.
 //!
 //! Solving the checkerboard at P_1 on a coarse grid (the stencil comes from `pn-kernels`):
@@ -52,6 +53,7 @@ pub mod energy;
 pub mod field;
 pub mod layout;
 pub mod linalg;
+pub mod marshak;
 pub mod matfree;
 pub mod memory;
 pub mod memory_estimate;
@@ -68,4 +70,5 @@ pub mod scenes;
 pub mod solver;
 pub mod threads;
 pub mod unstagger;
+pub mod vacuum_scenes;
 pub mod vol;

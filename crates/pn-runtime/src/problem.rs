@@ -98,41 +98,213 @@ pub enum Scattering {
     Albedo(Field),
 }
 
-/// Boundary closure for stencil references outside the domain (docs/design.md §3).
+/// The closure of one domain face (docs/design.md §3, "Domain and boundary").
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum BoundaryKind {
+    /// Extrapolation / zero gradient: a reference outside maps to the same moment at the
+    /// nearest inside position (reflecting: no net flux through the face).
+    Neumann,
+    /// Dirichlet zero: the reference is dropped.
+    Dirichlet,
+    /// Marshak's vacuum condition: the half-range moments of the incoming radiance vanish
+    /// for the harmonics odd under reflection in the face plane (staggered P_N with odd N
+    /// only; [`crate::marshak`]).
+    Marshak,
+}
+
+impl BoundaryKind {
+    /// Every kind, in the order of the help texts.
+    pub const ALL: [BoundaryKind; 3] = [
+        BoundaryKind::Neumann,
+        BoundaryKind::Dirichlet,
+        BoundaryKind::Marshak,
+    ];
+
+    /// Lower-case name (`neumann`, `dirichlet`, `marshak`).
+    pub fn name(self) -> &'static str {
+        match self {
+            BoundaryKind::Neumann => "neumann",
+            BoundaryKind::Dirichlet => "dirichlet",
+            BoundaryKind::Marshak => "marshak",
+        }
+    }
+}
+
+impl std::str::FromStr for BoundaryKind {
+    type Err = anyhow::Error;
+    fn from_str(s: &str) -> anyhow::Result<Self> {
+        BoundaryKind::ALL
+            .into_iter()
+            .find(|k| k.name() == s)
+            .ok_or_else(|| {
+                anyhow::anyhow!(
+                    "unknown boundary condition {s:?} (expected neumann, dirichlet or marshak)"
+                )
+            })
+    }
+}
+
+/// Boundary closure for stencil references outside the domain (docs/design.md §3): one
+/// [`BoundaryKind`] for every face, or one per face ([`Boundary::Faces`]).
 ///
 /// With extrapolation the face rows on the domain faces see a zero difference across the
 /// boundary, which makes the boundary reflecting: the net flux through it vanishes and all
 /// emitted power is absorbed (the energy balance reports a zero outflow). Dirichlet zero
 /// treats everything outside as 0, so light leaves the domain (a crude vacuum boundary,
 /// not the Marshak condition); its answer is lower near the boundary and has a positive
-/// outflow.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
-#[serde(rename_all = "lowercase")]
+/// outflow. Marshak is the vacuum condition proper: the rows of the face unknowns become
+/// the half-range conditions of [`pn_stencil::marshak`].
+///
+/// Text form (`--bc`, a scene file's `boundary`): a kind for all faces (`neumann`,
+/// `dirichlet`, `marshak`), or a comma-separated list of `FACES=KIND` items with FACES one of
+/// `x`, `y`, `z` (both faces of the axis) or `xmin`, `xmax`, `ymin`, `ymax`, `zmin`, `zmax`,
+/// optionally with one bare kind for the faces not named (default `neumann`): e.g.
+/// `x=marshak` (a slab: vacuum on the x faces, reflecting elsewhere) or
+/// `marshak,z=neumann`. Later items override earlier ones.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Boundary {
-    /// Extrapolation / zero gradient: the nearest inside position of the same moment.
+    /// Extrapolation / zero gradient on every face.
     Neumann,
-    /// Dirichlet zero: the reference is dropped.
+    /// Dirichlet zero on every face.
     Dirichlet,
+    /// Marshak vacuum condition on every face.
+    Marshak,
+    /// One closure per face, `[axis][0 = min face, 1 = max face]`; never all equal (the
+    /// parser and [`Boundary::from_faces`] give the uniform variants then).
+    Faces([[BoundaryKind; 2]; 3]),
 }
 
 impl std::str::FromStr for Boundary {
     type Err = anyhow::Error;
     fn from_str(s: &str) -> anyhow::Result<Self> {
-        match s {
-            "neumann" => Ok(Boundary::Neumann),
-            "dirichlet" => Ok(Boundary::Dirichlet),
-            _ => anyhow::bail!("unknown boundary condition {s:?} (expected neumann or dirichlet)"),
+        let s = s.trim();
+        anyhow::ensure!(
+            !s.is_empty(),
+            "empty boundary condition (expected neumann, dirichlet, marshak or a per-face list \
+             such as x=marshak,y=neumann)"
+        );
+        let mut default = BoundaryKind::Neumann;
+        let mut set: Vec<(usize, usize, BoundaryKind)> = Vec::new();
+        for item in s.split(',').map(str::trim) {
+            match item.split_once('=') {
+                None => default = item.parse()?,
+                Some((faces, kind)) => {
+                    let kind: BoundaryKind = kind.trim().parse()?;
+                    let faces = faces.trim();
+                    let axis = match faces.chars().next() {
+                        Some('x') => 0,
+                        Some('y') => 1,
+                        Some('z') => 2,
+                        _ => anyhow::bail!(
+                            "unknown face {faces:?} in boundary {s:?} (expected x, y, z, xmin, \
+                             xmax, ymin, ymax, zmin or zmax)"
+                        ),
+                    };
+                    let sides: &[usize] = match &faces[1..] {
+                        "" => &[0, 1],
+                        "min" => &[0],
+                        "max" => &[1],
+                        _ => anyhow::bail!(
+                            "unknown face {faces:?} in boundary {s:?} (expected x, y, z, xmin, \
+                             xmax, ymin, ymax, zmin or zmax)"
+                        ),
+                    };
+                    set.extend(sides.iter().map(|&side| (axis, side, kind)));
+                }
+            }
         }
+        let mut faces = [[default; 2]; 3];
+        for (axis, side, kind) in set {
+            faces[axis][side] = kind;
+        }
+        Ok(Boundary::from_faces(faces))
     }
 }
 
 impl Boundary {
-    /// Lower-case name.
-    pub fn name(&self) -> &'static str {
-        match self {
-            Boundary::Neumann => "neumann",
-            Boundary::Dirichlet => "dirichlet",
+    /// The boundary with these per-face kinds (a uniform variant when all six agree).
+    pub fn from_faces(faces: [[BoundaryKind; 2]; 3]) -> Self {
+        let first = faces[0][0];
+        if faces.iter().flatten().all(|&k| k == first) {
+            Boundary::uniform(first)
+        } else {
+            Boundary::Faces(faces)
         }
+    }
+
+    /// The same kind on every face.
+    pub fn uniform(kind: BoundaryKind) -> Self {
+        match kind {
+            BoundaryKind::Neumann => Boundary::Neumann,
+            BoundaryKind::Dirichlet => Boundary::Dirichlet,
+            BoundaryKind::Marshak => Boundary::Marshak,
+        }
+    }
+
+    /// The kind of every face, `[axis][0 = min, 1 = max]`.
+    pub fn faces(&self) -> [[BoundaryKind; 2]; 3] {
+        match self {
+            Boundary::Neumann => [[BoundaryKind::Neumann; 2]; 3],
+            Boundary::Dirichlet => [[BoundaryKind::Dirichlet; 2]; 3],
+            Boundary::Marshak => [[BoundaryKind::Marshak; 2]; 3],
+            Boundary::Faces(f) => *f,
+        }
+    }
+
+    /// The kind of the min (`side` 0) or max (`side` 1) face of `axis`.
+    pub fn face(&self, axis: usize, side: usize) -> BoundaryKind {
+        self.faces()[axis][side]
+    }
+
+    /// Whether some face of the first `axes` axes has the Marshak condition.
+    pub fn has_marshak(&self, axes: usize) -> bool {
+        self.faces()[..axes.min(3)]
+            .iter()
+            .flatten()
+            .any(|&k| k == BoundaryKind::Marshak)
+    }
+
+    /// Whether every face of the first `axes` axes is reflecting (Neumann).
+    pub fn all_neumann(&self, axes: usize) -> bool {
+        self.faces()[..axes.min(3)]
+            .iter()
+            .flatten()
+            .all(|&k| k == BoundaryKind::Neumann)
+    }
+
+    /// Lower-case name: the kind when uniform, else the per-face list in the text form
+    /// (`x=marshak,y=neumann,z=neumann`, with `xmin=`/`xmax=` where the two faces differ).
+    pub fn name(&self) -> String {
+        match self {
+            Boundary::Faces(f) => {
+                let axes = ["x", "y", "z"];
+                let mut items = Vec::new();
+                for (a, sides) in f.iter().enumerate() {
+                    if sides[0] == sides[1] {
+                        items.push(format!("{}={}", axes[a], sides[0].name()));
+                    } else {
+                        items.push(format!("{}min={}", axes[a], sides[0].name()));
+                        items.push(format!("{}max={}", axes[a], sides[1].name()));
+                    }
+                }
+                items.join(",")
+            }
+            _ => self.face(0, 0).name().to_string(),
+        }
+    }
+}
+
+impl serde::Serialize for Boundary {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(&self.name())
+    }
+}
+
+impl<'de> serde::Deserialize<'de> for Boundary {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let text = String::deserialize(d)?;
+        text.parse()
+            .map_err(|e: anyhow::Error| serde::de::Error::custom(e.to_string()))
     }
 }
 
@@ -388,7 +560,7 @@ impl Problem {
     /// [`Problem::coefficients`] tolerates in σ_s ≤ σ_t). Stops at the first absorbing
     /// cell; coefficient errors are returned as they are.
     pub fn check_not_singular(&self) -> anyhow::Result<()> {
-        if self.boundary != Boundary::Neumann {
+        if !self.boundary.all_neumann(self.grid.dim.axes()) {
             return Ok(());
         }
         let g = &self.grid;
@@ -407,7 +579,7 @@ impl Problem {
         anyhow::bail!(
             "the system is singular: nothing is absorbed (albedo 1, σ_a = 0 everywhere) and the \
              neumann boundary reflects everything, so no steady state exists; \
-             use --bc dirichlet (light leaves the domain) or an albedo below 1"
+             use --bc marshak (the vacuum condition) or --bc dirichlet (light leaves the domain), or an albedo below 1"
         )
     }
 
@@ -458,5 +630,48 @@ fn check(name: &'static str, value: f64, p: Point) -> Result<(), CoefficientErro
         })
     } else {
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use BoundaryKind::{Dirichlet as D, Marshak as M, Neumann as N};
+
+    #[test]
+    fn boundary_text_form() {
+        assert_eq!("neumann".parse::<Boundary>().unwrap(), Boundary::Neumann);
+        assert_eq!("marshak".parse::<Boundary>().unwrap(), Boundary::Marshak);
+        let slab: Boundary = "x=marshak".parse().unwrap();
+        assert_eq!(slab.faces(), [[M, M], [N, N], [N, N]]);
+        assert_eq!(slab.name(), "x=marshak,y=neumann,z=neumann");
+        assert_eq!(slab.name().parse::<Boundary>().unwrap(), slab);
+        let b: Boundary = "marshak, z=neumann, xmax=dirichlet".parse().unwrap();
+        assert_eq!(b.faces(), [[M, D], [M, M], [N, N]]);
+        assert_eq!(b.name(), "xmin=marshak,xmax=dirichlet,y=marshak,z=neumann");
+        assert_eq!(b.name().parse::<Boundary>().unwrap(), b);
+        // Six equal faces are the uniform variant.
+        assert_eq!(
+            "x=dirichlet,y=dirichlet,dirichlet"
+                .parse::<Boundary>()
+                .unwrap(),
+            Boundary::Dirichlet
+        );
+        assert!(b.has_marshak(3) && !"z=marshak".parse::<Boundary>().unwrap().has_marshak(2));
+        assert!("z=marshak".parse::<Boundary>().unwrap().all_neumann(2));
+        for bad in [
+            "",
+            "vacuum",
+            "w=marshak",
+            "xmid=marshak",
+            "x=foo",
+            "x=marshak,,",
+        ] {
+            let e = bad.parse::<Boundary>().unwrap_err().to_string();
+            assert!(!e.is_empty(), "{bad}");
+        }
+        let json = serde_json::to_string(&slab).unwrap();
+        assert_eq!(json, "\"x=marshak,y=neumann,z=neumann\"");
+        assert_eq!(serde_json::from_str::<Boundary>(&json).unwrap(), slab);
     }
 }

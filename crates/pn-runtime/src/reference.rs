@@ -12,6 +12,8 @@
 //! * [`gaussian`]: the same solutions for a source with a 3D Gaussian profile (for
 //!   convergence studies), and the scaled complementary error function they need.
 //! * [`profile`]: the `profile.csv` / `profile.png` outputs of the `pointsource` scene.
+//! * [`slab`]: the 1D P_N–Marshak slab (reflection, transmission) and Milne (extrapolation
+//!   length) references of `tests/data/marshak/README.md` (eigen-decomposition).
 //! * [`special`]: the special functions they need (erfc, the scaled erfcx).
 //! * [`starmap`]: the reader of the StaRMAP checkerboard references (CSV).
 
@@ -19,6 +21,7 @@ pub mod closed_forms;
 pub mod gaussian;
 pub mod pointsource;
 pub mod profile;
+pub mod slab;
 pub mod special;
 pub mod starmap;
 
@@ -31,4 +34,5 @@ pub use profile::{
     register_plot_fonts, write_profile_csv, write_profile_png, write_profile_png_titled,
     ProfileRow, PROFILE_CSV_HEADER,
 };
+pub use slab::{pn_marshak_milne, pn_marshak_slab, SlabReference};
 pub use special::{erfc, erfcx};

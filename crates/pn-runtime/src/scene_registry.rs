@@ -62,7 +62,7 @@ pub struct BuiltinScene {
 }
 
 /// Every built-in scene, solve scenes first, in the order the help texts list them.
-pub const BUILTIN_SCENES: [BuiltinScene; 7] = [
+pub const BUILTIN_SCENES: [BuiltinScene; 9] = [
     BuiltinScene {
         name: "checkerboard",
         kind: SceneKind::Solve,
@@ -81,6 +81,21 @@ pub const BUILTIN_SCENES: [BuiltinScene; 7] = [
         kind: SceneKind::Solve,
         description: "an isotropic point source in a homogeneous medium, σ_t = 8 and \
                       α = 0.9 on [0,2]³, 80³ cells, with analytic references",
+        toml: None,
+    },
+    BuiltinScene {
+        name: "slab",
+        kind: SceneKind::Solve,
+        description: "a slab of optical thickness --tau (1) and --albedo (0.9) lit by a \
+                      normal beam, Marshak vacuum faces in x: collided reflection and \
+                      transmission",
+        toml: None,
+    },
+    BuiltinScene {
+        name: "milne",
+        kind: SceneKind::Solve,
+        description: "the Milne problem (half-space, c = 1, Marshak face at x = 0, depth \
+                      --tau 30): the extrapolation length",
         toml: None,
     },
     BuiltinScene {
@@ -199,7 +214,13 @@ mod tests {
         }
         assert_eq!(
             names(SceneKind::Solve),
-            ["checkerboard", "checkerboard3d", "pointsource"]
+            [
+                "checkerboard",
+                "checkerboard3d",
+                "pointsource",
+                "slab",
+                "milne"
+            ]
         );
         assert_eq!(
             names(SceneKind::Render),
@@ -214,7 +235,7 @@ mod tests {
             .unwrap_or_default();
         assert!(e.contains("`pn render cloud`"), "{e}");
         assert!(
-            e.contains("checkerboard, checkerboard3d, pointsource"),
+            e.contains("checkerboard, checkerboard3d, pointsource, slab, milne"),
             "{e}"
         );
         let e = wrong_kind_error("checkerboard", SceneKind::Render)

@@ -24,7 +24,13 @@ fn scene(name: &str, dim: Dim, res: usize, boundary: Boundary) -> Problem {
 /// Checkerboard (heterogeneous, 2D) and point source (3D), both closures, P_1 and P_3.
 fn cases() -> Vec<(String, Problem, i32)> {
     let mut out = Vec::new();
-    for bc in [Boundary::Neumann, Boundary::Dirichlet] {
+    let slab: Boundary = "x=marshak,ymax=dirichlet".parse().unwrap();
+    for bc in [
+        Boundary::Neumann,
+        Boundary::Dirichlet,
+        Boundary::Marshak,
+        slab,
+    ] {
         for order in [1, 3] {
             out.push((
                 format!("checkerboard P_{order} {bc:?}"),

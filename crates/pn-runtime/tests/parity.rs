@@ -31,6 +31,7 @@ fn pointsource3d(res: usize, g: f64) -> Problem {
             g,
             ..Default::default()
         },
+        ..Default::default()
     };
     builtin("pointsource", &o).unwrap().problem
 }

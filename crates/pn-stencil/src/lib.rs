@@ -12,6 +12,8 @@
 //! * Evaluation: [`StencilKernel`], [`FieldContext`], [`TermPattern`], [`InterpretedKernel`].
 //! * [`quadrature`]: Gauss–Legendre and sphere quadrature, real spherical harmonics,
 //!   transport matrices and phase-function moments (docs/design.md §2.3).
+//! * [`marshak`]: the half-range Gram matrices and the Marshak vacuum closure derived from
+//!   them (docs/design.md §3, "Domain and boundary").
 //!
 //! ```
 //! use pn_stencil::{quadrature, Dim, Staggering};
@@ -27,6 +29,7 @@
 
 mod interpret;
 mod ir;
+pub mod marshak;
 pub mod quadrature;
 
 pub use interpret::InterpretedKernel;

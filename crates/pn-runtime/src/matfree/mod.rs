@@ -26,7 +26,7 @@ use crate::assemble::check_kernel;
 use crate::context::RowContext;
 use crate::layout::Layout;
 use crate::operator::LinearOperator;
-use crate::problem::{Boundary, Problem};
+use crate::problem::Problem;
 use anyhow::Context;
 use pn_stencil::StencilKernel;
 use rayon::prelude::*;
@@ -83,6 +83,11 @@ impl MatFreeOperator {
         layout: &Layout,
     ) -> anyhow::Result<Self> {
         check_kernel(problem, kernel, layout)?;
+        anyhow::ensure!(
+            !problem.boundary.has_marshak(problem.grid.dim.axes()),
+            "the matrix-free solvers do not take the Marshak boundary (its face rows are not \
+             stencil rows); use an assembled solver such as parity-cg, cgnr, lsqr or lsmr"
+        );
         let nm = layout.moments.len();
         let mut rhs = vec![0.0; layout.len()];
         let mut blocks = Vec::with_capacity(nm);
@@ -169,7 +174,7 @@ impl MatFreeOperator {
                                     let r = idx[d] as i64 + term.delta[d];
                                     r >= 0 && r < ep[d] as i64
                                 });
-                                if !inside && problem.boundary == Boundary::Neumann {
+                                if !inside {
                                     let half =
                                         [0, 1, 2].map(|d| pos[d] + pattern[t].offset[d] as i64);
                                     if let Some(col) =

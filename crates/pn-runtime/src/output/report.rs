@@ -115,7 +115,7 @@ impl Report {
             resolution: problem.grid.res,
             domain_min: problem.grid.min,
             domain_max: problem.grid.max,
-            boundary: problem.boundary.name().into(),
+            boundary: problem.boundary.name(),
             layout: info.layout.clone(),
             stencil: kernel_name.into(),
             stencil_compiled: info.stencil_compiled,

@@ -1,0 +1,87 @@
+//! What `pn solve slab` and `pn solve milne` add to `report.json`: the quantities the
+//! Marshak vacuum boundary is checked with (docs/design.md §3, "Domain and boundary";
+//! `tests/data/marshak/README.md`), next to the 1D P_N–Marshak reference of the same order
+//! ([`pn_runtime::reference::slab`]) when one exists.
+//!
+//! * `slab`: `reflection` and `transmission`, the collided outgoing flux per unit incident
+//!   flux through x = 0 and x = τ ([`slab_fluxes`]); `reference_reflection` and
+//!   `reference_transmission` (P_N–Marshak, exact in 1D) for odd N and albedo < 1, when the
+//!   boundary is Marshak on both x faces.
+//! * `milne`: `extrapolation_length` ([`milne_extrapolation_length`]) and
+//!   `reference_extrapolation_length` (P_N–Marshak) for odd N with a Marshak face at x = 0.
+
+use anyhow::{Context, Result};
+use pn_runtime::pipeline::Solution;
+use pn_runtime::problem::{BoundaryKind, Problem};
+use pn_runtime::reference::{pn_marshak_milne, pn_marshak_slab};
+use pn_runtime::vacuum_scenes::{milne_extrapolation_length, slab_fluxes, SLAB_ALBEDO};
+use std::io::Write;
+use std::path::Path;
+
+/// Whether `scene` has extras here.
+pub fn applies(scene: &str) -> bool {
+    scene == "slab" || scene == "milne"
+}
+
+/// Adds the measurements of the `slab` or `milne` scene to `out/report.json` and prints
+/// them. `order` is the P_N order (0 for CDA: no reference).
+pub fn write_extras(
+    out: &Path,
+    scene: &str,
+    problem: &Problem,
+    albedo: Option<f64>,
+    sol: &Solution,
+    order: usize,
+    stdout: &mut dyn Write,
+) -> Result<()> {
+    let path = out.join("report.json");
+    let text = std::fs::read_to_string(&path)
+        .with_context(|| format!("reading {} to add the {scene} results", path.display()))?;
+    let mut report: serde_json::Value =
+        serde_json::from_str(&text).with_context(|| format!("parsing {}", path.display()))?;
+    let b = &problem.boundary;
+    let odd = order % 2 == 1;
+    let mut extra = serde_json::Map::new();
+    if scene == "slab" {
+        let (r, t) = slab_fluxes(&sol.layout, &sol.u)?;
+        extra.insert("reflection".into(), r.into());
+        extra.insert("transmission".into(), t.into());
+        let tau = problem.grid.max[0] - problem.grid.min[0];
+        let c = albedo.unwrap_or(SLAB_ALBEDO);
+        let vacuum = b.face(0, 0) == BoundaryKind::Marshak && b.face(0, 1) == BoundaryKind::Marshak;
+        write!(
+            stdout,
+            "slab τ = {tau}, albedo {c}: reflection {r:.6}, transmission {t:.6}"
+        )?;
+        if odd && vacuum && c < 1.0 {
+            let reference = pn_marshak_slab(order, tau, c)?;
+            extra.insert("reference_reflection".into(), reference.reflection.into());
+            extra.insert(
+                "reference_transmission".into(),
+                reference.transmission.into(),
+            );
+            write!(
+                stdout,
+                " (1D P_{order}–Marshak: {:.6}, {:.6})",
+                reference.reflection, reference.transmission
+            )?;
+        }
+        writeln!(stdout)?;
+    } else {
+        let z0 = milne_extrapolation_length(&problem.grid, &sol.layout, &sol.u)?;
+        extra.insert("extrapolation_length".into(), z0.into());
+        write!(stdout, "milne: extrapolation length {z0:.6}")?;
+        if odd && b.face(0, 0) == BoundaryKind::Marshak {
+            let reference = pn_marshak_milne(order)?;
+            extra.insert("reference_extrapolation_length".into(), reference.into());
+            write!(stdout, " (P_{order}–Marshak: {reference:.6})")?;
+        }
+        writeln!(stdout)?;
+    }
+    if let Some(obj) = report.as_object_mut() {
+        obj.extend(extra);
+    }
+    let text = serde_json::to_string_pretty(&report).context("serialising report.json")?;
+    std::fs::write(&path, text).with_context(|| format!("writing {}", path.display()))?;
+    Ok(())
+}
