@@ -261,7 +261,7 @@ pub fn scene_from_request(req: &SolveRequest) -> Result<Scene> {
             dim,
             res: req.res.clone(),
             pointsource: req.pointsource_params(),
-            slab: pn_runtime::vacuum_scenes::SlabParams {
+            slab: pn_runtime::scenes::vacuum::SlabParams {
                 tau: req.tau,
                 albedo: if scene_arg == "slab" {
                     req.albedo

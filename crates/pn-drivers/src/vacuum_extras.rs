@@ -14,7 +14,7 @@ use anyhow::{Context, Result};
 use pn_runtime::pipeline::Solution;
 use pn_runtime::problem::{BoundaryKind, Problem};
 use pn_runtime::reference::{pn_marshak_milne, pn_marshak_slab};
-use pn_runtime::vacuum_scenes::{milne_extrapolation_length, slab_fluxes, SLAB_ALBEDO};
+use pn_runtime::scenes::vacuum::{milne_extrapolation_length, slab_fluxes, SLAB_ALBEDO};
 use std::io::Write;
 use std::path::Path;
 

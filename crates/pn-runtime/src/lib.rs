@@ -5,7 +5,7 @@
 //! the generator is a dependency.
 //!
 //! * Problem description: [`field`], [`problem`] (including [`problem::sigma_tr`]),
-//!   [`scenes`] (built-in; [`vacuum_scenes`]: `slab` and `milne`), [`scene_file`] (TOML), [`vol`] and [`npy`] (voxel data and array
+//!   [`scenes`] (built-in; [`scenes::vacuum`]: `slab` and `milne`), [`scene_file`] (TOML), [`vol`] and [`npy`] (voxel data and array
 //!   files); [`scene_registry`] lists every built-in scene of `pn solve` and `pn render`.
 //! * Discrete system: [`layout`] (unknowns and boundary closure), [`marshak`] (the Marshak
 //!   vacuum faces' rows), [`context`] (fields at
@@ -70,5 +70,4 @@ pub mod scenes;
 pub mod solver;
 pub mod threads;
 pub mod unstagger;
-pub mod vacuum_scenes;
 pub mod vol;

@@ -1,7 +1,9 @@
 //! Built-in solve scenes: `checkerboard`, `checkerboard3d` and `pointsource` (docs/design.md §7),
-//! and the vacuum-boundary checks `slab` and `milne` ([`crate::vacuum_scenes`]), built in code; their names and descriptions are in [`crate::scene_registry`], which also
+//! and the vacuum-boundary checks `slab` and `milne` ([`crate::scenes::vacuum`]), built in code; their names and descriptions are in [`crate::scene_registry`], which also
 //! knows the render scenes (`pn render`). Scene files for `pn solve` are read by
 //! [`crate::scene_file`].
+
+pub mod vacuum;
 
 use crate::field::{Field, Point};
 use crate::problem::{Boundary, Grid, Phase, Problem, Scattering, SourceTerm};
@@ -98,7 +100,7 @@ pub struct BuiltinOptions {
     /// Parameters of `pointsource`.
     pub pointsource: PointSourceParams,
     /// Parameters of `slab` and `milne`.
-    pub slab: crate::vacuum_scenes::SlabParams,
+    pub slab: crate::scenes::vacuum::SlabParams,
 }
 
 /// Builds the built-in scene `name`. A render scene's name (`cloud`, …) is refused with a
@@ -108,8 +110,8 @@ pub fn builtin(name: &str, opts: &BuiltinOptions) -> anyhow::Result<Scene> {
         "checkerboard" => checkerboard(opts, false),
         "checkerboard3d" => checkerboard(opts, true),
         "pointsource" => pointsource(opts),
-        "slab" => crate::vacuum_scenes::slab(opts.dim, opts.res.as_deref(), opts.slab),
-        "milne" => crate::vacuum_scenes::milne(opts.dim, opts.res.as_deref(), opts.slab),
+        "slab" => crate::scenes::vacuum::slab(opts.dim, opts.res.as_deref(), opts.slab),
+        "milne" => crate::scenes::vacuum::milne(opts.dim, opts.res.as_deref(), opts.slab),
         _ => Err(
             scene_registry::wrong_kind_error(name, SceneKind::Solve).unwrap_or_else(|| {
                 anyhow::anyhow!(

@@ -12,9 +12,9 @@ use pn_runtime::field::{Field, Point};
 use pn_runtime::pipeline::{solve_problem, Solution};
 use pn_runtime::problem::{Boundary, Problem};
 use pn_runtime::reference::{pn_marshak_milne, pn_marshak_slab, pn_point_source};
+use pn_runtime::scenes::vacuum::{milne_extrapolation_length, slab_fluxes, SlabParams};
 use pn_runtime::scenes::{builtin, BuiltinOptions, PointSourceParams};
 use pn_runtime::solver::{SolverKind, SolverOptions};
-use pn_runtime::vacuum_scenes::{milne_extrapolation_length, slab_fluxes, SlabParams};
 use pn_stencil::Dim;
 
 /// README tables: (N, R, T_d) for τ = 1, c = 0.9 and (N, z_0).

@@ -17,10 +17,10 @@
 //!   `φ ∝ x + z_0`; [`milne_extrapolation_length`] reads z_0 off two cell centres at X/2 ∓ 2
 //!   (the boundary transients decay like `e^{−x/ν}` with ν < 1: below 1e−5 there for X = 30).
 
+use super::Scene;
 use crate::field::{Field, Point};
 use crate::layout::Layout;
 use crate::problem::{Boundary, BoundaryKind, Grid, Phase, Problem, Scattering, SourceTerm};
-use crate::scenes::Scene;
 use anyhow::{ensure, Context, Result};
 use pn_stencil::Dim;
 
@@ -47,7 +47,7 @@ fn slab_grid(dim: Dim, length: f64, res: Option<&[usize]>, default: usize) -> Re
     let r = match res {
         None => [default, 1, 1],
         Some([n]) => [*n, 1, 1],
-        Some(v) => crate::scenes::resolve_res(dim, default, Some(v))?,
+        Some(v) => super::resolve_res(dim, default, Some(v))?,
     };
     ensure!(
         r.iter().all(|&n| n > 0),
