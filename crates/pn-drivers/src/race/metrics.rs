@@ -3,7 +3,7 @@
 //! the equal-error interpolation on a log–log error-against-time curve.
 
 use anyhow::{ensure, Result};
-use pn_runtime::render::compare::GrayImage;
+use pn_runtime::render::compare::{check_pair, GrayImage};
 
 /// Error of an image against the reference.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -16,35 +16,9 @@ pub struct Errors {
     pub mean: f64,
 }
 
-/// Checks that `a` and `b` have the same size and finite pixels.
-fn check_pair(a: &GrayImage, b: &GrayImage) -> Result<()> {
-    ensure!(
-        a.width == b.width && a.height == b.height,
-        "images differ in size: {}×{} against {}×{}",
-        a.width,
-        a.height,
-        b.width,
-        b.height
-    );
-    ensure!(
-        !a.data.is_empty() && a.data.len() == b.data.len(),
-        "empty or inconsistent image"
-    );
-    for (name, img) in [("test", a), ("reference", b)] {
-        if let Some(i) = img.data.iter().position(|v| !v.is_finite()) {
-            anyhow::bail!(
-                "the {name} image has a non-finite value at pixel ({}, {})",
-                i % img.width,
-                i / img.width
-            );
-        }
-    }
-    Ok(())
-}
-
 /// The errors of `a` against the reference `b`. A black reference is an error.
 pub fn errors(a: &GrayImage, b: &GrayImage) -> Result<Errors> {
-    check_pair(a, b)?;
+    check_pair(a, b, ["test", "reference"])?;
     let (mut d2, mut b2, mut sa, mut sb) = (0.0, 0.0, 0.0, 0.0);
     for (x, y) in a.data.iter().zip(&b.data) {
         d2 += (x - y) * (x - y);
@@ -82,7 +56,7 @@ pub struct TwoHalves {
 
 /// The mean of two independent halves and its noise.
 pub fn two_halves(a: &GrayImage, b: &GrayImage) -> Result<TwoHalves> {
-    check_pair(a, b)?;
+    check_pair(a, b, ["test", "reference"])?;
     let data: Vec<f64> = a
         .data
         .iter()

@@ -65,9 +65,9 @@ pub fn read_gray(path: &Path) -> anyhow::Result<GrayImage> {
     })
 }
 
-/// The metrics of `a` against the reference `b`. Different sizes, empty images or
-/// non-finite pixels are errors.
-pub fn metrics(a: &GrayImage, b: &GrayImage) -> anyhow::Result<Metrics> {
+/// Checks that `a` and `b` are non-empty, of the same size and with finite pixels; `names`
+/// name them in the error ("the first image has a non-finite value at pixel (x, y)").
+pub fn check_pair(a: &GrayImage, b: &GrayImage, names: [&str; 2]) -> anyhow::Result<()> {
     ensure!(
         a.width == b.width && a.height == b.height,
         "images differ in size: {}×{} against {}×{}",
@@ -81,7 +81,7 @@ pub fn metrics(a: &GrayImage, b: &GrayImage) -> anyhow::Result<Metrics> {
         n > 0 && n == b.data.len() && n == a.width * a.height,
         "empty or inconsistent image"
     );
-    for (name, img) in [("first", a), ("second", b)] {
+    for (name, img) in names.into_iter().zip([a, b]) {
         if let Some(i) = img.data.iter().position(|v| !v.is_finite()) {
             anyhow::bail!(
                 "the {name} image has a non-finite value at pixel ({}, {})",
@@ -90,6 +90,14 @@ pub fn metrics(a: &GrayImage, b: &GrayImage) -> anyhow::Result<Metrics> {
             );
         }
     }
+    Ok(())
+}
+
+/// The metrics of `a` against the reference `b`. Different sizes, empty images or
+/// non-finite pixels are errors ([`check_pair`]).
+pub fn metrics(a: &GrayImage, b: &GrayImage) -> anyhow::Result<Metrics> {
+    check_pair(a, b, ["first", "second"])?;
+    let n = a.data.len();
     let nf = n as f64;
     let mean_a = a.data.iter().sum::<f64>() / nf;
     let mean_b = b.data.iter().sum::<f64>() / nf;
