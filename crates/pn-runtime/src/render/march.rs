@@ -62,7 +62,7 @@ use super::medium::floor_fast;
 use super::medium::{DensityFilter, DensityGrid};
 use super::renderer::{Image, MsField};
 use super::scene::RenderScene;
-use super::shadow::Extinction;
+use super::shadow::{walk_lattice, Extinction};
 use rayon::prelude::*;
 
 /// Settings of the deterministic renderer.
@@ -372,60 +372,20 @@ impl<'a> Marcher<'a> {
         t1: f64,
         mut visit: impl FnMut(f64, f64) -> bool,
     ) {
-        let h = self.h;
-        let mut cell = [0i64; 3];
-        let mut step = [0i64; 3];
-        let mut t_next = [f64::INFINITY; 3];
-        let mut t_delta = [f64::INFINITY; 3];
-        for d in 0..3 {
-            let p = origin[d] + t0 * dir[d];
-            let u = (p - self.lattice_min[d]) / h[d];
-            let n = self.cells[d] as i64;
-            let mut c = floor_fast(u) as i64;
-            if dir[d] < 0.0 && u == floor_fast(u) {
-                c -= 1; // on a plane, moving down: the cell below
-            }
-            c = c.clamp(0, n - 1);
-            cell[d] = c;
-            if dir[d] > 0.0 {
-                step[d] = 1;
-                let face = self.lattice_min[d] + (c + 1) as f64 * h[d];
-                t_next[d] = (face - origin[d]) / dir[d];
-                t_delta[d] = h[d] / dir[d];
-            } else if dir[d] < 0.0 {
-                step[d] = -1;
-                let face = self.lattice_min[d] + c as f64 * h[d];
-                t_next[d] = (face - origin[d]) / dir[d];
-                t_delta[d] = -h[d] / dir[d];
-            }
-        }
         let [nx, ny, _] = self.cells;
-        let mut t = t0;
-        loop {
-            let a = if t_next[0] <= t_next[1] && t_next[0] <= t_next[2] {
-                0
-            } else if t_next[1] <= t_next[2] {
-                1
-            } else {
-                2
-            };
-            let t_exit = t_next[a].min(t1);
-            if t_exit > t {
+        walk_lattice(
+            origin,
+            dir,
+            t0,
+            t1,
+            self.lattice_min,
+            self.h,
+            self.cells,
+            |ta, tb, cell| {
                 let idx = (cell[2] as usize * ny + cell[1] as usize) * nx + cell[0] as usize;
-                if self.occupied[idx] && !visit(t, t_exit) {
-                    return;
-                }
-            }
-            if t_next[a] >= t1 {
-                return;
-            }
-            t = t_exit;
-            cell[a] += step[a];
-            if cell[a] < 0 || cell[a] >= self.cells[a] as i64 {
-                return;
-            }
-            t_next[a] += t_delta[a];
-        }
+                !self.occupied[idx] || visit(ta, tb)
+            },
+        );
     }
 
     /// Pixel (px, py) of `camera`: the mean over the k×k sub-pixel rays through

@@ -103,59 +103,10 @@ impl Extinction<'_> {
         let Some((t0, t1)) = self.clip(origin, dir, tmax) else {
             return;
         };
-        let h = g.h();
-        let mut cell = [0i64; 3];
-        let mut step = [0i64; 3];
-        let mut t_next = [f64::INFINITY; 3];
-        let mut t_delta = [f64::INFINITY; 3];
-        // Start in the cell containing the start of the segment inside the box, robust to
-        // starting exactly on a face.
-        for d in 0..3 {
-            let p = origin[d] + t0 * dir[d];
-            let u = (p - lo[d]) / h[d];
-            let mut c = floor_fast(u) as i64;
-            let nd = n[d] as i64;
-            if dir[d] < 0.0 && u == floor_fast(u) {
-                c -= 1; // on a face, moving down: the cell below
-            }
-            c = c.clamp(0, nd - 1);
-            cell[d] = c;
-            if dir[d] > 0.0 {
-                step[d] = 1;
-                let face = lo[d] + (c + 1) as f64 * h[d];
-                t_next[d] = (face - origin[d]) / dir[d];
-                t_delta[d] = h[d] / dir[d];
-            } else if dir[d] < 0.0 {
-                step[d] = -1;
-                let face = lo[d] + c as f64 * h[d];
-                t_next[d] = (face - origin[d]) / dir[d];
-                t_delta[d] = -h[d] / dir[d];
-            }
-        }
-        let mut t = t0;
-        loop {
-            // Axis with the nearest face crossing.
-            let a = if t_next[0] <= t_next[1] && t_next[0] <= t_next[2] {
-                0
-            } else if t_next[1] <= t_next[2] {
-                1
-            } else {
-                2
-            };
-            let t_exit = t_next[a].min(t1);
-            if t_exit > t {
-                visit(t, t_exit, cell);
-            }
-            if t_next[a] >= t1 {
-                return;
-            }
-            t = t_exit;
-            cell[a] += step[a];
-            if cell[a] < 0 || cell[a] >= n[a] as i64 {
-                return;
-            }
-            t_next[a] += t_delta[a];
-        }
+        walk_lattice(origin, dir, t0, t1, lo, g.h(), n, |ta, tb, cell| {
+            visit(ta, tb, cell);
+            true
+        });
     }
 
     /// Optical depth ∫σ_t along `origin + t·dir`, `t ∈ [0, tmax]`, `dir` a unit vector
@@ -199,6 +150,73 @@ impl Extinction<'_> {
         }
         let back = inc.travel.map(|c| -c);
         (-self.optical_depth(x, back, inc.distance)).exp()
+    }
+}
+
+/// The 3D DDA (Amanatides & Woo) on the uniform lattice with lower corner `lo`, spacing `h`
+/// and `n` cells per axis: calls `visit(t_enter, t_exit, cell)` for every cell the segment
+/// `origin + t·dir`, t ∈ [t0, t1], crosses, in order, until `visit` returns false. The
+/// segment's start must lie in the lattice; a start exactly on a plane while moving down
+/// belongs to the cell below. Shared by the exact optical depth and the renderer's march.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn walk_lattice(
+    origin: [f64; 3],
+    dir: [f64; 3],
+    t0: f64,
+    t1: f64,
+    lo: [f64; 3],
+    h: [f64; 3],
+    n: [usize; 3],
+    mut visit: impl FnMut(f64, f64, [i64; 3]) -> bool,
+) {
+    let mut cell = [0i64; 3];
+    let mut step = [0i64; 3];
+    let mut t_next = [f64::INFINITY; 3];
+    let mut t_delta = [f64::INFINITY; 3];
+    for d in 0..3 {
+        let p = origin[d] + t0 * dir[d];
+        let u = (p - lo[d]) / h[d];
+        let mut c = floor_fast(u) as i64;
+        if dir[d] < 0.0 && u == floor_fast(u) {
+            c -= 1; // on a plane, moving down: the cell below
+        }
+        c = c.clamp(0, n[d] as i64 - 1);
+        cell[d] = c;
+        if dir[d] > 0.0 {
+            step[d] = 1;
+            let face = lo[d] + (c + 1) as f64 * h[d];
+            t_next[d] = (face - origin[d]) / dir[d];
+            t_delta[d] = h[d] / dir[d];
+        } else if dir[d] < 0.0 {
+            step[d] = -1;
+            let face = lo[d] + c as f64 * h[d];
+            t_next[d] = (face - origin[d]) / dir[d];
+            t_delta[d] = -h[d] / dir[d];
+        }
+    }
+    let mut t = t0;
+    loop {
+        // Axis with the nearest plane crossing.
+        let a = if t_next[0] <= t_next[1] && t_next[0] <= t_next[2] {
+            0
+        } else if t_next[1] <= t_next[2] {
+            1
+        } else {
+            2
+        };
+        let t_exit = t_next[a].min(t1);
+        if t_exit > t && !visit(t, t_exit, cell) {
+            return;
+        }
+        if t_next[a] >= t1 {
+            return;
+        }
+        t = t_exit;
+        cell[a] += step[a];
+        if cell[a] < 0 || cell[a] >= n[a] as i64 {
+            return;
+        }
+        t_next[a] += t_delta[a];
     }
 }
 
