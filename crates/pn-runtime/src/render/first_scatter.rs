@@ -31,9 +31,10 @@
 //! L_ms (light scattered at least once); the uncollided part and single scattering are added
 //! by the renderer.
 
+use super::hull_absorber::add_hull_absorber;
 use super::lights::Light;
 use super::medium::DensityGrid;
-use super::scene::RenderScene;
+use super::scene::{AbsorberPlacement, RenderScene};
 use super::shadow::{cell_centre, DeepShadowMaps, Extinction};
 use super::solve_setup::{add_absorbing_layer, cell_average, resample};
 use crate::field::{Field, VoxelGrid};
@@ -137,6 +138,9 @@ pub fn first_scatter_problem(
     let seconds_shadow_maps = t0.elapsed().as_secs_f64();
     let t1 = std::time::Instant::now();
     let (mut sigma_t, sigma_s) = resample(density, &scene.medium, grid);
+    if scene.solve.absorber == AbsorberPlacement::Hull {
+        add_hull_absorber(grid, scene.solve.absorbing_layer, &mut sigma_t);
+    }
     add_absorbing_layer(grid, scene.solve.absorbing_layer, &mut sigma_t);
     // σ_s per voxel in the Grid order (x slowest) of `vgrid`.
     let [nx, ny, nz] = density.res;

@@ -15,6 +15,7 @@
 pub mod camera;
 pub mod compare;
 pub mod first_scatter;
+pub mod hull_absorber;
 pub mod image_io;
 pub mod light_depth;
 pub mod lights;
@@ -29,4 +30,4 @@ pub mod solve_setup;
 pub use camera::Camera;
 pub use lights::Light;
 pub use medium::{DensityFilter, DensityGrid, Procedural};
-pub use scene::{MediumSpec, RenderScene, RenderSettings, SolveSettings};
+pub use scene::{AbsorberPlacement, MediumSpec, RenderScene, RenderSettings, SolveSettings};

@@ -35,7 +35,9 @@
 //! order = 3
 //! resolution = [32, 32, 32] # solve grid over the medium box (may be coarser)
 //! margin = 2                # empty cells kept around the cropped medium
-//! absorbing_layer = 4       # graded absorber outside the margin (0 = none)
+//! absorbing_layer = 4       # cells over which the graded absorber ramps up (0 = none)
+//! absorber = "hull"         # where it starts: "hull" (outside the medium's convex hull,
+//!                           # default) | "box" (only the outermost cells, beyond the margin)
 //! tolerance = 1e-6
 //! sigma_t_min = 0.0         # 0 or absent: automatic where vacuum is present
 //! [render]
@@ -205,10 +207,35 @@ pub struct SolveSettings {
     /// Cells of graded absorber outside the margin (0: the Dirichlet boundary sits right
     /// at the margin; see `solve_setup::add_absorbing_layer`).
     pub absorbing_layer: usize,
+    /// Where the graded absorber starts ([`AbsorberPlacement`]).
+    pub absorber: AbsorberPlacement,
     /// Relative residual tolerance of the solver.
     pub tolerance: f64,
     /// σ_t threshold; `None` = automatic where vacuum is present.
     pub sigma_t_min: Option<f64>,
+}
+
+/// Where the solve grid's vacuum becomes a graded pure absorber (`[solve] absorber`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum AbsorberPlacement {
+    /// Outside the medium's convex hull, graded over `absorbing_layer` cells, where light
+    /// cannot return ([`super::hull_absorber`]); plus the outer layer of `Box`. The default.
+    #[default]
+    Hull,
+    /// Only the outermost `absorbing_layer` cells of the solve grid, beyond the empty margin
+    /// ([`super::solve_setup::add_absorbing_layer`]; the treatment before issue 17).
+    Box,
+}
+
+impl AbsorberPlacement {
+    /// Lower-case name, as in the scene file.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Hull => "hull",
+            Self::Box => "box",
+        }
+    }
 }
 
 /// Which renderer draws the image.
@@ -371,6 +398,7 @@ struct SolveToml {
     resolution: Option<[usize; 3]>,
     margin: Option<usize>,
     absorbing_layer: Option<usize>,
+    absorber: Option<AbsorberPlacement>,
     tolerance: Option<f64>,
     sigma_t_min: Option<f64>,
 }
@@ -715,6 +743,7 @@ fn build(t: SceneToml, base: &Path) -> anyhow::Result<RenderScene> {
         resolution: None,
         margin: None,
         absorbing_layer: None,
+        absorber: None,
         tolerance: None,
         sigma_t_min: None,
     });
@@ -724,6 +753,7 @@ fn build(t: SceneToml, base: &Path) -> anyhow::Result<RenderScene> {
         resolution: s.resolution.unwrap_or([32; 3]),
         margin: s.margin.unwrap_or(2),
         absorbing_layer: s.absorbing_layer.unwrap_or(DEFAULT_ABSORBING_LAYER),
+        absorber: s.absorber.unwrap_or_default(),
         tolerance: s.tolerance.unwrap_or(1e-6),
         sigma_t_min: s.sigma_t_min.filter(|v| *v != 0.0),
     };

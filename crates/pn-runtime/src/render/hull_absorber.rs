@@ -1,0 +1,254 @@
+//! The vacuum around a medium, treated where the transport equation allows it: a graded pure
+//! absorber outside the medium's **convex hull**.
+//!
+//! Light that leaves the convex hull of a medium surrounded by vacuum never comes back: every
+//! straight line meets a convex set in one interval, so a ray that has left the hull cannot
+//! re-enter it. Outside the hull the exact transport solution inside the medium therefore does
+//! not change when the vacuum is replaced by a pure absorber (σ_s = 0) of any strength. Inside
+//! the hull (the concavities of a cloud) light can return, and the vacuum stays vacuum (the
+//! σ_t threshold of [`crate::problem::Problem::sigma_t_min`]).
+//!
+//! Why it matters for P_N (issue 17, docs/design.md §6): in a near-vacuum cell the odd moments
+//! are about −(1/σ_t) times the gradient of the even ones, so the even moments are nearly
+//! constant across it. An empty margin between the medium and the grid's absorbing boundary
+//! then couples the medium's surface to that boundary as a short circuit; for P_1 in exact
+//! vacuum φ is constant there and the outflow grows with the area of the outer boundary — the
+//! darker image with the larger margin that the issue measured. Absorbing the vacuum outside
+//! the hull removes the short circuit without touching the transport problem.
+//!
+//! The absorber is graded over `ramp` cells ([`hull_absorber`]): a cell whose centre lies
+//! δ cells outside the hull gets `σ_t ≥ min(1, δ/ramp)²·τ/h` with
+//! τ = [`super::solve_setup::ABSORBER_OPTICAL_DEPTH_PER_CELL`], so the P_N waves enter it
+//! without a jump in σ_t. In the P_N equations a pure absorber with σ_t(x) = f(x/h)/h is the
+//! same problem for every h (the equations scale with σ_t·x), and in the limit N → ∞ it
+//! reflects nothing, like the exact absorber; so the treatment converges to transport as
+//! N grows, and as h → 0 the absorber shrinks onto the hull.
+//!
+//! The hull is approximated from outside by the polytope ⋂_k {x : n_k·x ≤ s_k} over the
+//! directions n_k of [`hull_directions`], with s_k the largest n_k·x over the corners of the
+//! solve cells that hold medium (σ_t > 0 before any threshold). It contains the true hull,
+//! so nothing is absorbed where light could return; the distance δ is the largest
+//! n_k·x − s_k (the distance to the polytope for points whose nearest feature is a facet, a
+//! lower bound elsewhere).
+
+use crate::problem::Grid;
+
+/// Directions per cube-face axis of [`hull_directions`]: a `HULL_GRID × HULL_GRID` grid on
+/// each face of the cube, 6·HULL_GRID² directions (150), normalised.
+pub const HULL_GRID: usize = 5;
+
+/// The outward normals of the hull polytope: points of a `HULL_GRID × HULL_GRID` grid on each
+/// face of the cube [−1, 1]³ (the face centres, edge and corner directions included),
+/// normalised. They contain the 26 directions of the faces, edges and corners of the cube,
+/// so the polytope is at least as tight as the bounding box with its edges and corners cut.
+pub fn hull_directions() -> Vec<[f64; 3]> {
+    let mut out = Vec::with_capacity(6 * HULL_GRID * HULL_GRID);
+    let t = |i: usize| -1.0 + 2.0 * i as f64 / (HULL_GRID - 1) as f64;
+    for axis in 0..3 {
+        for sign in [-1.0, 1.0] {
+            for a in 0..HULL_GRID {
+                for b in 0..HULL_GRID {
+                    let mut n = [0.0; 3];
+                    n[axis] = sign;
+                    n[(axis + 1) % 3] = t(a);
+                    n[(axis + 2) % 3] = t(b);
+                    let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+                    out.push(n.map(|c| c / len));
+                }
+            }
+        }
+    }
+    out
+}
+
+/// Distance in cells (of the smallest cell side) of every cell centre of `grid` outside the
+/// hull polytope of the cells with `medium[c] > 0` (0 inside it; x slowest, as
+/// [`super::solve_setup::cell_average`]). `None` when no cell holds medium.
+pub fn hull_depth(grid: &Grid, medium: &[f64]) -> Option<Vec<f64>> {
+    let [nx, ny, nz] = grid.res;
+    let h = [0, 1, 2].map(|d| grid.h(d));
+    let hmin = h.iter().copied().fold(f64::INFINITY, f64::min);
+    let dirs = hull_directions();
+    let mut support = vec![f64::NEG_INFINITY; dirs.len()];
+    let mut any = false;
+    let index = |i: usize, j: usize, k: usize| (i * ny + j) * nz + k;
+    for i in 0..nx {
+        for j in 0..ny {
+            for k in 0..nz {
+                if medium[index(i, j, k)] <= 0.0 {
+                    continue;
+                }
+                any = true;
+                // The cell's corners; n·x is largest at one of them.
+                let lo = [i, j, k]
+                    .iter()
+                    .enumerate()
+                    .map(|(d, &c)| grid.min[d] + c as f64 * h[d])
+                    .collect::<Vec<_>>();
+                for (s, n) in support.iter_mut().zip(&dirs) {
+                    let mut v = 0.0;
+                    for d in 0..3 {
+                        v += n[d] * (lo[d] + if n[d] > 0.0 { h[d] } else { 0.0 });
+                    }
+                    *s = s.max(v);
+                }
+            }
+        }
+    }
+    if !any {
+        return None;
+    }
+    let mut depth = vec![0.0; nx * ny * nz];
+    for i in 0..nx {
+        for j in 0..ny {
+            for k in 0..nz {
+                let x = [i, j, k]
+                    .iter()
+                    .enumerate()
+                    .map(|(d, &c)| grid.min[d] + (c as f64 + 0.5) * h[d])
+                    .collect::<Vec<_>>();
+                let mut out = 0.0f64;
+                for (s, n) in support.iter().zip(&dirs) {
+                    out = out.max(n[0] * x[0] + n[1] * x[1] + n[2] * x[2] - s);
+                }
+                depth[index(i, j, k)] = out / hmin;
+            }
+        }
+    }
+    Some(depth)
+}
+
+/// Raises σ_t outside the convex hull of the medium (`sigma_t > 0` on entry) to a pure
+/// absorber graded over `ramp` cells: `σ_t ≥ min(1, δ/ramp)²·τ/h`, δ the distance of the cell
+/// centre outside the hull in cells of the smallest side h (module docs). `ramp = 0` leaves
+/// σ_t alone. Cells that hold medium are never changed (their centres lie inside the hull).
+pub fn add_hull_absorber(grid: &Grid, ramp: usize, sigma_t: &mut [f64]) {
+    if ramp == 0 {
+        return;
+    }
+    let Some(depth) = hull_depth(grid, sigma_t) else {
+        return;
+    };
+    let hmin = (0..3).map(|d| grid.h(d)).fold(f64::INFINITY, f64::min);
+    let full = super::solve_setup::ABSORBER_OPTICAL_DEPTH_PER_CELL / hmin;
+    for (s, &delta) in sigma_t.iter_mut().zip(&depth) {
+        if delta > 0.0 {
+            let t = (delta / ramp as f64).min(1.0);
+            *s = s.max(t * t * full);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use pn_stencil::Dim;
+
+    fn grid(n: usize) -> Grid {
+        Grid {
+            dim: Dim::Three,
+            min: [-1.0; 3],
+            max: [1.0; 3],
+            res: [n; 3],
+        }
+    }
+
+    #[test]
+    fn directions_are_unit_and_include_the_cube_corners() {
+        let dirs = hull_directions();
+        assert_eq!(dirs.len(), 6 * HULL_GRID * HULL_GRID);
+        for n in &dirs {
+            let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+            assert!((len - 1.0).abs() < 1e-12);
+        }
+        let c = 1.0 / 3f64.sqrt();
+        assert!(dirs
+            .iter()
+            .any(|n| n.iter().all(|&v| (v - c).abs() < 1e-12)));
+    }
+
+    /// A ball of medium: cells inside the hull (all of the ball's cells and the gaps of its
+    /// staircase) are left alone, cells outside are graded with the distance, and the depth
+    /// along an axis is the distance to the ball's outermost cell face.
+    #[test]
+    fn a_ball_is_left_alone_and_its_outside_is_graded() {
+        let n = 20;
+        let g = grid(n);
+        let h = g.h(0);
+        let centre = |c: usize| -1.0 + (c as f64 + 0.5) * h;
+        let mut sigma_t = vec![0.0; n * n * n];
+        for i in 0..n {
+            for j in 0..n {
+                for k in 0..n {
+                    let r2 = centre(i).powi(2) + centre(j).powi(2) + centre(k).powi(2);
+                    if r2 < 0.5 * 0.5 {
+                        sigma_t[(i * n + j) * n + k] = 2.0;
+                    }
+                }
+            }
+        }
+        let before = sigma_t.clone();
+        let depth = hull_depth(&g, &sigma_t).unwrap();
+        add_hull_absorber(&g, 4, &mut sigma_t);
+        for c in 0..n * n * n {
+            if before[c] > 0.0 {
+                assert_eq!(sigma_t[c], before[c], "medium changed at {c}");
+                assert_eq!(depth[c], 0.0);
+            }
+        }
+        // Along +x from the centre row: the ball's last cell is i = 14 (centre 0.45),
+        // its face at x = 0.5; cell 16 has its centre at 0.65, 1.5 cells out.
+        let at = |i: usize| (i * n + n / 2) * n + n / 2;
+        assert!((depth[at(16)] - 1.5).abs() < 1e-9, "{}", depth[at(16)]);
+        let full = crate::render::solve_setup::ABSORBER_OPTICAL_DEPTH_PER_CELL / h;
+        assert!((sigma_t[at(16)] - (1.5f64 / 4.0).powi(2) * full).abs() < 1e-9);
+        assert!((sigma_t[at(19)] - full).abs() < 1e-9);
+        // Monotone outward.
+        for i in 15..n - 1 {
+            assert!(sigma_t[at(i + 1)] >= sigma_t[at(i)]);
+        }
+        // A corner of the grid is far outside.
+        assert!((sigma_t[0] - full).abs() < 1e-9);
+    }
+
+    /// The gap of a C-shaped (non-convex) medium lies inside its hull: left as vacuum.
+    #[test]
+    fn a_concavity_stays_vacuum() {
+        let n = 12;
+        let g = grid(n);
+        let mut sigma_t = vec![0.0; n * n * n];
+        // Two slabs x ∈ cells 2..4 and 8..10, joined at y cells 2..4; everything in z 2..10.
+        for i in 2..10 {
+            for j in 2..10 {
+                for k in 2..10 {
+                    let slab = (2..4).contains(&i) || (8..10).contains(&i);
+                    let bridge = (2..4).contains(&j);
+                    if slab || bridge {
+                        sigma_t[(i * n + j) * n + k] = 1.0;
+                    }
+                }
+            }
+        }
+        let gap = (5 * n + 7) * n + 6;
+        assert_eq!(sigma_t[gap], 0.0);
+        add_hull_absorber(&g, 3, &mut sigma_t);
+        assert_eq!(sigma_t[gap], 0.0, "the concavity must stay vacuum");
+        assert!(
+            sigma_t[(5 * n + 11) * n + 6] > 0.0,
+            "outside the hull is absorbed"
+        );
+    }
+
+    #[test]
+    fn no_medium_and_no_ramp_change_nothing() {
+        let g = grid(6);
+        let mut empty = vec![0.0; 216];
+        add_hull_absorber(&g, 4, &mut empty);
+        assert!(empty.iter().all(|&v| v == 0.0));
+        let mut one = vec![0.0; 216];
+        one[100] = 1.0;
+        let before = one.clone();
+        add_hull_absorber(&g, 0, &mut one);
+        assert_eq!(one, before);
+    }
+}
