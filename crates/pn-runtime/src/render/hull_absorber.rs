@@ -16,7 +16,7 @@
 //! darker image with the larger margin that the issue measured. Absorbing the vacuum outside
 //! the hull removes the short circuit without touching the transport problem.
 //!
-//! The absorber is graded over `ramp` cells ([`hull_absorber`]): a cell whose centre lies
+//! The absorber is graded over `ramp` cells ([`add_hull_absorber`]): a cell whose centre lies
 //! δ cells outside the hull gets `σ_t ≥ min(1, δ/ramp)²·τ/h` with
 //! τ = [`super::solve_setup::ABSORBER_OPTICAL_DEPTH_PER_CELL`], so the P_N waves enter it
 //! without a jump in σ_t. In the P_N equations a pure absorber with σ_t(x) = f(x/h)/h is the
@@ -52,13 +52,17 @@ pub fn hull_directions() -> Vec<[f64; 3]> {
                     n[axis] = sign;
                     n[(axis + 1) % 3] = t(a);
                     n[(axis + 2) % 3] = t(b);
-                    let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+                    let len = dot(&n, &n).sqrt();
                     out.push(n.map(|c| c / len));
                 }
             }
         }
     }
     out
+}
+
+fn dot(a: &[f64; 3], b: &[f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
 /// Distance in cells (of the smallest cell side) of every cell centre of `grid` outside the
@@ -79,18 +83,12 @@ pub fn hull_depth(grid: &Grid, medium: &[f64]) -> Option<Vec<f64>> {
                     continue;
                 }
                 any = true;
-                // The cell's corners; n·x is largest at one of them.
-                let lo = [i, j, k]
-                    .iter()
-                    .enumerate()
-                    .map(|(d, &c)| grid.min[d] + c as f64 * h[d])
-                    .collect::<Vec<_>>();
+                // n·x over the cell is largest at the corner on n's side of every axis.
+                let cell = [i, j, k];
+                let lo = [0, 1, 2].map(|d| grid.min[d] + cell[d] as f64 * h[d]);
                 for (s, n) in support.iter_mut().zip(&dirs) {
-                    let mut v = 0.0;
-                    for d in 0..3 {
-                        v += n[d] * (lo[d] + if n[d] > 0.0 { h[d] } else { 0.0 });
-                    }
-                    *s = s.max(v);
+                    let corner = [0, 1, 2].map(|d| lo[d] + if n[d] > 0.0 { h[d] } else { 0.0 });
+                    *s = s.max(dot(n, &corner));
                 }
             }
         }
@@ -102,14 +100,11 @@ pub fn hull_depth(grid: &Grid, medium: &[f64]) -> Option<Vec<f64>> {
     for i in 0..nx {
         for j in 0..ny {
             for k in 0..nz {
-                let x = [i, j, k]
-                    .iter()
-                    .enumerate()
-                    .map(|(d, &c)| grid.min[d] + (c as f64 + 0.5) * h[d])
-                    .collect::<Vec<_>>();
+                let cell = [i, j, k];
+                let x = [0, 1, 2].map(|d| grid.min[d] + (cell[d] as f64 + 0.5) * h[d]);
                 let mut out = 0.0f64;
                 for (s, n) in support.iter().zip(&dirs) {
-                    out = out.max(n[0] * x[0] + n[1] * x[1] + n[2] * x[2] - s);
+                    out = out.max(dot(n, &x) - s);
                 }
                 depth[index(i, j, k)] = out / hmin;
             }
@@ -158,7 +153,7 @@ mod tests {
         let dirs = hull_directions();
         assert_eq!(dirs.len(), 6 * HULL_GRID * HULL_GRID);
         for n in &dirs {
-            let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+            let len = dot(n, n).sqrt();
             assert!((len - 1.0).abs() < 1e-12);
         }
         let c = 1.0 / 3f64.sqrt();

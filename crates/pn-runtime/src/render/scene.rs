@@ -204,8 +204,9 @@ pub struct SolveSettings {
     pub resolution: [usize; 3],
     /// Empty solve cells kept around the cropped medium.
     pub margin: usize,
-    /// Cells of graded absorber outside the margin (0: the Dirichlet boundary sits right
-    /// at the margin; see `solve_setup::add_absorbing_layer`).
+    /// Cells over which the graded absorber ramps up: outside the medium's convex hull
+    /// ([`AbsorberPlacement::Hull`]) and in the grid's outermost cells (0: no absorber; the
+    /// Dirichlet boundary then sits right at the margin).
     pub absorbing_layer: usize,
     /// Where the graded absorber starts ([`AbsorberPlacement`]).
     pub absorber: AbsorberPlacement,
@@ -226,16 +227,6 @@ pub enum AbsorberPlacement {
     /// Only the outermost `absorbing_layer` cells of the solve grid, beyond the empty margin
     /// ([`super::solve_setup::add_absorbing_layer`]; the treatment before issue 17).
     Box,
-}
-
-impl AbsorberPlacement {
-    /// Lower-case name, as in the scene file.
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::Hull => "hull",
-            Self::Box => "box",
-        }
-    }
 }
 
 /// Which renderer draws the image.
