@@ -56,7 +56,7 @@ pub struct TwoHalves {
 
 /// The mean of two independent halves and its noise.
 pub fn two_halves(a: &GrayImage, b: &GrayImage) -> Result<TwoHalves> {
-    check_pair(a, b, ["test", "reference"])?;
+    check_pair(a, b, ["first half", "second half"])?;
     let data: Vec<f64> = a
         .data
         .iter()
