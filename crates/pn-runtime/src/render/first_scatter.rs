@@ -34,7 +34,7 @@
 use super::hull_absorber::add_hull_absorber;
 use super::lights::Light;
 use super::medium::DensityGrid;
-use super::scene::{AbsorberPlacement, RenderScene};
+use super::scene::{AbsorberPlacement, RenderScene, SolveBoundary};
 use super::shadow::{cell_centre, DeepShadowMaps, Extinction};
 use super::solve_setup::{add_absorbing_layer, cell_average, resample};
 use crate::field::{Field, VoxelGrid};
@@ -186,7 +186,10 @@ pub fn first_scatter_problem(
         scattering: Scattering::SigmaS(voxel(sigma_s)?),
         phase: scene.phase,
         sources,
-        boundary: Boundary::Dirichlet,
+        boundary: match scene.solve.boundary {
+            SolveBoundary::Dirichlet => Boundary::Dirichlet,
+            SolveBoundary::Marshak => Boundary::Marshak,
+        },
         sigma_t_min: scene.solve.sigma_t_min,
     };
     let auto = problem.auto_sigma_t_min();
@@ -330,6 +333,11 @@ mod tests {
         fine *= vgrid.cell_volume() / (4.0 * std::f64::consts::PI).sqrt();
         assert!(fine > 0.0);
         assert!((coarse - fine).abs() < 1e-12 * fine, "{coarse} vs {fine}");
+        // `[solve] boundary` reaches the problem.
+        assert!(matches!(fs.problem.boundary, Boundary::Dirichlet));
+        scene.solve.boundary = SolveBoundary::Marshak;
+        let fs = first_scatter_problem(&scene, &density, &sg.grid, 0).unwrap();
+        assert!(matches!(fs.problem.boundary, Boundary::Marshak));
     }
 
     #[test]

@@ -30,4 +30,6 @@ pub mod solve_setup;
 pub use camera::Camera;
 pub use lights::Light;
 pub use medium::{DensityFilter, DensityGrid, Procedural};
-pub use scene::{AbsorberPlacement, MediumSpec, RenderScene, RenderSettings, SolveSettings};
+pub use scene::{
+    AbsorberPlacement, MediumSpec, RenderScene, RenderSettings, SolveBoundary, SolveSettings,
+};

@@ -38,6 +38,8 @@
 //! absorbing_layer = 4       # cells over which the graded absorber ramps up (0 = none)
 //! absorber = "hull"         # where it starts: "hull" (outside the medium's convex hull,
 //!                           # default) | "box" (only the outermost cells, beyond the margin)
+//! boundary = "dirichlet"    # the grid's faces: "dirichlet" (zero, default) | "marshak"
+//!                           # (vacuum; odd P_N only; meant for margin = absorbing_layer = 0)
 //! tolerance = 1e-6
 //! sigma_t_min = 0.0         # 0 or absent: automatic where vacuum is present
 //! [render]
@@ -210,6 +212,8 @@ pub struct SolveSettings {
     pub absorbing_layer: usize,
     /// Where the graded absorber starts ([`AbsorberPlacement`]).
     pub absorber: AbsorberPlacement,
+    /// The condition on the solve grid's faces ([`SolveBoundary`]).
+    pub boundary: SolveBoundary,
     /// Relative residual tolerance of the solver.
     pub tolerance: f64,
     /// σ_t threshold; `None` = automatic where vacuum is present.
@@ -227,6 +231,21 @@ pub enum AbsorberPlacement {
     /// Only the outermost `absorbing_layer` cells of the solve grid, beyond the empty margin
     /// ([`super::solve_setup::add_absorbing_layer`]; the treatment before issue 17).
     Box,
+}
+
+/// The condition on the solve grid's faces (`[solve] boundary`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum SolveBoundary {
+    /// Zero moments on the faces; with the graded absorber in front of them this is where
+    /// the escaping light ends (the default).
+    #[default]
+    Dirichlet,
+    /// Marshak's vacuum condition on every face (docs/design.md §3): the half-range moments
+    /// of the incoming radiance vanish. Staggered P_N of odd order only. Meant for a grid
+    /// cropped tightly to the medium (`margin = 0`, `absorbing_layer = 0`), where the
+    /// medium touches the faces (issue 17's Marshak arm).
+    Marshak,
 }
 
 /// Which renderer draws the image.
@@ -390,6 +409,7 @@ struct SolveToml {
     margin: Option<usize>,
     absorbing_layer: Option<usize>,
     absorber: Option<AbsorberPlacement>,
+    boundary: Option<SolveBoundary>,
     tolerance: Option<f64>,
     sigma_t_min: Option<f64>,
 }
@@ -735,6 +755,7 @@ fn build(t: SceneToml, base: &Path) -> anyhow::Result<RenderScene> {
         margin: None,
         absorbing_layer: None,
         absorber: None,
+        boundary: None,
         tolerance: None,
         sigma_t_min: None,
     });
@@ -745,6 +766,7 @@ fn build(t: SceneToml, base: &Path) -> anyhow::Result<RenderScene> {
         margin: s.margin.unwrap_or(2),
         absorbing_layer: s.absorbing_layer.unwrap_or(DEFAULT_ABSORBING_LAYER),
         absorber: s.absorber.unwrap_or_default(),
+        boundary: s.boundary.unwrap_or_default(),
         tolerance: s.tolerance.unwrap_or(1e-6),
         sigma_t_min: s.sigma_t_min.filter(|v| *v != 0.0),
     };
@@ -820,6 +842,15 @@ impl SolveSettings {
             ensure!(
                 t.is_finite() && t > 0.0,
                 "sigma_t_min must be finite and non-negative, got {t}"
+            );
+        }
+        if self.boundary == SolveBoundary::Marshak {
+            ensure!(
+                self.method == RenderMethod::Pn && self.order % 2 == 1,
+                "boundary = \"marshak\" needs method \"pn\" with an odd order (the staggered \
+                 Marshak rows), got method {:?} order {}",
+                self.method.name(),
+                self.order
             );
         }
         Ok(())
@@ -982,6 +1013,28 @@ height = 8
             ("cutoff = 1.0", "cutoff"),
             ("cutoff = -0.1", "cutoff"),
             ("renderer = \"magic\"", "unknown variant"),
+        ] {
+            let e = err(&with(bad));
+            assert!(e.contains(want), "{bad}: {e}");
+        }
+    }
+
+    #[test]
+    fn the_grid_boundary_is_read_and_marshak_needs_odd_pn() {
+        assert_eq!(
+            parse(MINIMAL).unwrap().solve.boundary,
+            SolveBoundary::Dirichlet
+        );
+        let with = |r: &str| format!("{MINIMAL}[solve]\n{r}\n");
+        let s = parse(&with(
+            "boundary = \"marshak\"\nmargin = 0\nabsorbing_layer = 0",
+        ))
+        .unwrap();
+        assert_eq!(s.solve.boundary, SolveBoundary::Marshak);
+        for (bad, want) in [
+            ("boundary = \"marshak\"\norder = 4", "odd order"),
+            ("boundary = \"marshak\"\nmethod = \"cda\"", "odd order"),
+            ("boundary = \"robin\"", "unknown variant"),
         ] {
             let e = err(&with(bad));
             assert!(e.contains(want), "{bad}: {e}");
