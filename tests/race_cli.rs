@@ -41,6 +41,26 @@ spp = 4
 seed = 1
 "#;
 
+/// The ablation study of the quick run: the base, one vacuum arm, and an order arm that is
+/// the base's render.
+const STUDY: &str = r#"
+[[arm]]
+name = "base"
+group = "base"
+point = "p1@8"
+
+[[arm]]
+name = "absorber box"
+group = "vacuum"
+point = "p1@8"
+args = ["--set", "solve.absorber=box"]
+
+[[arm]]
+name = "p1"
+group = "order"
+point = "p1@8"
+"#;
+
 fn csv(path: &Path) -> Vec<std::collections::HashMap<String, String>> {
     let text = std::fs::read_to_string(path).unwrap();
     let mut lines = text.lines();
@@ -65,6 +85,8 @@ fn quick_race_writes_tables_plot_and_markdown_and_caches_the_reference() {
     std::fs::create_dir_all(&d).unwrap();
     let scene = d.join("tiny.toml");
     std::fs::write(&scene, TINY).unwrap();
+    let study = d.join("study.toml");
+    std::fs::write(&study, STUDY).unwrap();
     let (out, cache) = (d.join("race"), d.join("cache"));
     let args = [
         "race",
@@ -72,6 +94,8 @@ fn quick_race_writes_tables_plot_and_markdown_and_caches_the_reference() {
         "--quick",
         "--pn-points",
         "p1@8",
+        "--ablation-study",
+        study.to_str().unwrap(),
         "--out",
         out.to_str().unwrap(),
         "--cache",
@@ -114,6 +138,44 @@ fn quick_race_writes_tables_plot_and_markdown_and_caches_the_reference() {
     let md = std::fs::read_to_string(out.join("results.md")).unwrap();
     assert!(md.contains("## tiny") && md.contains("tiny/error_time.png"));
     assert!(out.join("summary.csv").is_file());
+    // The ablation: three arms, two renders (the order arm is the base's render).
+    let ab = csv(&dir.join("ablation.csv"));
+    let arms: Vec<(&str, &str, &str)> = ab
+        .iter()
+        .map(|r| (r["group"].as_str(), r["arm"].as_str(), r["point"].as_str()))
+        .collect();
+    assert_eq!(
+        arms,
+        [
+            ("base", "base", "p1@8"),
+            ("vacuum", "absorber box", "p1@8"),
+            ("order", "p1", "p1@8")
+        ]
+    );
+    assert_eq!(ab[1]["settings"], "res=8 solve.absorber=box");
+    for r in &ab {
+        assert!(r["error"].is_empty(), "{r:?}");
+        let e: f64 = r["rel_rmse"].parse().unwrap();
+        assert!(e > 0.0 && e.is_finite(), "{r:?}");
+        assert_eq!(r["converged"], "true");
+    }
+    assert_eq!(ab[0]["bias_change_vs_base"], "0");
+    assert_eq!(ab[0]["image_change_vs_base"], "0");
+    assert_eq!(ab[2]["image_change_vs_base"], "0");
+    assert_eq!(ab[2]["seconds"], ab[0]["seconds"]);
+    // The box absorber changes the image.
+    let change: f64 = ab[1]["image_change_vs_base"].parse().unwrap();
+    assert!(change > 0.0 && change < 0.5, "{change}");
+    assert!(
+        stdout.contains("ablation  3/3 order/p1") && stdout.contains("(the render of \"base\")"),
+        "{stdout}"
+    );
+    assert!(out.join("bias_vs_order.png").is_file());
+    assert!(
+        md.contains("### Ablation") && md.contains("| vacuum | absorber box |"),
+        "{md}"
+    );
+    assert!(md.contains("bias_vs_order.png"));
 
     // Second run: the reference comes from the cache; only the Markdown again.
     let o = pn(&args);
@@ -150,6 +212,49 @@ fn bad_input_is_a_clear_error() {
     let o = pn(&["race", "nebula", "--pn-points", "p5"]);
     assert!(!o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains("METHOD@RES"));
+    // A bad study is refused before Mitsuba is looked for, naming the file and the arm.
+    std::fs::create_dir_all(&d).unwrap();
+    let study = d.join("bad-study.toml");
+    std::fs::write(
+        &study,
+        "[[arm]]\nname = \"base\"\ngroup = \"base\"\npoint = \"p3@24\"\n\
+         [[arm]]\nname = \"wide\"\ngroup = \"vacuum\"\npoint = \"p3@24\"\n\
+         args = [\"--set\", \"solve.nonsense=8\"]\n",
+    )
+    .unwrap();
+    let o = pn(&[
+        "race",
+        "sphere",
+        "--ablation-study",
+        study.to_str().unwrap(),
+        "--python",
+        "/nonexistent/python",
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success());
+    assert!(
+        err.contains("bad-study.toml")
+            && err.contains("arm 2 (\"wide\")")
+            && err.contains("nonsense"),
+        "{err}"
+    );
+    std::fs::write(
+        &study,
+        "[[arm]]\nname = \"base\"\ngroup = \"base\"\npoint = \"p3\"\n",
+    )
+    .unwrap();
+    let o = pn(&[
+        "race",
+        "sphere",
+        "--ablation-study",
+        study.to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success());
+    assert!(
+        err.contains("arm 1 (\"base\")") && err.contains("METHOD@RES"),
+        "{err}"
+    );
     let o = pn(&[
         "race",
         "--markdown-only",

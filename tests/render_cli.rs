@@ -417,3 +417,65 @@ fn bad_renderer_settings_are_one_clear_error() {
     assert!(!dir.join("out").exists());
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `--set SECTION.KEY=VALUE` overrides the scene file's keys before it is checked and is
+/// recorded in report.json; an unknown key or a malformed override is one clear error.
+#[test]
+fn set_overrides_scene_keys_and_is_recorded() {
+    let dir = tmp("set");
+    let path = dir.join("ball.toml");
+    std::fs::write(&path, SCENE).unwrap();
+    let out = dir.join("out");
+    let o = pn(&[
+        "render",
+        path.to_str().unwrap(),
+        "--rays",
+        "1",
+        "--set",
+        "solve.margin=3",
+        "--set",
+        "solve.absorber=box",
+        "--stats",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let r = report(&out);
+    assert_eq!(
+        r["overrides"],
+        serde_json::json!(["solve.margin=3", "solve.absorber=box"])
+    );
+    assert_eq!(r["scene"], "ball");
+    // The margin widens the cropped solve grid: 3 + 4 absorbing cells on each side
+    // against the file's 2 + 4.
+    let wide = r["unknowns"]["solve_grid_res"][0].as_u64().unwrap();
+    let o = pn(&[
+        "render",
+        path.to_str().unwrap(),
+        "--rays",
+        "1",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success());
+    let r = report(&out);
+    assert_eq!(r["overrides"], serde_json::json!([]));
+    let narrow = r["unknowns"]["solve_grid_res"][0].as_u64().unwrap();
+    assert_eq!(wide, narrow + 2, "margin 3 against 2 on both sides");
+    for (set, want) in [
+        ("solve.nonsense=1", "nonsense"),
+        ("foo", "SECTION.KEY=VALUE"),
+        ("=3", "key before '=' is empty"),
+        ("solve.margin=many", "many"),
+    ] {
+        let o = pn(&["render", "sphere", "--method", "none", "--set", set]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success(), "--set {set} should fail");
+        assert!(
+            err.contains(want) && err.contains("--set"),
+            "--set {set}: {err}"
+        );
+        assert!(!err.contains("panicked"), "{err}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -3,7 +3,7 @@
 use clap::Args;
 use pn_drivers::figure::FigureRequest;
 use pn_runtime::render::scene::RendererKind;
-use pn_runtime::render::DensityFilter;
+use pn_runtime::render::{DensityFilter, SceneOverride};
 use std::path::PathBuf;
 
 use super::Env;
@@ -53,6 +53,14 @@ pub struct FigureArgs {
     /// Worker threads (default: all cores).
     #[arg(long, allow_negative_numbers = true)]
     pub threads: Option<usize>,
+    /// Override a key of the scene's TOML before it is checked, as `pn render --set`
+    /// (repeatable): `--set solve.margin=8`.
+    #[arg(
+        long = "set",
+        value_name = "SECTION.KEY=VALUE",
+        allow_hyphen_values = true
+    )]
+    pub set: Vec<SceneOverride>,
 }
 
 impl FigureArgs {
@@ -72,6 +80,7 @@ impl FigureArgs {
             mitsuba_spp: self.mitsuba_spp,
             python: env.python(self.python.as_deref()),
             threads: self.threads,
+            set: self.set.clone(),
             tuning: env.tuning.clone(),
         }
     }

@@ -14,7 +14,8 @@ pub struct RaceArgs {
     #[arg(required_unless_present = "markdown_only")]
     pub scenes: Vec<String>,
     /// Output folder: per scene points.csv, error_time.png, crossings.txt, single_scatter.csv,
-    /// turntable.csv; for all summary.csv and results.md.
+    /// turntable.csv (and ablation.csv); for all summary.csv and results.md (and
+    /// bias_vs_order.png).
     #[arg(long, default_value = "out/race")]
     pub out: PathBuf,
     /// Reference cache folder (default out/race-cache).
@@ -53,21 +54,23 @@ pub struct RaceArgs {
     /// Skip the single-scattering comparison.
     #[arg(long)]
     pub no_single_scatter: bool,
-    /// Split the first scene's pn error into quadrature, solve resolution and truncation.
+    /// Run an ablation study on every scene after its race: each arm changes one suspected
+    /// cause of pn's bias (vacuum treatment, P_N order, solve resolution, quadrature, density
+    /// filter) and is judged against the scene's Mitsuba reference; per scene ablation.csv
+    /// (bias, relative RMSE, and their change against the base arm), for all
+    /// bias_vs_order.png, an Ablation section in results.md. Without --ablation-study, the
+    /// built-in study (crates/pn-drivers/src/race/default_study.toml: 18 arms, 16 renders
+    /// per scene). Replaces the former four-step ablation: --ablation-base, --ablation-res,
+    /// --ablation-order and --ablation-fine-args are gone (write the arms in a study file).
+    /// Example: pn race cloud scenes/puff.toml --ablation --out out/ablation.
     #[arg(long)]
     pub ablation: bool,
-    /// The ablation's base point (default p3@24).
-    #[arg(long)]
-    pub ablation_base: Option<String>,
-    /// The ablation's fine solve resolution (default 48).
-    #[arg(long, allow_negative_numbers = true)]
-    pub ablation_res: Option<usize>,
-    /// The ablation's higher P_N order (default: the base order + 2).
-    #[arg(long, allow_negative_numbers = true)]
-    pub ablation_order: Option<usize>,
-    /// `pn render` arguments of the ablation's fine quadrature, in one string.
-    #[arg(long, allow_hyphen_values = true, default_value = "")]
-    pub ablation_fine_args: String,
+    /// The ablation study: a TOML file of [[arm]] tables with name, group, point (a pn point,
+    /// e.g. p3@24 or p5@32:rays=16) and optional args (more `pn render` arguments, e.g.
+    /// ["--set", "solve.margin=8"]); the first arm of group "base" is the base. Implies
+    /// --ablation.
+    #[arg(long, value_name = "FILE")]
+    pub ablation_study: Option<PathBuf>,
     /// A small smoke run: 64-spp reference, Mitsuba at 1 and 4 spp, one pn point, 2 views.
     #[arg(long)]
     pub quick: bool,
@@ -119,11 +122,8 @@ impl RaceArgs {
             turntable: self.turntable,
             turntable_point: one(&self.turntable_point, "turntable-point")?,
             single_scatter: !self.no_single_scatter,
-            ablation: self.ablation,
-            ablation_base: one(&self.ablation_base, "ablation-base")?,
-            ablation_res: self.ablation_res,
-            ablation_order: self.ablation_order,
-            ablation_fine_args: words(&self.ablation_fine_args),
+            ablation: self.ablation || self.ablation_study.is_some(),
+            ablation_study: self.ablation_study.clone(),
             quick: self.quick,
             threads: self.threads,
             markdown_only: self.markdown_only,

@@ -4,7 +4,7 @@ use clap::Args;
 use pn_drivers::render::{RenderOptions, RenderRequest};
 use pn_runtime::memory_estimate;
 use pn_runtime::render::scene::{RenderMethod, RendererKind};
-use pn_runtime::render::DensityFilter;
+use pn_runtime::render::{DensityFilter, SceneOverride};
 use std::path::PathBuf;
 
 use super::Env;
@@ -63,6 +63,17 @@ pub struct RenderArgs {
     /// Refuse solves whose estimated memory exceeds this (bytes, or with K/M/G/T).
     #[arg(long, value_parser = memory_estimate::parse_size)]
     pub max_memory: Option<u64>,
+    /// Override any key of the scene's TOML before it is checked (repeatable, applied in
+    /// order, before the other flags): `--set solve.margin=8 --set solve.absorber=box
+    /// --set camera.position=[0,0,3] --set light.0.irradiance=2` (the first [[light]]). The
+    /// value is read as TOML, a bare word as a string; missing tables are created; an unknown
+    /// key is an error. Recorded in report.json ("overrides").
+    #[arg(
+        long = "set",
+        value_name = "SECTION.KEY=VALUE",
+        allow_hyphen_values = true
+    )]
+    pub set: Vec<SceneOverride>,
 }
 
 impl RenderArgs {
@@ -82,6 +93,7 @@ impl RenderArgs {
             solve_res: self.solve_res.clone(),
             out: self.out.clone(),
             stats: self.stats,
+            set: self.set.clone(),
             options: RenderOptions {
                 threads: self.threads,
                 max_memory: self.max_memory,

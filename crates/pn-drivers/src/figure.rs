@@ -17,7 +17,7 @@ use plotters::prelude::*;
 use pn_runtime::render::compare::{metrics, write_difference_png, GrayImage, Metrics};
 use pn_runtime::render::image_io::{exposure, read_exr_gray, srgb8};
 use pn_runtime::render::scene::{RenderMethod, RendererKind};
-use pn_runtime::render::{DensityFilter, RenderScene};
+use pn_runtime::render::{DensityFilter, RenderScene, SceneOverride};
 use pn_runtime::solver::SolverTuning;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -52,6 +52,8 @@ pub struct FigureRequest {
     pub python: Option<PathBuf>,
     /// Worker threads (default: all cores).
     pub threads: Option<usize>,
+    /// `--set SECTION.KEY=VALUE` overrides of the scene's TOML (as `pn render --set`).
+    pub set: Vec<SceneOverride>,
     /// Expert solver settings (the `pn` binary reads them from the environment).
     pub tuning: SolverTuning,
 }
@@ -73,6 +75,7 @@ impl Default for FigureRequest {
             mitsuba_spp: 1024,
             python: None,
             threads: None,
+            set: Vec::new(),
             tuning: SolverTuning::default(),
         }
     }
@@ -107,7 +110,7 @@ fn gray(run: &RenderRun) -> GrayImage {
 /// Runs `pn figure`: renders every method, writes the images, `figure.png` and the tables,
 /// and prints the table to `stdout`.
 pub fn run(a: &FigureRequest, stdout: &mut dyn std::io::Write) -> Result<()> {
-    let mut scene = RenderScene::load(&a.scene)?;
+    let mut scene = RenderScene::load_with_overrides(&a.scene, &a.set)?;
     if let Some(s) = a.spp {
         scene.render.spp = s;
     }

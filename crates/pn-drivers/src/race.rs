@@ -18,12 +18,14 @@
 //!   (`turntable.csv`);
 //!
 //! and, for all scenes, `summary.csv` and `results.md` (generated from the CSV files alone;
-//! `markdown_only` regenerates it). With `ablation`, the first scene's pn error is split
-//! into rendering quadrature, solve resolution and P_N truncation (`ablation.csv`).
+//! `markdown_only` regenerates it). With `ablation`, every scene also runs an ablation study
+//! ([`ablation`]: each arm changes one suspected cause of the bias; `ablation.csv` per scene,
+//! `bias_vs_order.png` for all).
 //!
 //! Errors: relative RMSE = ‖image − reference‖₂ / ‖reference‖₂ over all pixels; relative
 //! bias = (mean image − mean reference) / mean reference.
 
+pub mod ablation;
 mod analysis;
 mod markdown;
 mod metrics;
@@ -90,16 +92,10 @@ pub struct RaceRequest {
     pub turntable_point: Option<PnPoint>,
     /// Run the single-scattering comparison.
     pub single_scatter: bool,
-    /// Run the ablation on the first scene.
+    /// Run the ablation study on every scene.
     pub ablation: bool,
-    /// The ablation's base point (default p3@24).
-    pub ablation_base: Option<PnPoint>,
-    /// The ablation's fine solve resolution (default 48).
-    pub ablation_res: Option<usize>,
-    /// The ablation's higher order (default base order + 2).
-    pub ablation_order: Option<usize>,
-    /// `pn render` arguments of the ablation's fine quadrature.
-    pub ablation_fine_args: Vec<String>,
+    /// The ablation study file (default: the built-in [`ablation::DEFAULT_STUDY`]).
+    pub ablation_study: Option<PathBuf>,
     /// A small smoke run.
     pub quick: bool,
     /// `--threads` for the pn renders.
@@ -129,10 +125,7 @@ impl Default for RaceRequest {
             turntable_point: None,
             single_scatter: true,
             ablation: false,
-            ablation_base: None,
-            ablation_res: None,
-            ablation_order: None,
-            ablation_fine_args: vec![],
+            ablation_study: None,
             quick: false,
             threads: None,
             markdown_only: false,
@@ -148,6 +141,7 @@ struct Plan {
     target_spp: usize,
     pn_points: Vec<PnPoint>,
     turntable: usize,
+    study: Option<ablation::Study>,
 }
 
 impl Plan {
@@ -192,12 +186,18 @@ impl Plan {
             pn_points.iter().all(|p| p.family != Family::None),
             "--pn-points: single scattering (none) is its own comparison, not a race point"
         );
+        let study = match (&r.ablation_study, r.ablation) {
+            (_, false) => None,
+            (Some(p), true) => Some(ablation::Study::from_file(p)?),
+            (None, true) => Some(ablation::Study::builtin()?),
+        };
         Ok(Self {
             reference_spp,
             mitsuba_spp,
             target_spp,
             pn_points,
             turntable: r.turntable.unwrap_or(if r.quick { 2 } else { 16 }),
+            study,
         })
     }
 }
@@ -210,7 +210,8 @@ pub fn parse_points(s: &str) -> Result<Vec<PnPoint>> {
         .collect()
 }
 
-/// The settings text of a pn row: `res=24` plus the render arguments (`spp=16`).
+/// The settings text of a pn row: `res=24` plus the render arguments (`spp=16`; a `--set`
+/// as its `SECTION.KEY=VALUE`), with no comma or double quote (a CSV cell).
 fn pn_settings(p: &PnPoint, args: &[String]) -> String {
     let mut s = if p.family == Family::None {
         String::from("-")
@@ -221,7 +222,15 @@ fn pn_settings(p: &PnPoint, args: &[String]) -> String {
     let mut it = all.iter().peekable();
     while let Some(a) = it.next() {
         let key = a.trim_start_matches('-');
+        if let Some(v) = key.strip_prefix("set=") {
+            s += &format!(" {v}");
+            continue;
+        }
         match it.peek() {
+            Some(v) if key == "set" => {
+                s += &format!(" {v}");
+                it.next();
+            }
             Some(v) if !v.starts_with("--") => {
                 s += &format!(" {key}={v}");
                 it.next();
@@ -229,7 +238,7 @@ fn pn_settings(p: &PnPoint, args: &[String]) -> String {
             _ => s += &format!(" {key}"),
         }
     }
-    s.replace(',', ";")
+    s.replace(',', ";").replace('"', "'")
 }
 
 /// Everything one scene's race needs.
@@ -243,12 +252,19 @@ struct Ctx<'a> {
 /// Runs `pn race`.
 pub fn run(req: &RaceRequest, stdout: &mut dyn Write) -> Result<()> {
     if req.markdown_only {
+        if let Some(p) = ablation::draw_order_plot(&req.out)? {
+            writeln!(stdout, "wrote {}", p.display())?;
+        }
         let p = markdown::write(&req.out)?;
         writeln!(stdout, "wrote {}", p.display())?;
         return Ok(());
     }
     ensure!(!req.scenes.is_empty(), "no scene given");
     let plan = Plan::new(req)?;
+    if let Some(study) = &plan.study {
+        // Before anything renders: a bad --set or a repeated flag fails now, not hours later.
+        study.check(&req.scenes, &req.render_args)?;
+    }
     std::fs::create_dir_all(&req.out)
         .with_context(|| format!("cannot create {}", req.out.display()))?;
     let scratch = std::env::temp_dir().join(format!("pn-race-{}", std::process::id()));
@@ -276,11 +292,15 @@ pub fn run(req: &RaceRequest, stdout: &mut dyn Write) -> Result<()> {
             .unwrap_or_else(|| PathBuf::from("out/race-cache")),
     };
     let mut summary = Table::new(markdown::SUMMARY_COLUMNS);
-    for (i, s) in req.scenes.iter().enumerate() {
-        let row = race_scene(&ctx, s, i == 0 && req.ablation, stdout)
-            .with_context(|| format!("race on {s}"))?;
+    for s in &req.scenes {
+        let row = race_scene(&ctx, s, stdout).with_context(|| format!("race on {s}"))?;
         summary.push(&row)?;
         summary.write(&req.out.join("summary.csv"))?;
+        if plan.study.is_some() {
+            if let Some(p) = ablation::draw_order_plot(&req.out)? {
+                writeln!(stdout, "  wrote {}", p.display())?;
+            }
+        }
     }
     let md = markdown::write(&req.out)?;
     writeln!(
@@ -416,7 +436,6 @@ fn pn_row(
 fn race_scene(
     ctx: &Ctx,
     scene_arg: &str,
-    ablation: bool,
     log: &mut dyn Write,
 ) -> Result<Vec<(&'static str, String)>> {
     let scene = RenderScene::load(scene_arg)?;
@@ -567,8 +586,14 @@ fn race_scene(
             )?);
         }
     }
-    if ablation {
-        ablation_run(ctx, &name, &dir, &runner, &reference.image, log)?;
+    if let Some(study) = &plan.study {
+        writeln!(
+            log,
+            "  ablation: {} arms of the study {}",
+            study.arms.len(),
+            study.source
+        )?;
+        ablation::run(ctx, study, &name, &dir, &runner, &reference.image, log)?;
     }
     if !ctx.req.keep_work {
         let w = dir.join(WORK);
@@ -801,95 +826,6 @@ fn turntable(
     ])
 }
 
-/// The ablation: base → fine quadrature → fine solve resolution → higher order; each step's
-/// image difference (relative to the reference's norm) is the error that step removes.
-fn ablation_run(
-    ctx: &Ctx,
-    name: &str,
-    dir: &Path,
-    runner: &PnRunner,
-    reference: &GrayImage,
-    log: &mut dyn Write,
-) -> Result<()> {
-    let base = match ctx.req.ablation_base {
-        Some(p) => p,
-        None => PnPoint::parse("p3@24")?,
-    };
-    let Family::Pn(order) = base.family else {
-        anyhow::bail!(
-            "--ablation-base must be a P_N point (pN@RES), got {}",
-            base.label()
-        );
-    };
-    let fine_res = ctx.req.ablation_res.unwrap_or(48);
-    let high = ctx.req.ablation_order.unwrap_or(order + 2);
-    let fine_args = &ctx.req.ablation_fine_args;
-    ensure!(
-        !fine_args.is_empty(),
-        "--ablation needs --ablation-fine-args (the renderer settings of the fine quadrature)"
-    );
-    let fine = PnPoint {
-        family: Family::Pn(order),
-        solve_res: fine_res,
-        ..base
-    };
-    let higher = PnPoint {
-        family: Family::Pn(high),
-        ..fine
-    };
-    let steps: [(&str, PnPoint, &[String]); 4] = [
-        ("base", base, &[]),
-        ("fine quadrature", base, fine_args),
-        ("fine solve resolution", fine, fine_args),
-        ("higher order", higher, fine_args),
-    ];
-    let adir = dir.join(WORK).join("ablation");
-    let mut images = vec![];
-    let mut t = Table::new(markdown::ABLATION_COLUMNS);
-    let ref_norm = reference.data.iter().map(|v| v * v).sum::<f64>().sqrt();
-    for (i, (what, p, extra)) in steps.iter().enumerate() {
-        let out = adir.join(format!("{i}_{}", p.folder()));
-        let r = runner.render(p, &out, extra)?;
-        let img = read_gray(&r.images[0])?;
-        let e = errors(&img, reference)?;
-        let removed = images.last().map(|prev: &GrayImage| {
-            let d: f64 = prev
-                .data
-                .iter()
-                .zip(&img.data)
-                .map(|(a, b)| (a - b) * (a - b))
-                .sum();
-            d.sqrt() / ref_norm
-        });
-        let mut args = ctx.req.render_args.clone();
-        args.extend(extra.iter().cloned());
-        writeln!(
-            log,
-            "  ablation {what:<22} {:<12} {:>7.2} s: rel. RMSE {:.4}, bias {:+.2} %{}",
-            p.pretty(),
-            r.wall,
-            e.rel_rmse,
-            100.0 * e.rel_bias,
-            removed
-                .map(|d| format!(", changed by {d:.4}"))
-                .unwrap_or_default()
-        )?;
-        t.push(&[
-            ("scene", name.into()),
-            ("step", what.to_string()),
-            ("point", p.label()),
-            ("settings", pn_settings(p, &args)),
-            ("seconds", num(Some(r.wall))),
-            ("rel_rmse", num(Some(e.rel_rmse))),
-            ("rel_bias", num(Some(e.rel_bias))),
-            ("change_from_previous", num(removed)),
-        ])?;
-        images.push(img);
-    }
-    t.write(&dir.join("ablation.csv"))?;
-    Ok(())
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -943,6 +879,18 @@ mod tests {
                 &["--spp".into(), "16".into()]
             ),
             "res=24 spp=16"
+        );
+        assert_eq!(
+            pn_settings(
+                &PnPoint::parse("p3@24").unwrap(),
+                &[
+                    "--set".into(),
+                    "camera.position=[0,0,3]".into(),
+                    "--set=solve.absorber=\"box\"".into(),
+                    "--exact-transmittance".into()
+                ]
+            ),
+            "res=24 camera.position=[0;0;3] solve.absorber='box' exact-transmittance"
         );
     }
 }

@@ -22,7 +22,7 @@ use pn_runtime::render::renderer::{Image, MsField, Renderer};
 use pn_runtime::render::scene::{RenderMethod, RendererKind};
 use pn_runtime::render::shadow::Extinction;
 use pn_runtime::render::solve_setup::solve_grid;
-use pn_runtime::render::{Camera, DensityFilter, DensityGrid, RenderScene};
+use pn_runtime::render::{Camera, DensityFilter, DensityGrid, RenderScene, SceneOverride};
 use pn_runtime::solver::{SolverKind, SolverOptions, SolverTuning};
 use pn_runtime::unstagger::CellMoments;
 use serde::Serialize;
@@ -59,6 +59,9 @@ pub struct RenderRequest {
     pub out: Option<PathBuf>,
     /// Print the unknowns with and without cropping and at the density resolution.
     pub stats: bool,
+    /// `--set SECTION.KEY=VALUE` overrides of the scene's TOML, applied in order before the
+    /// scene is checked (and before the other options here).
+    pub set: Vec<SceneOverride>,
     /// Threads, memory limit, progress bars and solver tuning.
     pub options: RenderOptions,
 }
@@ -80,6 +83,7 @@ impl Default for RenderRequest {
             solve_res: None,
             out: None,
             stats: false,
+            set: Vec::new(),
             options: RenderOptions::default(),
         }
     }
@@ -227,6 +231,8 @@ pub struct RenderReport {
     pub views: Vec<ViewReport>,
     /// Warnings (also printed on stderr): an empty medium, a medium out of view.
     pub warnings: Vec<String>,
+    /// The `--set SECTION.KEY=VALUE` overrides of the scene file, in order (empty without).
+    pub overrides: Vec<String>,
 }
 
 /// One view of a turntable.
@@ -585,6 +591,7 @@ pub fn render_views(
         threads: pn_runtime::threads::effective_threads(threads),
         views: view_reports,
         warnings,
+        overrides: Vec::new(),
     };
     Ok(RenderRun {
         image,
@@ -720,13 +727,14 @@ pub fn write_run(dir: &Path, run: &RenderRun) -> Result<()> {
 /// Runs `pn render`: renders, writes `image.exr`, `image.png` (or the turntable's
 /// `view_NNN.*`) and `report.json` and prints a summary to `stdout`.
 pub fn run(a: &RenderRequest, stdout: &mut dyn Write) -> Result<()> {
-    let mut scene = RenderScene::load(&a.scene)?;
+    let mut scene = RenderScene::load_with_overrides(&a.scene, &a.set)?;
     apply_overrides(&mut scene, a)?;
     let out = a
         .out
         .clone()
         .unwrap_or_else(|| PathBuf::from("out").join(format!("render-{}", scene.name)));
-    let run = render_views(&scene, &a.options, a.turntable.unwrap_or(1))?;
+    let mut run = render_views(&scene, &a.options, a.turntable.unwrap_or(1))?;
+    run.report.overrides = a.set.iter().map(|o| o.text.clone()).collect();
     write_run(&out, &run)?;
     let r = &run.report;
     let what = match r.order {

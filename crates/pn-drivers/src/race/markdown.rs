@@ -2,6 +2,7 @@
 //! (`summary.csv`, and per scene `points.csv`, `single_scatter.csv`, `turntable.csv`,
 //! `ablation.csv`), so that `pn race --markdown-only` rewrites it without rendering.
 
+use super::ablation;
 use super::analysis::{crossings, family_name, points};
 use super::table::Table;
 use anyhow::{Context, Result};
@@ -63,18 +64,6 @@ pub const TURNTABLE_COLUMNS: &[&str] = &[
     "view0_vs_single_render",
     "mean_view_difference",
     "max_view_difference",
-];
-
-/// Columns of `ablation.csv`.
-pub const ABLATION_COLUMNS: &[&str] = &[
-    "scene",
-    "step",
-    "point",
-    "settings",
-    "seconds",
-    "rel_rmse",
-    "rel_bias",
-    "change_from_previous",
 ];
 
 /// A Markdown table of `t` with the chosen columns (header text, column).
@@ -190,6 +179,17 @@ pub fn write(out: &Path) -> Result<PathBuf> {
             names.join(", ")
         );
     }
+    if out.join(ablation::ORDER_PLOT).is_file() {
+        let _ = write!(
+            s,
+            "\n## Ablation: bias against the P_N order\n\nThe `{}` arms of every scene's \
+             ablation (odd orders: circles on solid lines, even orders: triangles on dashed \
+             lines); the tables are in each scene's Ablation section.\n\n![bias against the \
+             P_N order]({})\n",
+            ablation::ORDER_GROUP,
+            ablation::ORDER_PLOT
+        );
+    }
     for r in recs.iter().chain(&partial) {
         let scene = get(r, "scene");
         let dir = out.join(scene);
@@ -272,19 +272,7 @@ pub fn write(out: &Path) -> Result<PathBuf> {
         }
         let ab = dir.join("ablation.csv");
         if ab.is_file() {
-            s += "\nAblation (each step refines one thing; `change` = ‖image − previous image‖₂ / ‖reference‖₂, the error that step removes):\n\n";
-            s += &md_table(
-                &Table::read(&ab)?,
-                &[
-                    ("step", "step"),
-                    ("point", "point"),
-                    ("settings", "settings"),
-                    ("seconds", "seconds"),
-                    ("rel. RMSE", "rel_rmse"),
-                    ("rel. bias", "rel_bias"),
-                    ("change", "change_from_previous"),
-                ],
-            );
+            s += &ablation::markdown(&Table::read(&ab)?);
         }
     }
     let p = out.join("results.md");

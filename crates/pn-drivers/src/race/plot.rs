@@ -1,5 +1,6 @@
-//! The race's log–log plot: relative RMSE against wall seconds, one curve per method family,
-//! each point labelled with its setting, the reference's own noise as a dashed line.
+//! The race's plots: relative RMSE against wall seconds (log–log, one curve per method
+//! family, each point labelled with its setting, the reference's own noise as a dashed
+//! line), and the ablation's bias against the P_N order.
 
 use anyhow::{ensure, Result};
 use plotters::prelude::*;
@@ -121,4 +122,114 @@ pub fn draw(path: &Path, title: &str, curves: &[Curve], ref_noise: f64) -> Resul
             .map_err(|e| err(&e))?;
     }
     finish_chart(&mut chart, &root, path, 16, SeriesLabelPosition::UpperRight)
+}
+
+/// One scene's points of the ablation's order group: (P_N order, relative bias in %).
+#[derive(Clone, Debug, PartialEq)]
+pub struct OrderSeries {
+    /// The scene.
+    pub scene: String,
+    /// (order, bias %), by order.
+    pub points: Vec<(usize, f64)>,
+}
+
+/// The ablation's bias against the P_N order (`bias_vs_order.png`): one colour per scene,
+/// odd orders as circles on solid lines, even orders as triangles on dashed lines, and the
+/// zero line.
+pub fn draw_bias_vs_order(path: &Path, series: &[OrderSeries]) -> Result<()> {
+    register_plot_fonts()?;
+    let pts: Vec<(usize, f64)> = series
+        .iter()
+        .flat_map(|s| s.points.iter().copied())
+        .filter(|p| p.1.is_finite())
+        .collect();
+    ensure!(!pts.is_empty(), "nothing to plot");
+    let (n0, n1) = pts
+        .iter()
+        .fold((usize::MAX, 0), |(a, b), p| (a.min(p.0), b.max(p.0)));
+    let (b0, b1) = pts
+        .iter()
+        .fold((0.0f64, 0.0f64), |(a, b), p| (a.min(p.1), b.max(p.1)));
+    let pad = 0.08 * (b1 - b0).max(1.0);
+    let err = |e: &dyn std::fmt::Display| draw_error(path, e);
+    let root = white_canvas(path, (1000, 700))?;
+    let x_range = (n0 as f64 - 0.5)..(n1 as f64 + 0.5);
+    let mut chart = framed_chart(
+        &root,
+        "ablation: bias against Mitsuba by P_N order (odd: circles, solid; even: triangles, dashed)",
+        22,
+    )
+    .build_cartesian_2d(x_range.clone(), (b0 - pad)..(b1 + pad))
+    .map_err(|e| err(&e))?;
+    chart
+        .configure_mesh()
+        .x_desc("P_N order")
+        .y_desc("relative bias of the image mean (%)")
+        .axis_desc_style(("sans-serif", 20))
+        .label_style(("sans-serif", 16))
+        .x_labels(n1.saturating_sub(n0) + 2)
+        .x_label_formatter(&|v| {
+            if (v - v.round()).abs() < 1e-6 && *v >= 0.0 {
+                format!("{}", v.round() as usize)
+            } else {
+                String::new()
+            }
+        })
+        .y_label_formatter(&|v| format!("{v:.1}"))
+        .draw()
+        .map_err(|e| err(&e))?;
+    chart
+        .draw_series(LineSeries::new(
+            vec![(x_range.start, 0.0), (x_range.end, 0.0)],
+            ShapeStyle::from(&BLACK).stroke_width(1),
+        ))
+        .map_err(|e| err(&e))?;
+    let colors = [
+        RGBColor(230, 120, 0),
+        RGBColor(30, 90, 220),
+        RGBColor(0, 150, 70),
+        RGBColor(200, 30, 60),
+        RGBColor(150, 60, 200),
+        RGBColor(0, 170, 170),
+        RGBColor(180, 140, 0),
+    ];
+    for (k, s) in series.iter().enumerate() {
+        let color = colors[k % colors.len()];
+        let line = ShapeStyle::from(&color).stroke_width(2);
+        let marker = ShapeStyle::from(&color).filled();
+        let parity = |odd: bool| -> Vec<(f64, f64)> {
+            s.points
+                .iter()
+                .filter(|p| (p.0 % 2 == 1) == odd && p.1.is_finite())
+                .map(|p| (p.0 as f64, p.1))
+                .collect()
+        };
+        let (odd, even) = (parity(true), parity(false));
+        let mut labelled = false;
+        if !odd.is_empty() {
+            chart
+                .draw_series(LineSeries::new(odd.clone(), line))
+                .map_err(|e| err(&e))?
+                .label(s.scene.as_str())
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 24, y)], line));
+            labelled = true;
+            chart
+                .draw_series(odd.iter().map(|&q| Circle::new(q, 5, marker)))
+                .map_err(|e| err(&e))?;
+        }
+        if !even.is_empty() {
+            let dashed = chart
+                .draw_series(DashedLineSeries::new(even.clone(), 8, 5, line))
+                .map_err(|e| err(&e))?;
+            if !labelled {
+                dashed
+                    .label(s.scene.as_str())
+                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 24, y)], line));
+            }
+            chart
+                .draw_series(even.iter().map(|&q| TriangleMarker::new(q, 6, marker)))
+                .map_err(|e| err(&e))?;
+        }
+    }
+    finish_chart(&mut chart, &root, path, 16, SeriesLabelPosition::LowerRight)
 }

@@ -2,6 +2,7 @@
 //! (docs/design.md §6, docs/rendering.md).
 //!
 //! * [`scene`]: the TOML render scene ([`RenderScene`]) and the built-in scenes;
+//!   [`scene_override`]: `pn render --set SECTION.KEY=VALUE` on its TOML;
 //! * [`medium`]: the density grid, its filter (trilinear as Mitsuba, or nearest) and the
 //!   procedural media;
 //! * [`lights`], [`camera`]: lights, phase function values and the pinhole camera;
@@ -24,6 +25,7 @@ pub mod medium;
 pub mod mitsuba;
 pub mod renderer;
 pub mod scene;
+pub mod scene_override;
 pub mod shadow;
 pub mod solve_setup;
 
@@ -33,3 +35,4 @@ pub use medium::{DensityFilter, DensityGrid, Procedural};
 pub use scene::{
     AbsorberPlacement, MediumSpec, RenderScene, RenderSettings, SolveBoundary, SolveSettings,
 };
+pub use scene_override::SceneOverride;

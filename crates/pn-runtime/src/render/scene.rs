@@ -53,12 +53,15 @@
 //! ```
 //!
 //! Unknown keys are refused; parse errors carry the line and column; relative file paths
-//! are resolved against the scene file's folder. See [`super::medium`] and
+//! are resolved against the scene file's folder. `pn render --set SECTION.KEY=VALUE`
+//! overrides ([`super::scene_override`]) are applied to the TOML table before these checks
+//! ([`RenderScene::load_with_overrides`]). See [`super::medium`] and
 //! [`super::camera`] for the geometric conventions shared with the Mitsuba export.
 
 use super::camera::{norm, Camera};
 use super::lights::Light;
 use super::medium::{check_box, DensityFilter, DensityGrid, Procedural};
+use super::scene_override::SceneOverride;
 use crate::npy::read_npy;
 use crate::problem::Phase;
 use crate::scene_registry::{self, SceneKind};
@@ -432,19 +435,29 @@ impl RenderScene {
     /// Reads and checks a scene file (errors name the file, and the line and column for
     /// syntax and type errors).
     pub fn from_path(path: &Path) -> anyhow::Result<RenderScene> {
+        Self::from_path_with_overrides(path, &[])
+    }
+
+    /// [`RenderScene::from_path`] with `--set` overrides applied to the file's TOML before it
+    /// is checked ([`RenderScene::from_toml_str_with_overrides`]). The name is the file stem.
+    pub fn from_path_with_overrides(
+        path: &Path,
+        overrides: &[SceneOverride],
+    ) -> anyhow::Result<RenderScene> {
         let text = std::fs::read_to_string(path)
             .with_context(|| format!("cannot read scene file {}", path.display()))?;
         let base = path.parent().unwrap_or(Path::new("."));
-        let mut scene = Self::from_toml_str(&text, base).with_context(|| {
-            match scene_registry::toml_kind(&text) {
-                Some(SceneKind::Solve) => format!(
-                    "scene file {} ({})",
-                    path.display(),
-                    scene_registry::wrong_kind_file_hint(path, SceneKind::Solve)
-                ),
-                _ => format!("scene file {}", path.display()),
-            }
-        })?;
+        let mut scene =
+            Self::from_toml_str_with_overrides(&text, base, overrides).with_context(|| {
+                match scene_registry::toml_kind(&text) {
+                    Some(SceneKind::Solve) => format!(
+                        "scene file {} ({})",
+                        path.display(),
+                        scene_registry::wrong_kind_file_hint(path, SceneKind::Solve)
+                    ),
+                    _ => format!("scene file {}", path.display()),
+                }
+            })?;
         if let Some(stem) = path.file_stem().and_then(|s| s.to_str()) {
             scene.name = stem.to_string();
         }
@@ -454,9 +467,57 @@ impl RenderScene {
     /// Parses and checks a scene from TOML text; relative paths are resolved against
     /// `base_dir`. The name is "scene" (see [`RenderScene::from_path`]).
     pub fn from_toml_str(s: &str, base_dir: &Path) -> anyhow::Result<RenderScene> {
+        Self::from_toml_str_with_overrides(s, base_dir, &[])
+    }
+
+    /// [`RenderScene::from_toml_str`] with `--set` overrides: the text must be a valid scene
+    /// on its own (its errors keep their line and column); then each override is applied to
+    /// its TOML table in order ([`SceneOverride::apply`]) and the result is read and checked
+    /// as if it had been written in the file. An unknown key or a wrong type is refused with
+    /// the field's name and the `--set` that introduced it; a value the checks refuse gets the
+    /// overrides as context.
+    pub fn from_toml_str_with_overrides(
+        s: &str,
+        base_dir: &Path,
+        overrides: &[SceneOverride],
+    ) -> anyhow::Result<RenderScene> {
         // toml's Display names the line and column and quotes the offending line.
         let t: SceneToml = toml::from_str(s).map_err(|e| anyhow::anyhow!("{e}"))?;
-        build(t, base_dir)
+        if overrides.is_empty() {
+            return build(t, base_dir);
+        }
+        let pristine: toml::Table = toml::from_str(s).map_err(|e| anyhow::anyhow!("{e}"))?;
+        let all = || {
+            overrides
+                .iter()
+                .map(|o| o.text.as_str())
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        let read = |table: &toml::Table| -> Result<SceneToml, String> {
+            toml::Value::Table(table.clone())
+                .try_into::<SceneToml>()
+                .map_err(|e| e.message().trim_end().to_string())
+        };
+        let mut table = pristine.clone();
+        for o in overrides {
+            o.apply(&mut table)?;
+        }
+        let t = match read(&table) {
+            Ok(t) => t,
+            Err(e) => {
+                // Name the override that gives this very error on its own, if one does.
+                for o in overrides {
+                    let mut one = pristine.clone();
+                    o.apply(&mut one)?;
+                    if read(&one).err().as_deref() == Some(e.as_str()) {
+                        bail!("--set {o}: {e}");
+                    }
+                }
+                bail!("--set {}: {e}", all())
+            }
+        };
+        build(t, base_dir).with_context(|| format!("with --set {}", all()))
     }
 
     /// A built-in render scene ([`builtin_names`]; the same files as `scenes/<name>.toml`,
@@ -473,19 +534,40 @@ impl RenderScene {
     /// A built-in name or a scene file path. A built-in solve scene's name (`checkerboard`,
     /// …) is refused with a message naming `pn solve`.
     pub fn load(arg: &str) -> anyhow::Result<RenderScene> {
+        Self::load_with_overrides(arg, &[])
+    }
+
+    /// [`RenderScene::load`] with `--set` overrides applied to the scene's TOML (a file's or
+    /// a built-in's text) before it is checked
+    /// ([`RenderScene::from_toml_str_with_overrides`]). The name stays the file stem or the
+    /// built-in name.
+    pub fn load_with_overrides(
+        arg: &str,
+        overrides: &[SceneOverride],
+    ) -> anyhow::Result<RenderScene> {
         let path = Path::new(arg);
         if arg.ends_with(".toml") || path.is_file() {
-            return Self::from_path(path);
+            return Self::from_path_with_overrides(path, overrides);
         }
         if let Some(e) = scene_registry::wrong_kind_error(arg, SceneKind::Render) {
             return Err(e);
         }
-        Self::builtin(arg).with_context(|| {
+        let unknown = || {
             format!(
                 "{arg:?} is neither a scene file nor a built-in scene ({})",
                 builtin_names().join(", ")
             )
-        })
+        };
+        if overrides.is_empty() {
+            return Self::builtin(arg).with_context(unknown);
+        }
+        let text = scene_registry::find_kind(arg, SceneKind::Render)
+            .and_then(|e| e.toml)
+            .with_context(unknown)?;
+        let mut s = Self::from_toml_str_with_overrides(text, Path::new("."), overrides)
+            .with_context(|| format!("built-in scene {arg}"))?;
+        s.name = arg.to_string();
+        Ok(s)
     }
 
     /// The density grid of the medium (generated for procedural media), read with the
@@ -976,6 +1058,84 @@ height = 8
         assert!(e.contains("irradiance"), "{e}");
         let e = err(&MINIMAL.replace("fov = 40.0", "fov = \"wide\""));
         assert!(e.contains("line 15, column 7"), "{e}");
+    }
+
+    fn with_sets(sets: &[&str]) -> anyhow::Result<RenderScene> {
+        let o: Vec<SceneOverride> = sets.iter().map(|s| s.parse().unwrap()).collect();
+        RenderScene::from_toml_str_with_overrides(MINIMAL, Path::new("."), &o)
+    }
+
+    #[test]
+    fn set_overrides_apply_before_the_checks() {
+        let s = with_sets(&[
+            "solve.margin=8",
+            "solve.sigma_t_min=0.5",
+            "solve.absorber=box",
+            "camera.position=[0,0,3]",
+            "light.0.irradiance=2",
+            "render.exact_transmittance=true",
+            "phase.kind=hg",
+            "phase.g=0.3",
+        ])
+        .unwrap();
+        assert_eq!(s.solve.margin, 8);
+        assert_eq!(s.solve.sigma_t_min, Some(0.5));
+        assert_eq!(s.solve.absorber, AbsorberPlacement::Box);
+        assert_eq!(s.camera.position, [0.0, 0.0, 3.0]);
+        assert_eq!(
+            s.lights[0],
+            Light::Directional {
+                direction: [0.0, -1.0, 0.0],
+                irradiance: 2.0
+            }
+        );
+        assert!(s.render.exact_transmittance);
+        assert_eq!(s.phase, Phase::HenyeyGreenstein(0.3));
+        // The file alone is unchanged by an empty list.
+        assert_eq!(with_sets(&[]).unwrap(), parse(MINIMAL).unwrap());
+        // A built-in keeps its name.
+        let o: SceneOverride = "solve.margin=5".parse().unwrap();
+        let b = RenderScene::load_with_overrides("sphere", &[o]).unwrap();
+        assert_eq!((b.name.as_str(), b.solve.margin), ("sphere", 5));
+    }
+
+    #[test]
+    fn bad_set_overrides_name_the_key_and_the_flag() {
+        let e = format!(
+            "{:#}",
+            with_sets(&["solve.margin=8", "solve.nonsense=1"]).unwrap_err()
+        );
+        assert!(
+            e.contains("--set solve.nonsense=1") && e.contains("unknown field `nonsense`"),
+            "{e}"
+        );
+        assert!(!e.contains("solve.margin=8"), "{e}");
+        let e = format!("{:#}", with_sets(&["colour.x=1"]).unwrap_err());
+        assert!(
+            e.contains("--set colour.x=1") && e.contains("`colour`"),
+            "{e}"
+        );
+        let e = format!("{:#}", with_sets(&["solve.margin=wide"]).unwrap_err());
+        assert!(
+            e.contains("--set solve.margin=wide") && e.contains("wide"),
+            "{e}"
+        );
+        let e = format!("{:#}", with_sets(&["solve.margin=100"]).unwrap_err());
+        assert!(
+            e.contains("with --set solve.margin=100") && e.contains("at most 64"),
+            "{e}"
+        );
+        let e = format!("{:#}", with_sets(&["light.3.irradiance=1"]).unwrap_err());
+        assert!(e.contains("out of range"), "{e}");
+        let o: SceneOverride = "solve.nonsense=1".parse().unwrap();
+        let e = format!(
+            "{:#}",
+            RenderScene::load_with_overrides("sphere", &[o]).unwrap_err()
+        );
+        assert!(
+            e.contains("built-in scene sphere") && e.contains("nonsense"),
+            "{e}"
+        );
     }
 
     #[test]
