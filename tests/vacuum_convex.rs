@@ -65,9 +65,10 @@ fn render(name: &str, text: &str) -> (f64, f64) {
 fn check_convex(kind: &str) {
     let (m2, auto) = render(&format!("{kind}_m2"), &scene(kind, "margin = 2"));
     let (m8, _) = render(&format!("{kind}_m8"), &scene(kind, "margin = 8"));
-    // With every cell outside the hull absorbing, a medium without holes has no vacuum left
-    // and no automatic threshold; then the threshold test compares two explicit ones (the
-    // automatic rule's 1e-3 of the largest σ_t, and ten times smaller).
+    // The automatic threshold applies where σ_t falls below 1e-3 of its largest value
+    // anywhere (vacuum, or the weak edge of the hull absorber). Where it does not apply,
+    // the threshold test compares two explicit ones (that rule's 1e-3 of the largest σ_t,
+    // and ten times smaller).
     let (m2, base) = if auto > 0.0 {
         (m2, auto)
     } else {

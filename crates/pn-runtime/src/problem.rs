@@ -518,10 +518,11 @@ impl Problem {
     /// The automatic σ_t threshold `--sigma-t-min` gets when vacuum is detected
     /// (docs/design.md §5: in vacuum A is singular, a threshold is needed and must be reported).
     ///
-    /// Rule: when no threshold is set and σ_t = 0 at some staggered position (cell centres,
-    /// faces, edges and corners, i.e. every half-cell coordinate) while it is positive
-    /// elsewhere, the threshold is [`AUTO_SIGMA_T_MIN_FRACTION`] × max σ_t. It is `None`
-    /// when a threshold is already set, when there is no vacuum, when σ_t is 0 everywhere
+    /// Rule: when no threshold is set and σ_t is below [`AUTO_SIGMA_T_MIN_FRACTION`] × max σ_t
+    /// (vacuum or near-vacuum) at some staggered position (cell centres, faces, edges and
+    /// corners, i.e. every half-cell coordinate), the threshold is that fraction of max σ_t.
+    /// It is `None` when a threshold is already set, when there is no such near-vacuum, when
+    /// σ_t is 0 everywhere
     /// (no scale to take a fraction of: the user must choose), or when a coefficient is
     /// invalid (the solve reports that error with its position).
     ///
@@ -534,7 +535,7 @@ impl Problem {
         let axes = g.dim.axes();
         let count = |d: usize| if d < axes { 2 * g.res[d] as i64 + 1 } else { 1 };
         let mut max = 0.0f64;
-        let mut vacuum = false;
+        let mut min = f64::INFINITY;
         for i in 0..count(0) {
             for j in 0..count(1) {
                 for k in 0..count(2) {
@@ -544,12 +545,16 @@ impl Problem {
                     if !v.is_finite() || v < 0.0 {
                         return None;
                     }
-                    vacuum |= v == 0.0;
+                    min = min.min(v);
                     max = max.max(v);
                 }
             }
         }
-        (vacuum && max > 0.0).then_some(AUTO_SIGMA_T_MIN_FRACTION * max)
+        // Near-vacuum counts as vacuum: σ_t below the threshold anywhere (the weak edge of
+        // a render scene's hull absorber, say) makes the parity-reduced system as badly
+        // conditioned as σ_t = 0 (parity-CG stagnates there).
+        let threshold = AUTO_SIGMA_T_MIN_FRACTION * max;
+        (max > 0.0 && min < threshold).then_some(threshold)
     }
 
     /// Refuses a closed box without absorption: with the reflecting (Neumann) closure and
@@ -637,6 +642,46 @@ fn check(name: &'static str, value: f64, p: Point) -> Result<(), CoefficientErro
 mod tests {
     use super::*;
     use BoundaryKind::{Dirichlet as D, Marshak as M, Neumann as N};
+
+    /// The automatic threshold applies to exact vacuum and to near-vacuum (σ_t below the
+    /// fraction of its largest value), not to a medium whose σ_t stays above it.
+    #[test]
+    fn the_automatic_threshold_covers_near_vacuum() {
+        let n = 4;
+        let problem = |values: [f64; 2]| {
+            let data: Vec<f64> = (0..n * n * n)
+                .map(|c| {
+                    if c / (n * n) == 0 {
+                        values[0]
+                    } else {
+                        values[1]
+                    }
+                })
+                .collect();
+            let grid = Grid {
+                dim: pn_stencil::Dim::Three,
+                min: [0.0; 3],
+                max: [1.0; 3],
+                res: [n; 3],
+            };
+            Problem {
+                grid: grid.clone(),
+                sigma_t: Field::Voxel(std::sync::Arc::new(
+                    crate::field::VoxelGrid::new(grid.res, grid.min, grid.max, data).unwrap(),
+                )),
+                scattering: Scattering::Albedo(Field::Constant(0.5)),
+                phase: Phase::Isotropic,
+                sources: vec![],
+                boundary: Boundary::Dirichlet,
+                sigma_t_min: None,
+            }
+        };
+        let t = AUTO_SIGMA_T_MIN_FRACTION * 10.0;
+        assert_eq!(problem([0.0, 10.0]).auto_sigma_t_min(), Some(t));
+        assert_eq!(problem([1e-5, 10.0]).auto_sigma_t_min(), Some(t));
+        assert_eq!(problem([0.5, 10.0]).auto_sigma_t_min(), None);
+        assert_eq!(problem([0.0, 0.0]).auto_sigma_t_min(), None);
+    }
 
     #[test]
     fn boundary_text_form() {

@@ -602,7 +602,10 @@ mod tests {
             "vacuum/margin 8",
             "vacuum/sigma_t_min 0.02",
             "vacuum/sigma_t_min 2",
+            "vacuum/absorbing layer 4",
             "vacuum/absorbing layer 8",
+            "vacuum/marshak cropped (P_5)",
+            "lookup/lookup nearest",
             "order/p2",
             "order/p7",
             "resolution/res 48",
@@ -627,7 +630,7 @@ mod tests {
         let p3 = s.arms.iter().find(|a| a.name == "p3").unwrap();
         assert_eq!(p3.key(), s.arms[0].key());
         let renders: HashSet<String> = s.arms.iter().map(Arm::key).collect();
-        assert_eq!((s.arms.len(), renders.len()), (18, 16));
+        assert_eq!((s.arms.len(), renders.len()), (22, 20));
         // Every --set applies to every built-in render scene; no flag twice.
         let scenes: Vec<String> = ["sphere", "cloud"].map(String::from).to_vec();
         s.check(&scenes, &[]).unwrap();
@@ -637,7 +640,7 @@ mod tests {
                 .unwrap_err()
         );
         assert!(
-            e.contains("arm 17 (\"fine\")") && e.contains("--rays"),
+            e.contains("arm 18 (\"fine\")") && e.contains("--rays"),
             "{e}"
         );
     }

@@ -61,7 +61,7 @@ use super::lights::{phase_value, Light};
 use super::medium::floor_fast;
 use super::medium::{DensityFilter, DensityGrid};
 use super::renderer::{Image, MsField};
-use super::scene::RenderScene;
+use super::scene::{MsLookup, RenderScene};
 use super::shadow::{walk_lattice, Extinction};
 use rayon::prelude::*;
 
@@ -167,6 +167,11 @@ impl<'a> MsCursor<'a> {
                 let cell = &self.ms.moments.data[base..base + pc];
                 *v = cell.iter().zip(&self.coeffs).map(|(a, b)| a * b).sum();
             }
+        }
+        if self.ms.lookup == MsLookup::Nearest {
+            // The containing cell is the corner nearest to x.
+            let corner = (0..3).fold(0, |acc, d| acc | (usize::from(t[d] >= 0.5) << d));
+            return self.corners[corner];
         }
         let c = &self.corners;
         let lerp = |a: f64, b: f64, s: f64| a + s * (b - a);
@@ -775,6 +780,38 @@ height = {size}
     }
 
     /// No medium in view, an empty medium, σ_t scale 0: exactly 0, never NaN.
+    /// Both lookups of the cursor agree with [`MsField::inscatter`]; the nearest lookup is
+    /// the containing cell's value, and at a cell centre both lookups give that value.
+    #[test]
+    fn the_cursor_reads_the_solution_like_inscatter_with_both_lookups() {
+        let wo = [0.3f64, -0.5, 0.8];
+        let n = (wo[0] * wo[0] + wo[1] * wo[1] + wo[2] * wo[2]).sqrt();
+        let wo = wo.map(|v| v / n);
+        for lookup in [MsLookup::Trilinear, MsLookup::Nearest] {
+            let ms = field(Phase::HenyeyGreenstein(0.4)).with_lookup(lookup);
+            let coeffs = ms.coefficients(wo);
+            let mut cursor = MsCursor::new(&ms, wo);
+            for p in [[0.1, -0.37, 0.55], [-0.99, 0.99, 0.0], [0.34, 0.32, -0.6]] {
+                let (a, b) = (cursor.eval(p), ms.inscatter(p, &coeffs));
+                assert!((a - b).abs() < 1e-14, "{lookup:?} at {p:?}: {a} vs {b}");
+                if lookup == MsLookup::Nearest {
+                    let idx = p.map(|v: f64| (((v + 1.0) * 3.0) as usize).min(5));
+                    let base = ((idx[0] * 6 + idx[1]) * 6 + idx[2]) * 4;
+                    let want: f64 = (0..4).map(|i| ms.moments.data[base + i] * coeffs[i]).sum();
+                    assert!((a - want).abs() < 1e-14, "nearest at {p:?}: {a} vs {want}");
+                }
+            }
+            let cell = [0usize, 1, 2];
+            let centre = cell.map(|v| (v as f64 + 0.5) / 3.0 - 1.0);
+            let base = ((cell[0] * 6 + cell[1]) * 6 + cell[2]) * 4;
+            let want: f64 = (0..4).map(|i| ms.moments.data[base + i] * coeffs[i]).sum();
+            assert!(
+                (cursor.eval(centre) - want).abs() < 1e-14,
+                "{lookup:?} at a centre"
+            );
+        }
+    }
+
     #[test]
     fn nothing_to_see_gives_zero() {
         let mut s = scene("", LIGHTS, [0.0, 0.0, 4.0], 4);

@@ -33,6 +33,7 @@ pub use camera::Camera;
 pub use lights::Light;
 pub use medium::{DensityFilter, DensityGrid, Procedural};
 pub use scene::{
-    AbsorberPlacement, MediumSpec, RenderScene, RenderSettings, SolveBoundary, SolveSettings,
+    AbsorberPlacement, MediumSpec, MsLookup, RenderScene, RenderSettings, SolveBoundary,
+    SolveSettings,
 };
 pub use scene_override::SceneOverride;

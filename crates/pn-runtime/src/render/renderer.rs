@@ -27,7 +27,7 @@
 
 use super::lights::phase_value;
 use super::medium::DensityGrid;
-use super::scene::RenderScene;
+use super::scene::{MsLookup, RenderScene};
 use super::shadow::Extinction;
 use crate::field::trilinear_corners;
 use crate::problem::{Grid, Phase};
@@ -57,6 +57,8 @@ pub struct MsField {
     pub moments: CellMoments,
     /// Phase function (for λ_l p_l).
     pub phase: Phase,
+    /// How values between the cell centres are read.
+    pub lookup: MsLookup,
 }
 
 impl MsField {
@@ -73,6 +75,7 @@ impl MsField {
             grid,
             moments,
             phase,
+            lookup: MsLookup::Trilinear,
         })
     }
 
@@ -99,8 +102,14 @@ impl MsField {
         c
     }
 
-    /// `Σ_{l,m} coeffs[l(l+1)+m] · L_l^m(x)`, trilinear between cell centres (clamped),
-    /// 0 outside the grid.
+    /// Reads values between the cell centres with `lookup`.
+    pub fn with_lookup(mut self, lookup: MsLookup) -> Self {
+        self.lookup = lookup;
+        self
+    }
+
+    /// `Σ_{l,m} coeffs[l(l+1)+m] · L_l^m(x)`, trilinear between cell centres (clamped), or
+    /// the containing cell's value for [`MsLookup::Nearest`]; 0 outside the grid.
     pub fn inscatter(&self, x: [f64; 3], coeffs: &[f64]) -> f64 {
         let g = &self.grid;
         if (0..3).any(|d| !(x[d] >= g.min[d] && x[d] <= g.max[d])) {
@@ -108,6 +117,13 @@ impl MsField {
         }
         let pc = self.moments.per_cell;
         let [_, ny, nz] = g.res;
+        if self.lookup == MsLookup::Nearest {
+            let idx: [usize; 3] =
+                std::array::from_fn(|d| (((x[d] - g.min[d]) / g.h(d)) as usize).min(g.res[d] - 1));
+            let base = ((idx[0] * ny + idx[1]) * nz + idx[2]) * pc;
+            let cell = &self.moments.data[base..base + pc];
+            return cell.iter().zip(coeffs).map(|(a, b)| a * b).sum();
+        }
         let h = [0, 1, 2].map(|d| g.h(d));
         let mut sum = 0.0;
         for (idx, w) in trilinear_corners(x, g.min, h, g.res) {

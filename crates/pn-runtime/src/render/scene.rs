@@ -35,7 +35,7 @@
 //! order = 3
 //! resolution = [32, 32, 32] # solve grid over the medium box (may be coarser)
 //! margin = 2                # empty cells kept around the cropped medium
-//! absorbing_layer = 4       # cells over which the graded absorber ramps up (0 = none)
+//! absorbing_layer = 1       # cells over which the graded absorber ramps up (0 = none)
 //! absorber = "hull"         # where it starts: "hull" (outside the medium's convex hull,
 //!                           # default) | "box" (only the outermost cells, beyond the margin)
 //! boundary = "dirichlet"    # the grid's faces: "dirichlet" (zero, default) | "marshak"
@@ -48,6 +48,7 @@
 //! step = 0.5                # deterministic: step in voxel sides (error O(step²))
 //! cutoff = 1e-4             # deterministic: stop a ray when its transmittance is below
 //! exact_transmittance = false # deterministic: trace T to the lights at every step
+//! ms_lookup = "trilinear"   # the solution between solve-cell centres: "trilinear" | "nearest"
 //! spp = 64                  # montecarlo: samples per pixel
 //! seed = 1                  # montecarlo: seed of the per-pixel random streams
 //! ```
@@ -304,6 +305,22 @@ pub struct RenderSettings {
     /// The deterministic renderer traces the transmittance to the lights exactly at every
     /// step instead of interpolating the light-depth grid (slower; no grid error).
     pub exact_transmittance: bool,
+    /// How both renderers read the multiple-scattering solution between solve-cell centres.
+    pub ms_lookup: MsLookup,
+}
+
+/// How the renderers read the un-staggered solution L_l^m between solve-cell centres
+/// (`[render] ms_lookup`; issue 17's lookup arm). Both converge to the same image as the
+/// solve grid is refined; they differ by O(h) where the solution has a boundary layer
+/// thinner than a cell (the first mean free path below the medium's surface).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum MsLookup {
+    /// Trilinear between the cell centres, clamped at the grid's outer centres (the default).
+    #[default]
+    Trilinear,
+    /// The value of the solve cell that contains the point (piecewise constant).
+    Nearest,
 }
 
 /// Default camera rays per pixel of the deterministic renderer (2×2).
@@ -427,6 +444,7 @@ struct RenderToml {
     step: Option<f64>,
     cutoff: Option<f64>,
     exact_transmittance: Option<bool>,
+    ms_lookup: Option<MsLookup>,
 }
 
 const DEFAULT_BBOX: ([f64; 3], [f64; 3]) = ([-1.0; 3], [1.0; 3]);
@@ -861,6 +879,7 @@ fn build(t: SceneToml, base: &Path) -> anyhow::Result<RenderScene> {
         step: None,
         cutoff: None,
         exact_transmittance: None,
+        ms_lookup: None,
     });
     let render = RenderSettings {
         renderer: r.renderer.unwrap_or_default(),
@@ -870,6 +889,7 @@ fn build(t: SceneToml, base: &Path) -> anyhow::Result<RenderScene> {
         step: r.step.unwrap_or(DEFAULT_STEP),
         cutoff: r.cutoff.unwrap_or(DEFAULT_CUTOFF),
         exact_transmittance: r.exact_transmittance.unwrap_or(false),
+        ms_lookup: r.ms_lookup.unwrap_or_default(),
     };
     render.validate().context("[render]")?;
     Ok(RenderScene {
@@ -883,8 +903,10 @@ fn build(t: SceneToml, base: &Path) -> anyhow::Result<RenderScene> {
     })
 }
 
-/// Default thickness (cells) of the absorbing layer around the solve grid.
-pub const DEFAULT_ABSORBING_LAYER: usize = 4;
+/// Default thickness (cells) of the absorber's ramp outside the medium's hull and of the
+/// layer at the grid's faces: the shortest ramp, since every weak cell of a longer one is
+/// near-vacuum in P_N and darkens the image (issue 17; [`super::hull_absorber`]).
+pub const DEFAULT_ABSORBING_LAYER: usize = 1;
 
 impl SolveSettings {
     /// Cells added around the cropped medium: the empty margin plus the absorbing layer.
