@@ -147,10 +147,17 @@ pub fn draw_bias_vs_order(path: &Path, series: &[OrderSeries]) -> Result<()> {
     let (n0, n1) = pts
         .iter()
         .fold((usize::MAX, 0), |(a, b), p| (a.min(p.0), b.max(p.0)));
+    // The y range follows the odd orders when there are any: the even orders can be off by
+    // a hundred percent and would flatten the odd ones' convergence; those beyond the range
+    // are drawn at its edge with their value written next to them.
+    let odd_only = pts.iter().any(|p| p.0 % 2 == 1);
     let (b0, b1) = pts
         .iter()
+        .filter(|p| !odd_only || p.0 % 2 == 1)
         .fold((0.0f64, 0.0f64), |(a, b), p| (a.min(p.1), b.max(p.1)));
     let pad = 0.08 * (b1 - b0).max(1.0);
+    let (y0, y1) = (b0 - pad, b1 + pad);
+    let clip = |v: f64| v.clamp(y0 + 0.25 * pad, y1 - 0.25 * pad);
     let err = |e: &dyn std::fmt::Display| draw_error(path, e);
     let root = white_canvas(path, (1000, 700))?;
     let x_range = (n0 as f64 - 0.5)..(n1 as f64 + 0.5);
@@ -159,7 +166,7 @@ pub fn draw_bias_vs_order(path: &Path, series: &[OrderSeries]) -> Result<()> {
         "ablation: bias against Mitsuba by P_N order (odd: circles, solid; even: triangles, dashed)",
         22,
     )
-    .build_cartesian_2d(x_range.clone(), (b0 - pad)..(b1 + pad))
+    .build_cartesian_2d(x_range.clone(), y0..y1)
     .map_err(|e| err(&e))?;
     chart
         .configure_mesh()
@@ -204,7 +211,14 @@ pub fn draw_bias_vs_order(path: &Path, series: &[OrderSeries]) -> Result<()> {
                 .map(|p| (p.0 as f64, p.1))
                 .collect()
         };
-        let (odd, even) = (parity(true), parity(false));
+        let off_scale: Vec<(f64, f64)> = parity(false)
+            .into_iter()
+            .filter(|q| clip(q.1) != q.1)
+            .collect();
+        let clipped = |v: Vec<(f64, f64)>| -> Vec<(f64, f64)> {
+            v.into_iter().map(|q| (q.0, clip(q.1))).collect()
+        };
+        let (odd, even) = (parity(true), clipped(parity(false)));
         let mut labelled = false;
         if !odd.is_empty() {
             chart
@@ -228,6 +242,16 @@ pub fn draw_bias_vs_order(path: &Path, series: &[OrderSeries]) -> Result<()> {
             }
             chart
                 .draw_series(even.iter().map(|&q| TriangleMarker::new(q, 6, marker)))
+                .map_err(|e| err(&e))?;
+            let font = ("sans-serif", 15).into_font().color(&color);
+            chart
+                .draw_series(off_scale.iter().enumerate().map(|(i, q)| {
+                    let label = format!("{}: {:+.0} % (off scale)", s.scene, q.1);
+                    // Stacked away from the edge the point sits on, one row per scene.
+                    let inward = if q.1 > y1 { -1.0 } else { 1.0 };
+                    let y = clip(q.1) + inward * (i + k) as f64 * 0.05 * (y1 - y0);
+                    Text::new(label, (q.0 + 0.08, y), font.clone())
+                }))
                 .map_err(|e| err(&e))?;
         }
     }
