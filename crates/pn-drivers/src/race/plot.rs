@@ -19,6 +19,17 @@ pub struct Curve {
     pub mitsuba: bool,
 }
 
+/// Line colours of the pn curves and of the ablation's scenes, in order.
+const PALETTE: [RGBColor; 7] = [
+    RGBColor(230, 120, 0),
+    RGBColor(30, 90, 220),
+    RGBColor(0, 150, 70),
+    RGBColor(200, 30, 60),
+    RGBColor(150, 60, 200),
+    RGBColor(0, 170, 170),
+    RGBColor(180, 140, 0),
+];
+
 /// Draws `curves` into `path` (PNG) with the title and the reference-noise line.
 pub fn draw(path: &Path, title: &str, curves: &[Curve], ref_noise: f64) -> Result<()> {
     register_plot_fonts()?;
@@ -70,15 +81,7 @@ pub fn draw(path: &Path, title: &str, curves: &[Curve], ref_noise: f64) -> Resul
             .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 24, y)], style));
     }
     let mitsuba_colors = [BLACK, RGBColor(130, 130, 130)];
-    let pn_colors = [
-        RGBColor(230, 120, 0),
-        RGBColor(30, 90, 220),
-        RGBColor(0, 150, 70),
-        RGBColor(200, 30, 60),
-        RGBColor(150, 60, 200),
-        RGBColor(0, 170, 170),
-        RGBColor(180, 140, 0),
-    ];
+    let pn_colors = PALETTE;
     let (mut mi, mut pi) = (0, 0);
     for c in curves {
         let color = if c.mitsuba {
@@ -191,15 +194,7 @@ pub fn draw_bias_vs_order(path: &Path, series: &[OrderSeries]) -> Result<()> {
             ShapeStyle::from(&BLACK).stroke_width(1),
         ))
         .map_err(|e| err(&e))?;
-    let colors = [
-        RGBColor(230, 120, 0),
-        RGBColor(30, 90, 220),
-        RGBColor(0, 150, 70),
-        RGBColor(200, 30, 60),
-        RGBColor(150, 60, 200),
-        RGBColor(0, 170, 170),
-        RGBColor(180, 140, 0),
-    ];
+    let colors = PALETTE;
     for (k, s) in series.iter().enumerate() {
         let color = colors[k % colors.len()];
         let line = ShapeStyle::from(&color).stroke_width(2);
