@@ -23,8 +23,13 @@
 //! **Error.** The only approximation is the reconstruction of the source σ_s T E p between
 //! voxel centres: its trilinear (or piecewise-constant) interpolant instead of the product
 //! of the filtered σ_s with the exact T between the centres, an O(h_voxel²) interpolation
-//! error (O(h_voxel) for nearest) of a smooth function, below the solve grid's own
-//! resolution error whenever the solve grid is not finer than the voxels.
+//! error (O(h_voxel) for nearest) of a smooth function. Its constant is not small where a
+//! voxel is about one mean free path thick: the voxel-centre values integrate like the
+//! midpoint rule, which underestimates the convex e^{−τ} across a voxel. Measured in issue
+//! 17's study (P_5 @ 24³, source evaluated on a lattice 2× and 4× finer than the voxels,
+//! docs/vacuum.md): the image mean rises by 1.0 (sphere), 1.1 (puff) and 2.7 (cumulus)
+//! percentage points at 2×, and 4× changes that by ≤ 0.2 more. That source of error is
+//! known and not yet removed.
 //!
 //! Everything is handed to the assembly as voxel fields. The solution of the P_N system
 //! with this source is the collided radiance
