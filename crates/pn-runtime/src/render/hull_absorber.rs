@@ -30,7 +30,10 @@
 //! 1 / 2 / 4 / 8 / 16 cells, monotonically (docs/vacuum.md). The default ramp
 //! ([`super::scene::DEFAULT_ABSORBING_LAYER`]) is therefore the shortest one, 1 cell: the
 //! absorber reaches full strength one cell outside the hull. This is the end of a monotone
-//! trend, not a value fitted in between.
+//! trend, not a value fitted in between. The strength τ pulls the other way: a sharper jump
+//! reflects light back (1-cell ramp, P_5: τ = 1 / 3 / 10 gives the sphere −2.5 / +0.2 /
+//! +5.7 %). Both effects vanish only as N → ∞ (the problem scales with σ_t·x). A discrete
+//! perfectly matched layer would remove them; docs/vacuum.md.
 //!
 //! The hull is approximated from outside by the polytope ⋂_k {x : n_k·x ≤ s_k} over the
 //! directions n_k of [`hull_directions`], with s_k the largest n_k·x over the corners of the
