@@ -522,9 +522,8 @@ impl Problem {
     /// (vacuum or near-vacuum) at some staggered position (cell centres, faces, edges and
     /// corners, i.e. every half-cell coordinate), the threshold is that fraction of max σ_t.
     /// It is `None` when a threshold is already set, when there is no such near-vacuum, when
-    /// σ_t is 0 everywhere
-    /// (no scale to take a fraction of: the user must choose), or when a coefficient is
-    /// invalid (the solve reports that error with its position).
+    /// σ_t is 0 everywhere (no scale to take a fraction of: the user must choose), or when a
+    /// coefficient is invalid (the solve reports that error with its position).
     ///
     /// Evaluates σ_t at (2n_x+1)(2n_y+1)(2n_z+1) points: call it after the memory check.
     pub fn auto_sigma_t_min(&self) -> Option<f64> {

@@ -215,17 +215,8 @@ pub fn first_scatter_problem(
 mod tests {
     use super::*;
     use crate::render::lights::phase_value;
+    use crate::render::test_box_grid;
     use pn_stencil::quadrature::SphereQuadrature;
-    use pn_stencil::Dim;
-
-    fn grid(n: usize) -> Grid {
-        Grid {
-            dim: Dim::Three,
-            min: [-1.0; 3],
-            max: [1.0; 3],
-            res: [n; 3],
-        }
-    }
 
     /// Total source power ∫∫Q dω dV = Σ_cells √(4π) Q_0^0 V equals Σ σ_s T E V for a
     /// homogeneous, optically thin box lit from +z (T = exp(−σ_t (1 − z)) exactly, cell
@@ -233,7 +224,7 @@ mod tests {
     #[test]
     fn total_source_power_is_sigma_s_t_e() {
         let n = 6;
-        let g = grid(n);
+        let g = test_box_grid([n; 3]);
         let density = DensityGrid::new([n; 3], [-1.0; 3], [1.0; 3], vec![1.0; n * n * n]).unwrap();
         let (st, alb, e) = (0.2, 0.7, 1.7);
         let ext = Extinction {
@@ -276,7 +267,7 @@ mod tests {
     /// 48 × 96 nodes converges to ~1e-12; tolerance 1e-9.
     #[test]
     fn source_moments_match_quadrature_of_the_phase_lobe() {
-        let g = grid(1);
+        let g = test_box_grid([1; 3]);
         let d = [0.3f64, -0.8, 0.52];
         let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
         let d = d.map(|c| c / len);
@@ -347,7 +338,7 @@ mod tests {
 
     #[test]
     fn isotropic_scattering_has_only_the_first_band() {
-        let g = grid(1);
+        let g = test_box_grid([1; 3]);
         let lights = [Light::Point {
             position: [3.0, 0.0, 0.0],
             power: 1.0,

@@ -148,16 +148,7 @@ pub fn add_hull_absorber(grid: &Grid, ramp: usize, sigma_t: &mut [f64]) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use pn_stencil::Dim;
-
-    fn grid(n: usize) -> Grid {
-        Grid {
-            dim: Dim::Three,
-            min: [-1.0; 3],
-            max: [1.0; 3],
-            res: [n; 3],
-        }
-    }
+    use crate::render::test_box_grid;
 
     #[test]
     fn directions_are_unit_and_include_the_cube_corners() {
@@ -179,7 +170,7 @@ mod tests {
     #[test]
     fn a_ball_is_left_alone_and_its_outside_is_graded() {
         let n = 20;
-        let g = grid(n);
+        let g = test_box_grid([n; 3]);
         let h = g.h(0);
         let centre = |c: usize| -1.0 + (c as f64 + 0.5) * h;
         let mut sigma_t = vec![0.0; n * n * n];
@@ -221,7 +212,7 @@ mod tests {
     #[test]
     fn a_concavity_stays_vacuum() {
         let n = 12;
-        let g = grid(n);
+        let g = test_box_grid([n; 3]);
         let mut sigma_t = vec![0.0; n * n * n];
         // Two slabs x ∈ cells 2..4 and 8..10, joined at y cells 2..4; everything in z 2..10.
         for i in 2..10 {
@@ -247,7 +238,7 @@ mod tests {
 
     #[test]
     fn no_medium_and_no_ramp_change_nothing() {
-        let g = grid(6);
+        let g = test_box_grid([6; 3]);
         let mut empty = vec![0.0; 216];
         add_hull_absorber(&g, 4, &mut empty);
         assert!(empty.iter().all(|&v| v == 0.0));

@@ -462,7 +462,7 @@ fn clip_box(origin: [f64; 3], dir: [f64; 3], min: [f64; 3], max: [f64; 3]) -> Op
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::problem::{Grid, Phase};
+    use crate::problem::Phase;
     use crate::render::renderer::{Renderer, Rng};
     use crate::unstagger::CellMoments;
     use std::path::Path;
@@ -609,12 +609,7 @@ height = {size}
 
     /// A smooth synthetic solution on a 6³ grid over the box: L_0^0 and L_1^m linear in x.
     fn field(phase: Phase) -> MsField {
-        let grid = Grid {
-            dim: pn_stencil::Dim::Three,
-            min: [-1.0; 3],
-            max: [1.0; 3],
-            res: [6; 3],
-        };
+        let grid = crate::render::test_box_grid([6; 3]);
         let mut data = vec![0.0; 216 * 4];
         for c in 0..216 {
             let (i, j, k) = (c / 36, (c / 6) % 6, c % 6);
@@ -779,7 +774,6 @@ height = {size}
         }
     }
 
-    /// No medium in view, an empty medium, σ_t scale 0: exactly 0, never NaN.
     /// Both lookups of the cursor agree with [`MsField::inscatter`]; the nearest lookup is
     /// the containing cell's value, and at a cell centre both lookups give that value.
     #[test]
@@ -812,6 +806,7 @@ height = {size}
         }
     }
 
+    /// No medium in view, an empty medium, σ_t scale 0: exactly 0, never NaN.
     #[test]
     fn nothing_to_see_gives_zero() {
         let mut s = scene("", LIGHTS, [0.0, 0.0, 4.0], 4);

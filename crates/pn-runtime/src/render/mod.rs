@@ -37,3 +37,14 @@ pub use scene::{
     SolveSettings,
 };
 pub use scene_override::SceneOverride;
+
+/// The 3D grid of `res` cells over the box [−1, 1]³ that the render modules' tests share.
+#[cfg(test)]
+pub(crate) fn test_box_grid(res: [usize; 3]) -> crate::problem::Grid {
+    crate::problem::Grid {
+        dim: pn_stencil::Dim::Three,
+        min: [-1.0; 3],
+        max: [1.0; 3],
+        res,
+    }
+}

@@ -453,12 +453,7 @@ mod tests {
             grid: &g,
             scale: 1.0,
         };
-        let grid = Grid {
-            dim: pn_stencil::Dim::Three,
-            min: [-1.0; 3],
-            max: [1.0; 3],
-            res: [2, 2, 2],
-        };
+        let grid = crate::render::test_box_grid([2, 2, 2]);
         let light = Light::Directional {
             direction: [0.0, 0.0, -1.0],
             irradiance: 1.0,
