@@ -56,10 +56,10 @@ pub struct RaceArgs {
     pub no_single_scatter: bool,
     /// Run an ablation study on every scene after its race: each arm changes one suspected
     /// cause of pn's bias (vacuum treatment, P_N order, solve resolution, quadrature, density
-    /// filter) and is judged against the scene's Mitsuba reference; per scene ablation.csv
+    /// filter, solution lookup) and is judged against the scene's Mitsuba reference; per scene ablation.csv
     /// (bias, relative RMSE, and their change against the base arm), for all
     /// bias_vs_order.png, an Ablation section in results.md. Without --ablation-study, the
-    /// built-in study (crates/pn-drivers/src/race/default_study.toml: 18 arms, 16 renders
+    /// built-in study (crates/pn-drivers/src/race/default_study.toml: 22 arms, 20 renders
     /// per scene). Replaces the former four-step ablation: --ablation-base, --ablation-res,
     /// --ablation-order and --ablation-fine-args are gone (write the arms in a study file).
     /// Example: pn race cloud scenes/puff.toml --ablation --out out/ablation.

@@ -25,8 +25,9 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 
 /// The built-in study (`race/default_study.toml`): base P_3 @ 24³; the vacuum treatment
-/// (box absorber, margin 8, σ_t thresholds 0.02 and 2, absorbing layer 8); orders 1–5 and 7;
-/// solve resolutions 16–48; the fine quadrature; the nearest filter.
+/// (box absorber, margin 8, σ_t thresholds 0.02 and 2, absorbing layers 4 and 8, Marshak
+/// faces on a cropped grid at P_5); orders 1–5 and 7; solve resolutions 16–48 and P_5 @ 32³;
+/// the fine quadrature; the nearest filter; the nearest lookup of the solution.
 pub const DEFAULT_STUDY: &str = include_str!("default_study.toml");
 
 /// Columns of `ablation.csv`.

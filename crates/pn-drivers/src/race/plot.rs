@@ -81,7 +81,6 @@ pub fn draw(path: &Path, title: &str, curves: &[Curve], ref_noise: f64) -> Resul
             .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 24, y)], style));
     }
     let mitsuba_colors = [BLACK, RGBColor(130, 130, 130)];
-    let pn_colors = PALETTE;
     let (mut mi, mut pi) = (0, 0);
     for c in curves {
         let color = if c.mitsuba {
@@ -89,7 +88,7 @@ pub fn draw(path: &Path, title: &str, curves: &[Curve], ref_noise: f64) -> Resul
             mitsuba_colors[(mi - 1) % mitsuba_colors.len()]
         } else {
             pi += 1;
-            pn_colors[(pi - 1) % pn_colors.len()]
+            PALETTE[(pi - 1) % PALETTE.len()]
         };
         let p: Vec<(f64, f64, String)> = c
             .points
@@ -194,9 +193,8 @@ pub fn draw_bias_vs_order(path: &Path, series: &[OrderSeries]) -> Result<()> {
             ShapeStyle::from(&BLACK).stroke_width(1),
         ))
         .map_err(|e| err(&e))?;
-    let colors = PALETTE;
     for (k, s) in series.iter().enumerate() {
-        let color = colors[k % colors.len()];
+        let color = PALETTE[k % PALETTE.len()];
         let line = ShapeStyle::from(&color).stroke_width(2);
         let marker = ShapeStyle::from(&color).filled();
         let parity = |odd: bool| -> Vec<(f64, f64)> {
@@ -206,14 +204,13 @@ pub fn draw_bias_vs_order(path: &Path, series: &[OrderSeries]) -> Result<()> {
                 .map(|p| (p.0 as f64, p.1))
                 .collect()
         };
-        let off_scale: Vec<(f64, f64)> = parity(false)
-            .into_iter()
+        let (odd, even_raw) = (parity(true), parity(false));
+        let off_scale: Vec<(f64, f64)> = even_raw
+            .iter()
+            .copied()
             .filter(|q| clip(q.1) != q.1)
             .collect();
-        let clipped = |v: Vec<(f64, f64)>| -> Vec<(f64, f64)> {
-            v.into_iter().map(|q| (q.0, clip(q.1))).collect()
-        };
-        let (odd, even) = (parity(true), clipped(parity(false)));
+        let even: Vec<(f64, f64)> = even_raw.iter().map(|q| (q.0, clip(q.1))).collect();
         let mut labelled = false;
         if !odd.is_empty() {
             chart
