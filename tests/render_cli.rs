@@ -217,6 +217,22 @@ fn bad_input_is_one_clear_error() {
     std::fs::write(&bad, SCENE.replace("fov = 45.0", "fov = 45.0\nzoom = 2")).unwrap();
     let mut cases = cases;
     cases.push((vec!["render".into(), bad.display().to_string()], "line"));
+    // Broken and unsupported OpenVDB files (fixtures written by OpenVDB: tests/data/vdb).
+    let vdb = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/vdb");
+    for (file, want) in [
+        ("truncated.vdb", "truncated"),
+        ("half16.vdb", "half precision"),
+        ("vec3.vdb", "value type"),
+    ] {
+        let scene = dir.join(file.replace(".vdb", ".toml"));
+        let text = std::fs::read_to_string(
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/vdbcloud.toml"),
+        )
+        .unwrap()
+        .replace("data/vdbcloud.vdb", &vdb.join(file).display().to_string());
+        std::fs::write(&scene, text).unwrap();
+        cases.push((vec!["render".into(), scene.display().to_string()], want));
+    }
     for (args, want) in cases {
         let mut args = args;
         args.extend(["--out".to_string(), dir.join("out").display().to_string()]);

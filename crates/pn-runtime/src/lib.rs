@@ -5,8 +5,8 @@
 //! the generator is a dependency.
 //!
 //! * Problem description: [`field`], [`problem`] (including [`problem::sigma_tr`]),
-//!   [`scenes`] (built-in; [`scenes::vacuum`]: `slab` and `milne`), [`scene_file`] (TOML), [`vol`] and [`npy`] (voxel data and array
-//!   files); [`scene_registry`] lists every built-in scene of `pn solve` and `pn render`.
+//!   [`scenes`] (built-in; [`scenes::vacuum`]: `slab` and `milne`), [`scene_file`] (TOML), [`vol`], [`npy`] and [`vdb`] (voxel data, array
+//!   and OpenVDB files); [`scene_registry`] lists every built-in scene of `pn solve` and `pn render`.
 //! * Discrete system: [`layout`] (unknowns and boundary closure), [`marshak`] (the Marshak
 //!   vacuum faces' rows), [`context`] (fields at
 //!   staggered positions), [`assemble`] (sprs CSR), [`assemble_split`] (straight into the
@@ -70,4 +70,5 @@ pub mod scenes;
 pub mod solver;
 pub mod threads;
 pub mod unstagger;
+pub mod vdb;
 pub mod vol;

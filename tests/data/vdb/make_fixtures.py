@@ -56,3 +56,20 @@ vdb.write("vec3.vdb", grids=[g])
 # 5. A truncated copy of cloud16.vdb.
 b = open("cloud16.vdb", "rb").read()
 open("truncated.vdb", "wb").write(b[: len(b) // 2])
+# 6. Active tiles: a filled block (OpenVDB stores whole 8³ leaves of it as tiles, also at
+#    negative indices), one leaf voxel inside the block that differs (that leaf is split off),
+#    and one isolated voxel.
+g = vdb.FloatGrid(0.0)
+g.fill((-8, 0, 0), (15, 15, 15), 0.5, True)
+g.getAccessor().setValueOn((-3, 2, 1), 2.0)
+g.getAccessor().setValueOn((20, 3, 4), 1.0)
+write("tiles", g)
+# 7. Two grids and no `density`: `smoke` (the 12³ cloud at index 0) and `albedo`, active on a
+#    smaller block inside it (0.9 on index (2..9)³, inactive elsewhere).
+s = vdb.FloatGrid(0.0)
+s.copyFromArray(cloud(12), ijk=(0, 0, 0), tolerance=0.0)
+s.name = "smoke"
+a = vdb.FloatGrid(0.0)
+a.fill((2, 2, 2), (9, 9, 9), 0.9, True)
+a.name = "albedo"
+vdb.write("two_grids.vdb", grids=[s, a])

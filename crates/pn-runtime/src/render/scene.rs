@@ -4,13 +4,16 @@
 //!
 //! ```toml
 //! [medium]
-//! kind = "cloud"            # "grid" (file = "x.vol" | "x.npy"), "sphere", "box", "cloud", "nebula"
+//! kind = "cloud"            # "grid" (file = "x.vol" | "x.npy" | "x.vdb"), "sphere", "box", "cloud", "nebula"
+//! grid = "density"         # "grid" with a .vdb file: the float grid to read (default: the
+//!                          # grid called density, or the file's only grid)
 //! seed = 7                  # procedural kinds: deterministic from the seed
 //! resolution = [64, 64, 64] # density-grid resolution of procedural kinds
 //! bbox_min = [-1.0, -1.0, -1.0]
-//! bbox_max = [1.0, 1.0, 1.0]   # "grid": the .vol header's box unless given
+//! bbox_max = [1.0, 1.0, 1.0]   # "grid": the .vol header's or the VDB transform's box unless given
 //! sigma_t_scale = 20.0      # σ_t(x) = sigma_t_scale · density(x)  (1/length)
-//! albedo = 0.9              # or albedo_file = "a.npy" (same grid)
+//! albedo = 0.9              # or albedo_file = "a.npy" (same grid) or "a.vdb" (with
+//!                          # albedo_grid = "albedo"; read over the density's voxels)
 //! filter = "trilinear"      # how voxels are read: "trilinear" (default, Mitsuba's) | "nearest"
 //! [phase]
 //! kind = "hg"               # "isotropic" | "hg"
@@ -66,6 +69,7 @@ use super::scene_override::SceneOverride;
 use crate::npy::read_npy;
 use crate::problem::Phase;
 use crate::scene_registry::{self, SceneKind};
+use crate::vdb::{read_vdb, IndexBox, VdbGrid};
 use crate::vol::read_vol;
 use anyhow::{bail, ensure, Context};
 use serde::Deserialize;
@@ -77,7 +81,7 @@ use std::sync::Arc;
 pub enum MediumSource {
     /// A built-in procedural medium, generated at [`MediumSpec::resolution`].
     Procedural(Procedural),
-    /// A grid read from a `.vol` or `.npy` file (already loaded and checked).
+    /// A grid read from a `.vol`, `.npy` or `.vdb` file (already loaded and checked).
     File {
         /// The file (resolved against the scene's folder).
         path: PathBuf,
@@ -382,6 +386,7 @@ struct SceneToml {
 struct MediumToml {
     kind: String,
     file: Option<PathBuf>,
+    grid: Option<String>,
     seed: Option<u64>,
     resolution: Option<[usize; 3]>,
     bbox_min: Option<[f64; 3]>,
@@ -389,6 +394,7 @@ struct MediumToml {
     sigma_t_scale: f64,
     albedo: Option<f64>,
     albedo_file: Option<PathBuf>,
+    albedo_grid: Option<String>,
     filter: Option<String>,
 }
 
@@ -616,10 +622,28 @@ fn nonneg(name: &str, v: f64) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Reads a `.vol` or `.npy` grid file as (grid, bbox from the file if any).
-fn read_grid_file(path: &Path) -> anyhow::Result<(crate::field::VoxelGrid, bool)> {
-    match path.extension().and_then(|e| e.to_str()) {
-        Some("vol") => Ok((read_vol(path)?, true)),
+/// What a grid file holds: its voxels, whether the file placed them in space, and for a VDB
+/// file the grid itself with the index box read (to read a second grid over the same voxels).
+struct GridFile {
+    voxels: crate::field::VoxelGrid,
+    placed: bool,
+    vdb: Option<(VdbGrid, IndexBox)>,
+}
+
+/// Reads a `.vol`, `.npy` or `.vdb` grid file; `grid` names the grid of a VDB file.
+fn read_grid_file(path: &Path, grid: Option<&str>) -> anyhow::Result<GridFile> {
+    let ext = path.extension().and_then(|e| e.to_str());
+    ensure!(
+        grid.is_none() || ext == Some("vdb"),
+        "{}: a grid name applies to .vdb files only",
+        path.display()
+    );
+    match ext {
+        Some("vol") => Ok(GridFile {
+            voxels: read_vol(path)?,
+            placed: true,
+            vdb: None,
+        }),
         Some("npy") => {
             let a = read_npy(path)?;
             ensure!(
@@ -630,12 +654,58 @@ fn read_grid_file(path: &Path) -> anyhow::Result<(crate::field::VoxelGrid, bool)
             );
             let dims = [a.shape[0], a.shape[1], a.shape[2]];
             let (min, max) = DEFAULT_BBOX;
-            Ok((crate::field::VoxelGrid::new(dims, min, max, a.data)?, false))
+            Ok(GridFile {
+                voxels: crate::field::VoxelGrid::new(dims, min, max, a.data)?,
+                placed: false,
+                vdb: None,
+            })
+        }
+        Some("vdb") => {
+            let g = read_vdb(path, grid)?;
+            let window = g.active_box.with_context(|| {
+                format!("{}: grid {:?} has no active voxels", path.display(), g.name)
+            })?;
+            let voxels = g
+                .dense(window)
+                .with_context(|| format!("VDB file {}", path.display()))?;
+            Ok(GridFile {
+                voxels,
+                placed: true,
+                vdb: Some((g, window)),
+            })
         }
         _ => bail!(
-            "{}: unsupported grid file (expected .vol or .npy)",
+            "{}: unsupported grid file (expected .vol, .npy or .vdb)",
             path.display()
         ),
+    }
+}
+
+/// Reads the albedo grid file. A VDB albedo next to a VDB density is read over the density's
+/// index box (its inactive voxels read as 0) and must share the density's transform, so that
+/// the two grids' voxels coincide; otherwise the file's voxels are taken as they are.
+fn read_albedo_file(
+    path: &Path,
+    grid: Option<&str>,
+    density: Option<&(VdbGrid, IndexBox)>,
+) -> anyhow::Result<crate::field::VoxelGrid> {
+    match density {
+        Some((d, window)) if path.extension().and_then(|e| e.to_str()) == Some("vdb") => {
+            let a = read_vdb(path, grid)?;
+            ensure!(
+                a.transform == d.transform,
+                "{}: grid {:?} has the index-to-world map {:?}, the density grid {:?} has {:?}; \
+                 the two grids must share one transform",
+                path.display(),
+                a.name,
+                a.transform,
+                d.name,
+                d.transform
+            );
+            a.dense(*window)
+                .with_context(|| format!("VDB file {}", path.display()))
+        }
+        _ => Ok(read_grid_file(path, grid)?.voxels),
     }
 }
 
@@ -650,17 +720,20 @@ fn build_medium(m: MediumToml, base: &Path) -> anyhow::Result<MediumSpec> {
         }
     }
     let seed = m.seed.unwrap_or(0);
+    let mut density_vdb = None;
     let (source, resolution, bbox_min, bbox_max) = match m.kind.as_str() {
         "grid" => {
             let file = m
                 .file
-                .context("medium.kind = \"grid\" needs medium.file (a .vol or .npy file)")?;
+                .context("medium.kind = \"grid\" needs medium.file (a .vol, .npy or .vdb file)")?;
             ensure!(
                 m.seed.is_none(),
                 "medium.seed applies to procedural media only"
             );
             let path = base.join(&file);
-            let (vg, has_box) = read_grid_file(&path)?;
+            let gf = read_grid_file(&path, m.grid.as_deref()).context("medium.file")?;
+            density_vdb = gf.vdb;
+            let (vg, has_box) = (gf.voxels, gf.placed);
             if let Some(r) = m.resolution {
                 ensure!(
                     r == vg.dims,
@@ -699,8 +772,8 @@ fn build_medium(m: MediumToml, base: &Path) -> anyhow::Result<MediumSpec> {
                 ),
             };
             ensure!(
-                m.file.is_none(),
-                "medium.file applies to kind = \"grid\" only"
+                m.file.is_none() && m.grid.is_none(),
+                "medium.file and medium.grid apply to kind = \"grid\" only"
             );
             let res = m.resolution.unwrap_or([64; 3]);
             ensure!(
@@ -720,6 +793,10 @@ fn build_medium(m: MediumToml, base: &Path) -> anyhow::Result<MediumSpec> {
         None => DensityFilter::default(),
         Some(f) => f.parse::<DensityFilter>().context("medium.filter")?,
     };
+    ensure!(
+        m.albedo_grid.is_none() || m.albedo_file.is_some(),
+        "medium.albedo_grid needs medium.albedo_file (a .vdb file)"
+    );
     let albedo = match (m.albedo, m.albedo_file) {
         (Some(_), Some(_)) => bail!("give medium.albedo or medium.albedo_file, not both"),
         (None, None) => bail!("medium.albedo (or medium.albedo_file) is required"),
@@ -732,7 +809,8 @@ fn build_medium(m: MediumToml, base: &Path) -> anyhow::Result<MediumSpec> {
         }
         (None, Some(f)) => {
             let path = base.join(&f);
-            let (vg, _) = read_grid_file(&path)?;
+            let vg = read_albedo_file(&path, m.albedo_grid.as_deref(), density_vdb.as_ref())
+                .context("medium.albedo_file")?;
             ensure!(
                 vg.dims == resolution,
                 "albedo file {} has resolution {:?}, the density grid {:?}",
@@ -1264,5 +1342,91 @@ height = 8
         );
         assert!(e.contains("exceeds 1"), "{e}");
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn vdb_files_are_read_with_their_placement_and_grid_names() {
+        let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data/vdb");
+        let text = MINIMAL
+            .replace(
+                "kind = \"sphere\"",
+                "kind = \"grid\"\nfile = \"offset12.vdb\"",
+            )
+            .replace("resolution = [8, 8, 8]\n", "");
+        let s = RenderScene::from_toml_str(&text, &data).unwrap();
+        let g = s.density_grid().unwrap();
+        // The box of tests/data/vdb/offset12.json (OpenVDB's indexToWorld of the outer corners).
+        assert_eq!(g.res, [12, 12, 12]);
+        assert_eq!(
+            (s.medium.bbox_min, s.medium.bbox_max),
+            ([-0.1875, -0.6875, 1.3125], [1.3125, 0.8125, 2.8125])
+        );
+        // The same voxels through a .vol file give the same medium.
+        let dir = std::env::temp_dir().join(format!("pn-render-vdb-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let vg = crate::vdb::read_vdb(&data.join("offset12.vdb"), None)
+            .unwrap()
+            .dense_active()
+            .unwrap();
+        std::fs::write(dir.join("same.vol"), crate::vol::encode_vol(&vg)).unwrap();
+        let vol =
+            RenderScene::from_toml_str(&text.replace("offset12.vdb", "same.vol"), &dir).unwrap();
+        assert_eq!(vol.density_grid().unwrap(), g);
+        std::fs::remove_dir_all(&dir).unwrap();
+
+        // A named grid, and an albedo grid of the same file read over the density's voxels:
+        // 0.9 on 8³ of the 12³ cells, inactive (0) elsewhere.
+        let two = text.replace("offset12.vdb", "two_grids.vdb").replace(
+            "albedo = 0.5",
+            "albedo_file = \"two_grids.vdb\"\nalbedo_grid = \"albedo\"",
+        );
+        let e = format!("{:#}", RenderScene::from_toml_str(&two, &data).unwrap_err());
+        assert!(e.contains("say which one with the `grid` key"), "{e}");
+        let named = two.replace(
+            "\nfile = \"two_grids.vdb\"\n",
+            "\nfile = \"two_grids.vdb\"\ngrid = \"smoke\"\n",
+        );
+        let s = RenderScene::from_toml_str(&named, &data).unwrap();
+        let albedo: Vec<f64> = (0..12 * 12 * 12).map(|i| s.medium.albedo_at(i)).collect();
+        assert_eq!(albedo.iter().filter(|&&a| a == 0.9f32 as f64).count(), 512);
+        assert_eq!(
+            albedo.iter().filter(|&&a| a == 0.0).count(),
+            12 * 12 * 12 - 512
+        );
+
+        for (scene, want) in [
+            // An albedo grid whose voxels are not the density's.
+            (
+                text.replace("albedo = 0.5", "albedo_file = \"cloud16.vdb\""),
+                "share one transform",
+            ),
+            (
+                text.replace("albedo = 0.5", "albedo = 0.5\nalbedo_grid = \"a\""),
+                "albedo_grid needs medium.albedo_file",
+            ),
+            (
+                text.replace("file = \"offset12.vdb\"", "file = \"half16.vdb\""),
+                "half precision",
+            ),
+            (
+                text.replace(
+                    "file = \"offset12.vdb\"",
+                    "file = \"offset12.vdb\"\ngrid = \"heat\"",
+                ),
+                "no grid named \"heat\"",
+            ),
+            (
+                text.replace("file = \"offset12.vdb\"", "file = \"offset12.json\""),
+                "expected .vol, .npy or .vdb",
+            ),
+        ] {
+            let e = format!(
+                "{:#}",
+                RenderScene::from_toml_str(&scene, &data).unwrap_err()
+            );
+            assert!(e.contains(want), "want {want:?}: {e}");
+        }
+        let e = err(&MINIMAL.replace("kind = \"sphere\"", "kind = \"sphere\"\ngrid = \"density\""));
+        assert!(e.contains("apply to kind = \"grid\" only"), "{e}");
     }
 }
