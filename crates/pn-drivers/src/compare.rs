@@ -1,7 +1,8 @@
 //! `pn compare a.exr b.exr`: error metrics of image `a` against the reference `b` and a
 //! false-colour difference image (`pn_runtime::render::compare`).
 
-use pn_runtime::render::compare::compare_files;
+use pn_runtime::render::compare::{channel_metrics, compare_files, ChannelMetrics, Metrics};
+use serde::Serialize;
 use std::io::Write;
 use std::path::PathBuf;
 
@@ -18,14 +19,35 @@ pub struct CompareRequest {
     pub json: bool,
 }
 
-/// Runs `pn compare`, printing the metrics to `stdout`.
+/// The metrics, and per channel for colour images.
+#[derive(Serialize)]
+struct Output {
+    #[serde(flatten)]
+    metrics: Metrics,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    channels: Option<Vec<ChannelMetrics>>,
+}
+
+/// Runs `pn compare`, printing the metrics to `stdout` (of the channel means, and per
+/// channel when either image is coloured).
 pub fn run(args: &CompareRequest, stdout: &mut dyn Write) -> anyhow::Result<()> {
-    let m = compare_files(&args.a, &args.b, args.out.as_deref())?;
+    let metrics = compare_files(&args.a, &args.b, args.out.as_deref())?;
+    let out = Output {
+        metrics,
+        channels: channel_metrics(&args.a, &args.b)?,
+    };
     if args.json {
-        writeln!(stdout, "{}", serde_json::to_string_pretty(&m)?)?;
+        writeln!(stdout, "{}", serde_json::to_string_pretty(&out)?)?;
     } else {
         writeln!(stdout, "{} against {}", args.a.display(), args.b.display())?;
-        writeln!(stdout, "{m}")?;
+        writeln!(stdout, "{}", out.metrics)?;
+        for c in out.channels.iter().flatten() {
+            writeln!(
+                stdout,
+                "channel {}: rel_bias {:+.4}, rel_rmse {:.4}, rmse {:.4e}, mean {:.4e} / {:.4e}",
+                c.channel, c.rel_bias, c.rel_rmse, c.rmse, c.mean_a, c.mean_b
+            )?;
+        }
     }
     if let Some(dir) = &args.out {
         writeln!(stdout, "wrote {}", dir.join("difference.png").display())?;

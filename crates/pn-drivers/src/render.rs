@@ -30,6 +30,8 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+pub mod rgb;
+
 /// The options of `pn render`: the scene and the overrides of its settings.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RenderRequest {
@@ -233,6 +235,9 @@ pub struct RenderReport {
     pub warnings: Vec<String>,
     /// The `--set SECTION.KEY=VALUE` overrides of the scene file, in order (empty without).
     pub overrides: Vec<String>,
+    /// A coloured scene's channels, R, G, B (empty for a grey scene); the fields above then
+    /// describe the mean image and sum the channels' times.
+    pub channels: Vec<rgb::ChannelReport>,
 }
 
 /// One view of a turntable.
@@ -256,6 +261,8 @@ pub struct RenderRun {
     pub image: Image,
     /// The turntable's images, view 0 first (empty for a single view).
     pub views: Vec<Image>,
+    /// The channel images of a coloured scene (`None` for a grey one).
+    pub rgb: Option<rgb::RgbImages>,
     /// Its report.
     pub report: RenderReport,
 }
@@ -358,12 +365,29 @@ pub fn render_scene(scene: &RenderScene, options: &RenderOptions) -> Result<Rend
 }
 
 /// Solves `scene` once and renders `views` turntable views of it ([`turntable_camera`];
-/// one view: the scene's camera).
+/// one view: the scene's camera). A coloured scene is solved and rendered per channel
+/// ([`rgb`]); its [`RenderRun::image`] is then the mean of the channels.
 pub fn render_views(
     scene: &RenderScene,
     options: &RenderOptions,
     views: usize,
 ) -> Result<RenderRun> {
+    if scene.colours.is_some() {
+        return rgb::render_views_rgb(scene, options, views);
+    }
+    render_grey_views(scene, options, views)
+}
+
+/// [`render_views`] of a grey scene.
+fn render_grey_views(
+    scene: &RenderScene,
+    options: &RenderOptions,
+    views: usize,
+) -> Result<RenderRun> {
+    ensure!(
+        scene.colours.is_none(),
+        "internal: a coloured scene must be rendered channel by channel"
+    );
     ensure!(
         (1..=MAX_VIEWS).contains(&views),
         "the number of views must lie in 1..={MAX_VIEWS}, got {views}"
@@ -593,10 +617,12 @@ pub fn render_views(
         views: view_reports,
         warnings,
         overrides: Vec::new(),
+        channels: Vec::new(),
     };
     Ok(RenderRun {
         image,
         views: if views > 1 { images } else { Vec::new() },
+        rgb: None,
         report,
     })
 }
@@ -701,7 +727,9 @@ fn solve_ms(
 /// `view_000.exr`, `view_000.png`, … instead of `image.*`).
 pub fn write_run(dir: &Path, run: &RenderRun) -> Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
-    if run.views.is_empty() {
+    if let Some(rgb) = &run.rgb {
+        rgb.write(dir)?;
+    } else if run.views.is_empty() {
         let im = &run.image;
         write_exr_gray(&dir.join("image.exr"), im.width, im.height, &im.data)?;
         write_png_tonemapped(&dir.join("image.png"), im.width, im.height, &im.data, None)?;
@@ -781,6 +809,24 @@ pub fn run(a: &RenderRequest, stdout: &mut dyn Write) -> Result<()> {
             s.iterations,
             s.relative_residual,
             if s.converged { "" } else { " (NOT converged)" }
+        )?;
+    }
+    for c in &r.channels {
+        let how = match (&c.copied_from, &c.solver) {
+            (Some(from), _) => format!("copied from {from} (same values)"),
+            (None, Some(s)) => format!(
+                "solver {}: {} iterations, relative residual {:.3e}{}",
+                s.solver,
+                s.iterations,
+                s.relative_residual,
+                if s.converged { "" } else { " (NOT converged)" }
+            ),
+            (None, None) => "no solve".into(),
+        };
+        writeln!(
+            stdout,
+            "channel {}: sigma_t_scale {}, mean radiance {:.4e}; {how}",
+            c.channel, c.sigma_t_scale, c.mean_radiance
         )?;
     }
     if a.stats {

@@ -71,10 +71,18 @@ pub fn decode_vol(bytes: &[u8]) -> anyhow::Result<VoxelGrid> {
 
 /// Encodes a [`VoxelGrid`] as a single-channel `.vol` file.
 pub fn encode_vol(grid: &VoxelGrid) -> Vec<u8> {
+    encode_vol_scaled(grid, &[1.0])
+}
+
+/// Encodes a [`VoxelGrid`] as a `.vol` file with one channel per factor: channel c holds
+/// `factors[c]` × the grid's value (channels interleaved per voxel, as Mitsuba reads them;
+/// three channels are an RGB volume).
+pub fn encode_vol_scaled(grid: &VoxelGrid, factors: &[f64]) -> Vec<u8> {
     let [nx, ny, nz] = grid.dims;
-    let mut out = Vec::with_capacity(HEADER + 4 * nx * ny * nz);
+    let ch = factors.len();
+    let mut out = Vec::with_capacity(HEADER + 4 * ch * nx * ny * nz);
     out.extend_from_slice(b"VOL\x03");
-    for v in [1i32, nx as i32, ny as i32, nz as i32, 1] {
+    for v in [1i32, nx as i32, ny as i32, nz as i32, ch as i32] {
         out.extend_from_slice(&v.to_le_bytes());
     }
     for v in grid.min.iter().chain(&grid.max) {
@@ -83,7 +91,9 @@ pub fn encode_vol(grid: &VoxelGrid) -> Vec<u8> {
     for z in 0..nz {
         for y in 0..ny {
             for x in 0..nx {
-                out.extend_from_slice(&(grid.at(x, y, z) as f32).to_le_bytes());
+                for f in factors {
+                    out.extend_from_slice(&((f * grid.at(x, y, z)) as f32).to_le_bytes());
+                }
             }
         }
     }
@@ -104,6 +114,25 @@ mod tests {
         let bytes = encode_vol(&g);
         let second = f32::from_le_bytes(bytes[HEADER + 4..HEADER + 8].try_into().unwrap());
         assert_eq!(second as f64, g.at(1, 0, 0));
+    }
+
+    #[test]
+    fn channels_are_interleaved_per_voxel() {
+        let g = VoxelGrid::new([2, 1, 1], [0.0; 3], [1.0; 3], vec![1.0, 2.0]).unwrap();
+        let bytes = encode_vol_scaled(&g, &[1.0, 0.5, 0.25]);
+        assert_eq!(i32::from_le_bytes(bytes[20..24].try_into().unwrap()), 3);
+        let f = |i: usize| {
+            f32::from_le_bytes(
+                bytes[HEADER + 4 * i..HEADER + 4 * i + 4]
+                    .try_into()
+                    .unwrap(),
+            )
+        };
+        assert_eq!(
+            (0..6).map(f).collect::<Vec<_>>(),
+            [1.0, 0.5, 0.25, 2.0, 1.0, 0.5]
+        );
+        assert_eq!(bytes.len(), HEADER + 4 * 6);
     }
 
     #[test]

@@ -279,6 +279,61 @@ pub fn compare_files(a: &Path, b: &Path, out: Option<&Path>) -> anyhow::Result<M
     Ok(m)
 }
 
+/// Error metrics of one colour channel ([`channel_metrics`]).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct ChannelMetrics {
+    /// "R", "G" or "B".
+    pub channel: String,
+    /// (mean(a) − mean(b)) / mean(b) in this channel.
+    pub rel_bias: f64,
+    /// ‖a − b‖₂ / ‖b‖₂ over the channel's pixels.
+    pub rel_rmse: f64,
+    /// Root-mean-square error.
+    pub rmse: f64,
+    /// Mean of `a`.
+    pub mean_a: f64,
+    /// Mean of `b`.
+    pub mean_b: f64,
+}
+
+/// Per-channel metrics of image `a` against the reference `b`, or `None` when both are grey
+/// (equal R, G and B in every pixel), where [`compare_files`] says everything.
+pub fn channel_metrics(a: &Path, b: &Path) -> anyhow::Result<Option<Vec<ChannelMetrics>>> {
+    let (wa, ha, ca) = super::image_io::read_exr_rgb(a)?;
+    let (wb, hb, cb) = super::image_io::read_exr_rgb(b)?;
+    ensure!(
+        (wa, ha) == (wb, hb),
+        "images differ in size: {wa}×{ha} against {wb}×{hb}"
+    );
+    let grey = |c: &[Vec<f32>; 3]| c[0] == c[1] && c[1] == c[2];
+    if grey(&ca) && grey(&cb) {
+        return Ok(None);
+    }
+    let out = (0..3)
+        .map(|c| {
+            let (x, y) = (&ca[c], &cb[c]);
+            let n = x.len() as f64;
+            let mean_a = x.iter().map(|v| *v as f64).sum::<f64>() / n;
+            let mean_b = y.iter().map(|v| *v as f64).sum::<f64>() / n;
+            let se: f64 = x
+                .iter()
+                .zip(y)
+                .map(|(p, q)| (*p as f64 - *q as f64).powi(2))
+                .sum();
+            let norm_b: f64 = y.iter().map(|q| (*q as f64).powi(2)).sum();
+            ChannelMetrics {
+                channel: super::colour::CHANNELS[c].into(),
+                rel_bias: (mean_a - mean_b) / mean_b,
+                rel_rmse: (se / norm_b).sqrt(),
+                rmse: (se / n).sqrt(),
+                mean_a,
+                mean_b,
+            }
+        })
+        .collect();
+    Ok(Some(out))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -1,5 +1,6 @@
-//! Image files: linear OpenEXR (f32, grey stored as equal R, G, B) and tone-mapped PNG,
-//! and reading an EXR back as grey (the mean of its colour channels).
+//! Image files: linear OpenEXR (f32; grey stored as equal R, G, B, or three channels) and
+//! tone-mapped PNG (grey or RGB), and reading an EXR back as grey (the mean of its colour
+//! channels) or as its three channels.
 
 use anyhow::{ensure, Context};
 use std::path::Path;
@@ -45,6 +46,41 @@ pub fn read_exr_gray(path: &Path) -> anyhow::Result<(usize, usize, Vec<f32>)> {
         .map(|p| ((p.0[0] as f64 + p.0[1] as f64 + p.0[2] as f64) / 3.0) as f32)
         .collect();
     Ok((w, h, data))
+}
+
+/// Writes three channel images (R, G, B; each row-major from the top-left) as one linear f32
+/// RGB OpenEXR file.
+pub fn write_exr_rgb(
+    path: &Path,
+    width: usize,
+    height: usize,
+    channels: [&[f32]; 3],
+) -> anyhow::Result<()> {
+    for c in channels {
+        check_size(width, height, c)?;
+    }
+    let rgb: Vec<f32> = (0..width * height)
+        .flat_map(|i| channels.map(|c| c[i]))
+        .collect();
+    let img = image::Rgb32FImage::from_raw(width as u32, height as u32, rgb)
+        .context("image buffer size")?;
+    img.save_with_format(path, image::ImageFormat::OpenExr)
+        .with_context(|| format!("cannot write {}", path.display()))
+}
+
+/// Reads an image file's R, G and B channels: `(width, height, [r, g, b])`, each row-major
+/// from the top-left.
+pub fn read_exr_rgb(path: &Path) -> anyhow::Result<(usize, usize, [Vec<f32>; 3])> {
+    let img = image::ImageReader::open(path)
+        .with_context(|| format!("cannot open {}", path.display()))?
+        .with_guessed_format()
+        .with_context(|| format!("cannot read {}", path.display()))?
+        .decode()
+        .with_context(|| format!("cannot decode {} as an image", path.display()))?
+        .into_rgb32f();
+    let (w, h) = (img.width() as usize, img.height() as usize);
+    let channel = |c: usize| img.pixels().map(|p| p.0[c]).collect::<Vec<f32>>();
+    Ok((w, h, [channel(0), channel(1), channel(2)]))
 }
 
 /// The exposure that maps the 99th percentile of the positive values to 1 (1 if there are
@@ -96,6 +132,29 @@ pub fn write_png_tonemapped(
         .with_context(|| format!("cannot write {}", path.display()))
 }
 
+/// Writes three channel images as an 8-bit RGB PNG, tone-mapped like
+/// [`write_png_tonemapped`] with one exposure for all channels (from the values of all three
+/// when `exposure_scale` is `None`), so that colours keep their ratios below the clamp.
+pub fn write_png_tonemapped_rgb(
+    path: &Path,
+    width: usize,
+    height: usize,
+    channels: [&[f32]; 3],
+    exposure_scale: Option<f32>,
+) -> anyhow::Result<()> {
+    for c in channels {
+        check_size(width, height, c)?;
+    }
+    let e = exposure_scale.unwrap_or_else(|| exposure(&channels.concat()));
+    let px: Vec<u8> = (0..width * height)
+        .flat_map(|i| channels.map(|c| srgb8(c[i] * e)))
+        .collect();
+    let img =
+        image::RgbImage::from_raw(width as u32, height as u32, px).context("image buffer size")?;
+    img.save_with_format(path, image::ImageFormat::Png)
+        .with_context(|| format!("cannot write {}", path.display()))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -113,6 +172,28 @@ mod tests {
         write_png_tonemapped(&dir.join("a.png"), 4, 3, &data, None).unwrap();
         assert!(write_exr_gray(&p, 5, 3, &data).is_err());
         assert!(read_exr_gray(&dir.join("missing.exr")).is_err());
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn rgb_exr_round_trip_keeps_the_channels() {
+        let dir = std::env::temp_dir().join(format!("pn-render-io-rgb-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let r: Vec<f32> = (0..6).map(|v| v as f32 * 0.5).collect();
+        let g: Vec<f32> = (0..6).map(|v| v as f32 * 0.25 + 1.0).collect();
+        let b: Vec<f32> = (0..6).map(|v| 3.0 - v as f32 * 0.125).collect();
+        let p = dir.join("c.exr");
+        write_exr_rgb(&p, 3, 2, [&r, &g, &b]).unwrap();
+        let (w, h, [r2, g2, b2]) = read_exr_rgb(&p).unwrap();
+        assert_eq!((w, h), (3, 2));
+        assert_eq!((r2, g2, b2), (r.clone(), g.clone(), b.clone()));
+        let (_, _, grey) = read_exr_gray(&p).unwrap();
+        assert!((grey[1] - (r[1] + g[1] + b[1]) / 3.0).abs() < 1e-6);
+        write_png_tonemapped_rgb(&dir.join("c.png"), 3, 2, [&r, &g, &b], None).unwrap();
+        let png = image::open(dir.join("c.png")).unwrap().into_rgb8();
+        // Pixel 0: R = 0, G = 1, B = 3 (B is the 99th percentile of all values: exposure 1/3).
+        assert_eq!(png.get_pixel(0, 0).0, [0, srgb8(1.0 / 3.0), 255]);
+        assert!(write_exr_rgb(&p, 3, 2, [&r, &g, &b[..5]]).is_err());
         std::fs::remove_dir_all(&dir).unwrap();
     }
 

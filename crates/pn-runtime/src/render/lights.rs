@@ -65,6 +65,30 @@ impl Light {
     }
 }
 
+impl Light {
+    /// Its strength: the irradiance of a directional light, the power of a point light.
+    pub fn strength(&self) -> f64 {
+        match self {
+            Light::Directional { irradiance, .. } => *irradiance,
+            Light::Point { power, .. } => *power,
+        }
+    }
+
+    /// The same light with another strength ([`Light::strength`]).
+    pub fn with_strength(&self, strength: f64) -> Light {
+        match *self {
+            Light::Directional { direction, .. } => Light::Directional {
+                direction,
+                irradiance: strength,
+            },
+            Light::Point { position, .. } => Light::Point {
+                position,
+                power: strength,
+            },
+        }
+    }
+}
+
 /// The phase function value p(μ) for the cosine μ between the two **propagation**
 /// directions (incoming travel direction and outgoing direction), normalised over the sphere
 /// (docs/design.md §2: ∫p = 1; HG with λ_l p_l = g^l).

@@ -14,7 +14,10 @@
 //!   onto the box by `to_world = translate(bbox_min)·scale(bbox_max − bbox_min)`
 //!   (Mitsuba ignores the `.vol` header's box unless `use_grid_bbox` is set); `scale` is
 //!   `sigma_t_scale`, `albedo` a float or a second `gridvolume` with the same filter
-//!   (σ_s = albedo(x)·σ_t(x), both interpolated);
+//!   (σ_s = albedo(x)·σ_t(x), both interpolated). A coloured scene
+//!   ([`super::colour`]): a chromatic σ_t becomes a three-channel (RGB) `gridvolume` holding
+//!   density × s_c / s_max with `scale` = s_max; a per-channel albedo and light strengths
+//!   become `{"type": "rgb", "value": [r, g, b]}`;
 //! * phase: Mitsuba's `hg` evaluates `1 + g² + 2g·(wi·wo)` with both directions pointing
 //!   away from the vertex, i.e. `1 + g² − 2g μ` in the propagation-direction cosine μ of
 //!   docs/design.md §2: the same function, g > 0 forward;
@@ -106,7 +109,10 @@ pub fn export(scene: &RenderScene, dir: &Path, opts: &ExportOptions) -> anyhow::
     let grid = scene.density_grid()?;
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     let density = dir.join(DENSITY_FILE);
-    write_vol(&density, &grid)?;
+    let (_, factors) = sigma_t_channels(scene);
+    let bytes = crate::vol::encode_vol_scaled(&grid.to_voxel_grid(), &factors);
+    std::fs::write(&density, bytes)
+        .with_context(|| format!("cannot write {}", density.display()))?;
     let albedo = match &scene.medium.albedo {
         Albedo::Constant(_) => None,
         Albedo::Voxels(v) => {
@@ -133,6 +139,29 @@ pub fn export(scene: &RenderScene, dir: &Path, opts: &ExportOptions) -> anyhow::
 fn write_vol(path: &Path, grid: &DensityGrid) -> anyhow::Result<()> {
     let bytes = crate::vol::encode_vol(&grid.to_voxel_grid());
     std::fs::write(path, bytes).with_context(|| format!("cannot write {}", path.display()))
+}
+
+/// σ_t of the export: the `scale` of the medium and the factors of the density volume's
+/// channels. Grey or achromatic σ_t: the scene's scale and one channel; chromatic σ_t (a
+/// coloured scene): the largest channel scale and an RGB volume with density × s_c / s_max.
+fn sigma_t_channels(scene: &RenderScene) -> (f64, Vec<f64>) {
+    match &scene.colours {
+        Some(c) if !c.achromatic_sigma_t() => {
+            let s = c.sigma_t_scale;
+            let max = s[0].max(s[1]).max(s[2]);
+            (max, s.iter().map(|v| v / max).collect())
+        }
+        Some(c) => (c.sigma_t_scale[0], vec![1.0]),
+        None => (scene.medium.sigma_t_scale, vec![1.0]),
+    }
+}
+
+/// A Mitsuba spectrum: a float for a grey value, `{"type": "rgb", ...}` per channel.
+fn spectrum(grey: f64, rgb: Option<[f64; 3]>) -> anyhow::Result<String> {
+    match rgb {
+        None => py(grey),
+        Some(c) => Ok(format!("{{\"type\": \"rgb\", \"value\": {}}}", py3(c)?)),
+    }
 }
 
 /// A Python float literal (exact round trip; finite values only).
@@ -165,9 +194,16 @@ pub fn script_text(
         m.sigma_t_scale.is_finite() && m.sigma_t_scale >= 0.0,
         "sigma_t_scale must be finite and non-negative"
     );
-    let albedo = match &m.albedo {
-        Albedo::Constant(a) => py(*a)?,
-        Albedo::Voxels(_) => format!("grid(\"{ALBEDO_FILE}\")"),
+    let colours = scene.colours.as_ref();
+    let albedo = match (&m.albedo, colours.and_then(|c| c.albedo)) {
+        (Albedo::Constant(a), rgb) => spectrum(*a, rgb)?,
+        (Albedo::Voxels(_), _) => format!("grid(\"{ALBEDO_FILE}\")"),
+    };
+    let strength = |i: usize, grey: f64, factor: f64| {
+        spectrum(
+            grey * factor,
+            colours.map(|c| c.light_strength[i].map(|v| v * factor)),
+        )
     };
     let phase = match scene.phase {
         Phase::Isotropic => "{\"type\": \"isotropic\"}".to_string(),
@@ -182,12 +218,12 @@ pub fn script_text(
             } => format!(
                 "{{\"type\": \"directional\", \"direction\": {}, \"irradiance\": {}}}",
                 py3(*direction)?,
-                py(*irradiance)?
+                strength(i, *irradiance, 1.0)?
             ),
             Light::Point { position, power } => format!(
                 "{{\"type\": \"point\", \"position\": {}, \"intensity\": {}}}",
                 py3(*position)?,
-                py(power / (4.0 * std::f64::consts::PI))?
+                strength(i, *power, 1.0 / (4.0 * std::f64::consts::PI))?
             ),
         };
         writeln!(emitters, "        \"light{i}\": {body},")?;
@@ -207,7 +243,7 @@ pub fn script_text(
             .replace("@MAX_DEPTH@", &opts.max_depth.to_string())
             .replace("@BBOX_MIN@", &py3(grid.bbox_min)?)
             .replace("@BBOX_MAX@", &py3(grid.bbox_max)?)
-            .replace("@SCALE@", &py(m.sigma_t_scale)?)
+            .replace("@SCALE@", &py(sigma_t_channels(scene).0)?)
             .replace("@ALBEDO@", &albedo)
             .replace("@PHASE@", &phase)
             .replace("@EMITTERS@", emitters.trim_end())

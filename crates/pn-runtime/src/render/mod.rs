@@ -5,6 +5,7 @@
 //!   [`scene_override`]: `pn render --set SECTION.KEY=VALUE` on its TOML;
 //! * [`medium`]: the density grid, its filter (trilinear as Mitsuba, or nearest) and the
 //!   procedural media;
+//! * [`colour`]: per-channel (RGB) media and lights, rendered channel by channel;
 //! * [`lights`], [`camera`]: lights, phase function values and the pinhole camera;
 //! * [`shadow`]: exact optical depth (traversal of the filter's lattice), deep shadow maps;
 //! * [`solve_setup`], [`first_scatter`]: the cropped solve grid, resampled coefficients and
@@ -14,6 +15,7 @@
 //! * `mitsuba`, `compare`: the Mitsuba 3 export and image comparison (helper "mitsuba").
 
 pub mod camera;
+pub mod colour;
 pub mod compare;
 pub mod first_scatter;
 pub mod hull_absorber;

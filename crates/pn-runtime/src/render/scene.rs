@@ -63,6 +63,7 @@
 //! [`super::camera`] for the geometric conventions shared with the Mitsuba export.
 
 use super::camera::{norm, Camera};
+use super::colour::{Colours, GreyOrRgb};
 use super::lights::Light;
 use super::medium::{check_box, DensityFilter, DensityGrid, Procedural};
 use super::scene_override::SceneOverride;
@@ -350,6 +351,10 @@ pub struct RenderScene {
     pub phase: Phase,
     /// Lights.
     pub lights: Vec<Light>,
+    /// Per-channel values of a coloured scene (`None`: grey). A coloured scene's grey fields
+    /// (`medium.sigma_t_scale`, a constant `medium.albedo`, the lights' strengths) hold the
+    /// mean of the channels; it is rendered channel by channel ([`RenderScene::channel`]).
+    pub colours: Option<Colours>,
     /// Camera.
     pub camera: Camera,
     /// Solve settings.
@@ -391,8 +396,8 @@ struct MediumToml {
     resolution: Option<[usize; 3]>,
     bbox_min: Option<[f64; 3]>,
     bbox_max: Option<[f64; 3]>,
-    sigma_t_scale: f64,
-    albedo: Option<f64>,
+    sigma_t_scale: GreyOrRgb,
+    albedo: Option<GreyOrRgb>,
     albedo_file: Option<PathBuf>,
     albedo_grid: Option<String>,
     filter: Option<String>,
@@ -410,9 +415,9 @@ struct PhaseToml {
 struct LightToml {
     kind: String,
     direction: Option<[f64; 3]>,
-    irradiance: Option<f64>,
+    irradiance: Option<GreyOrRgb>,
     position: Option<[f64; 3]>,
-    power: Option<f64>,
+    power: Option<GreyOrRgb>,
 }
 
 #[derive(Deserialize, Debug)]
@@ -456,6 +461,22 @@ struct RenderToml {
 const DEFAULT_BBOX: ([f64; 3], [f64; 3]) = ([-1.0; 3], [1.0; 3]);
 
 impl RenderScene {
+    /// The grey scene of channel `c` (0 = R, 1 = G, 2 = B): this scene with the channel's
+    /// σ_t scale, albedo and light strengths ([`Colours`]); a grey scene is its own channel.
+    pub fn channel(&self, c: usize) -> RenderScene {
+        let mut s = self.clone();
+        if let Some(col) = s.colours.take() {
+            s.medium.sigma_t_scale = col.sigma_t_scale[c];
+            if let Some(a) = col.albedo {
+                s.medium.albedo = Albedo::Constant(a[c]);
+            }
+            for (light, strength) in s.lights.iter_mut().zip(&col.light_strength) {
+                *light = light.with_strength(strength[c]);
+            }
+        }
+        s
+    }
+
     /// Reads and checks a scene file (errors name the file, and the line and column for
     /// syntax and type errors).
     pub fn from_path(path: &Path) -> anyhow::Result<RenderScene> {
@@ -710,7 +731,9 @@ fn read_albedo_file(
 }
 
 fn build_medium(m: MediumToml, base: &Path) -> anyhow::Result<MediumSpec> {
-    nonneg("medium.sigma_t_scale", m.sigma_t_scale)?;
+    for v in m.sigma_t_scale.channels() {
+        nonneg("medium.sigma_t_scale", v)?;
+    }
     for (n, v) in [
         ("medium.bbox_min", m.bbox_min),
         ("medium.bbox_max", m.bbox_max),
@@ -801,11 +824,13 @@ fn build_medium(m: MediumToml, base: &Path) -> anyhow::Result<MediumSpec> {
         (Some(_), Some(_)) => bail!("give medium.albedo or medium.albedo_file, not both"),
         (None, None) => bail!("medium.albedo (or medium.albedo_file) is required"),
         (Some(a), None) => {
-            ensure!(
-                a.is_finite() && (0.0..=1.0).contains(&a),
-                "medium.albedo must lie in [0, 1], got {a}"
-            );
-            Albedo::Constant(a)
+            for a in a.channels() {
+                ensure!(
+                    a.is_finite() && (0.0..=1.0).contains(&a),
+                    "medium.albedo must lie in [0, 1], got {a}"
+                );
+            }
+            Albedo::Constant(channel_mean(a))
         }
         (None, Some(f)) => {
             let path = base.join(&f);
@@ -836,13 +861,23 @@ fn build_medium(m: MediumToml, base: &Path) -> anyhow::Result<MediumSpec> {
         resolution,
         bbox_min,
         bbox_max,
-        sigma_t_scale: m.sigma_t_scale,
+        sigma_t_scale: channel_mean(m.sigma_t_scale),
         albedo,
         filter,
     })
 }
 
-fn build_light(l: LightToml, n: usize) -> anyhow::Result<Light> {
+/// The grey value of a per-channel value: the mean of its channels (a coloured scene's grey
+/// fields hold these; it is rendered channel by channel, [`RenderScene::channel`]).
+fn channel_mean(v: GreyOrRgb) -> f64 {
+    match v {
+        GreyOrRgb::Grey(x) => x,
+        GreyOrRgb::Rgb(c) => (c[0] + c[1] + c[2]) / 3.0,
+    }
+}
+
+/// A light and its strength (irradiance or power) as given, grey or per channel.
+fn build_light(l: LightToml, n: usize) -> anyhow::Result<(Light, GreyOrRgb)> {
     let ctx = || format!("light {} (kind = {:?})", n + 1, l.kind);
     match l.kind.as_str() {
         "directional" => {
@@ -860,11 +895,14 @@ fn build_light(l: LightToml, n: usize) -> anyhow::Result<Light> {
             finite3("direction", d).with_context(ctx)?;
             let len = norm(d);
             ensure!(len > 0.0, "{}: direction must not be zero", ctx());
-            nonneg("irradiance", e).with_context(ctx)?;
-            Ok(Light::Directional {
+            for v in e.channels() {
+                nonneg("irradiance", v).with_context(ctx)?;
+            }
+            let light = Light::Directional {
                 direction: d.map(|c| c / len),
-                irradiance: e,
-            })
+                irradiance: channel_mean(e),
+            };
+            Ok((light, e))
         }
         "point" => {
             ensure!(
@@ -877,11 +915,14 @@ fn build_light(l: LightToml, n: usize) -> anyhow::Result<Light> {
                 .with_context(|| format!("{}: needs position", ctx()))?;
             let w = l.power.with_context(|| format!("{}: needs power", ctx()))?;
             finite3("position", p).with_context(ctx)?;
-            nonneg("power", w).with_context(ctx)?;
-            Ok(Light::Point {
+            for v in w.channels() {
+                nonneg("power", v).with_context(ctx)?;
+            }
+            let light = Light::Point {
                 position: p,
-                power: w,
-            })
+                power: channel_mean(w),
+            };
+            Ok((light, w))
         }
         k => bail!(
             "light {}: unknown kind {k:?} (expected directional or point)",
@@ -891,6 +932,7 @@ fn build_light(l: LightToml, n: usize) -> anyhow::Result<Light> {
 }
 
 fn build(t: SceneToml, base: &Path) -> anyhow::Result<RenderScene> {
+    let (sigma_t_scale, albedo) = (t.medium.sigma_t_scale, t.medium.albedo);
     let medium = build_medium(t.medium, base).context("[medium]")?;
     let phase = match t.phase {
         None => Phase::Isotropic,
@@ -910,12 +952,22 @@ fn build(t: SceneToml, base: &Path) -> anyhow::Result<RenderScene> {
             k => bail!("[phase]: unknown kind {k:?} (expected isotropic or hg)"),
         },
     };
-    let lights = t
+    let (lights, strengths): (Vec<Light>, Vec<GreyOrRgb>) = t
         .light
         .into_iter()
         .enumerate()
         .map(|(n, l)| build_light(l, n))
-        .collect::<anyhow::Result<Vec<_>>>()?;
+        .collect::<anyhow::Result<Vec<_>>>()?
+        .into_iter()
+        .unzip();
+    let coloured = sigma_t_scale.is_rgb()
+        || albedo.is_some_and(|a| a.is_rgb())
+        || strengths.iter().any(|s| s.is_rgb());
+    let colours = coloured.then(|| Colours {
+        sigma_t_scale: sigma_t_scale.channels(),
+        albedo: albedo.map(|a| a.channels()),
+        light_strength: strengths.iter().map(|s| s.channels()).collect(),
+    });
     let c = t.camera;
     let camera = Camera {
         position: c.position,
@@ -975,6 +1027,7 @@ fn build(t: SceneToml, base: &Path) -> anyhow::Result<RenderScene> {
         medium,
         phase,
         lights,
+        colours,
         camera,
         solve,
         render,

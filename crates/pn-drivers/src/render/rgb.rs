@@ -1,0 +1,248 @@
+//! Coloured scenes (`pn_runtime::render::colour`): one grey solve and render per channel,
+//! combined into RGB images. Radiative transfer does not couple wavelengths, so channel c of
+//! the image is exactly the grey image of [`RenderScene::channel`]`(c)`. A channel is not
+//! recomputed when an earlier channel has the same medium and lights whose strengths differ
+//! by one common factor k ([`pn_runtime::render::colour::Colours::light_scale`]): transport is linear in the sources, so
+//! the channel is k × that channel's image (the solve's error scales with it). Equal channels
+//! (k = 1) are copies: they give the grey image exactly, at the cost of one channel.
+
+use super::{render_grey_views, RenderOptions, RenderReport, RenderRun, SolverReport, Timings};
+use anyhow::{Context, Result};
+use pn_runtime::render::colour::CHANNELS;
+use pn_runtime::render::image_io::{exposure, write_exr_rgb, write_png_tonemapped_rgb};
+use pn_runtime::render::renderer::Image;
+use pn_runtime::render::scene::Albedo;
+use pn_runtime::render::RenderScene;
+use serde::Serialize;
+use std::path::Path;
+
+/// The channel images of a coloured render.
+#[derive(Clone, Debug)]
+pub struct RgbImages {
+    /// R, G and B of the image (view 0 of a turntable).
+    pub image: [Image; 3],
+    /// R, G and B of each turntable view, view 0 first (empty for a single view).
+    pub views: Vec<[Image; 3]>,
+}
+
+impl RgbImages {
+    /// Writes `image.exr` (linear RGB) and `image.png` (tone-mapped RGB) into `dir`, or for a
+    /// turntable `view_NNN.exr` and `view_NNN.png` with one exposure (from view 0).
+    pub fn write(&self, dir: &Path) -> Result<()> {
+        let (w, h) = (self.image[0].width, self.image[0].height);
+        if self.views.is_empty() {
+            write_exr_rgb(&dir.join("image.exr"), w, h, planes(&self.image))?;
+            return write_png_tonemapped_rgb(
+                &dir.join("image.png"),
+                w,
+                h,
+                planes(&self.image),
+                None,
+            );
+        }
+        let expo = exposure(&planes(&self.views[0]).concat());
+        for (k, im) in self.views.iter().enumerate() {
+            write_exr_rgb(&dir.join(format!("view_{k:03}.exr")), w, h, planes(im))?;
+            write_png_tonemapped_rgb(
+                &dir.join(format!("view_{k:03}.png")),
+                w,
+                h,
+                planes(im),
+                Some(expo),
+            )?;
+        }
+        Ok(())
+    }
+}
+
+/// The three channels' pixel values.
+fn planes(im: &[Image; 3]) -> [&[f32]; 3] {
+    [&im[0].data, &im[1].data, &im[2].data]
+}
+
+/// One channel of a coloured render in `report.json`.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ChannelReport {
+    /// "R", "G" or "B".
+    pub channel: String,
+    /// σ_t scale of the channel.
+    pub sigma_t_scale: f64,
+    /// Its constant albedo (None: an albedo grid, the same in every channel).
+    pub albedo: Option<f64>,
+    /// Each light's irradiance or power in this channel.
+    pub light_strength: Vec<f64>,
+    /// The earlier channel whose images were scaled into this one (None: computed).
+    pub copied_from: Option<String>,
+    /// The factor of that copy (1 for equal channels; None: computed).
+    pub copy_scale: Option<f64>,
+    /// Mean pixel value of the channel.
+    pub mean_radiance: f64,
+    /// The channel's solver statistics (None when copied or without a solve).
+    pub solver: Option<SolverReport>,
+    /// The channel's seconds per stage (None when copied).
+    pub seconds: Option<Timings>,
+}
+
+/// [`super::render_views`] of a coloured scene: each distinct channel solved and rendered as
+/// a grey scene, the images combined.
+pub(super) fn render_views_rgb(
+    scene: &RenderScene,
+    options: &RenderOptions,
+    views: usize,
+) -> Result<RenderRun> {
+    let colours = scene
+        .colours
+        .as_ref()
+        .context("internal: render_views_rgb needs a coloured scene")?;
+    let mut runs: Vec<Option<RenderRun>> = Vec::new();
+    let mut copied: [Option<(usize, f64)>; 3] = [None; 3];
+    for c in 0..3 {
+        // Only computed channels are sources, so a copy never points to a copy.
+        copied[c] = (0..c)
+            .filter(|&p| copied[p].is_none())
+            .find_map(|p| colours.light_scale(p, c).map(|k| (p, k)));
+        runs.push(match copied[c] {
+            Some(_) => None,
+            None => Some(
+                render_grey_views(&scene.channel(c), options, views)
+                    .with_context(|| format!("channel {}", CHANNELS[c]))?,
+            ),
+        });
+    }
+    // Channel c's run and the factor on its images.
+    let run_of = |c: usize| -> Result<(&RenderRun, f64)> {
+        let (src, k) = copied[c].unwrap_or((c, 1.0));
+        let run = runs[src]
+            .as_ref()
+            .context("internal: a copied channel's source was not rendered")?;
+        Ok((run, k))
+    };
+    let src = [run_of(0)?, run_of(1)?, run_of(2)?];
+    let r = src[0].0;
+    let image = src.map(|(run, k)| scaled(&run.image, k));
+    let views_rgb: Vec<[Image; 3]> = (0..r.views.len())
+        .map(|v| src.map(|(run, k)| scaled(&run.views[v], k)))
+        .collect();
+    let mean_image = mean_of(&image);
+    let mean_views: Vec<Image> = views_rgb.iter().map(mean_of).collect();
+
+    let computed: Vec<&RenderRun> = runs.iter().flatten().collect();
+    let mut report: RenderReport = r.report.clone();
+    report.seconds = sum_timings(computed.iter().map(|run| &run.report.seconds));
+    report.solver = None;
+    report.mean_radiance = mean(&mean_image.data);
+    report.rms_standard_error = rms(&mean_image.std_err);
+    report.peak_memory_bytes = pn_runtime::memory::peak_memory_bytes();
+    for (k, v) in report.views.iter_mut().enumerate() {
+        v.mean_radiance = mean(&mean_views[k].data);
+        v.render_seconds = computed
+            .iter()
+            .map(|run| run.report.views[k].render_seconds)
+            .sum();
+    }
+    report.warnings = computed
+        .iter()
+        .flat_map(|run| run.report.warnings.iter().cloned())
+        .collect::<std::collections::BTreeSet<_>>()
+        .into_iter()
+        .collect();
+    report.channels = (0..3)
+        .map(|c| -> Result<ChannelReport> {
+            let ch = scene.channel(c);
+            let (run, _) = run_of(c)?;
+            Ok(ChannelReport {
+                channel: CHANNELS[c].into(),
+                sigma_t_scale: ch.medium.sigma_t_scale,
+                albedo: match ch.medium.albedo {
+                    Albedo::Constant(a) => Some(a),
+                    Albedo::Voxels(_) => None,
+                },
+                light_strength: ch.lights.iter().map(|l| l.strength()).collect(),
+                copied_from: copied[c].map(|(p, _)| CHANNELS[p].to_string()),
+                copy_scale: copied[c].map(|(_, k)| k),
+                mean_radiance: mean(&image[c].data),
+                solver: copied[c]
+                    .is_none()
+                    .then(|| run.report.solver.clone())
+                    .flatten(),
+                seconds: copied[c].is_none().then(|| run.report.seconds.clone()),
+            })
+        })
+        .collect::<Result<_>>()?;
+    Ok(RenderRun {
+        image: mean_image,
+        views: mean_views,
+        rgb: Some(RgbImages {
+            image,
+            views: views_rgb,
+        }),
+        report,
+    })
+}
+
+/// `k` × an image (a copy for k = 1).
+fn scaled(im: &Image, k: f64) -> Image {
+    if k == 1.0 {
+        return im.clone();
+    }
+    let k = k as f32;
+    Image {
+        width: im.width,
+        height: im.height,
+        data: im.data.iter().map(|v| v * k).collect(),
+        std_err: im.std_err.iter().map(|v| v * k.abs()).collect(),
+    }
+}
+
+/// The per-pixel mean of three channel images; its standard error √(Σ se_c²)/3 treats the
+/// channels' errors as independent.
+fn mean_of(c: &[Image; 3]) -> Image {
+    let n = c[0].data.len();
+    Image {
+        width: c[0].width,
+        height: c[0].height,
+        data: (0..n)
+            // In f64, so that three equal values give that value exactly.
+            .map(|i| {
+                let s: f64 = c.iter().map(|im| f64::from(im.data[i])).sum();
+                (s / 3.0) as f32
+            })
+            .collect(),
+        std_err: (0..n)
+            .map(|i| {
+                let v: f32 = c.iter().map(|im| im.std_err[i].powi(2)).sum();
+                v.sqrt() / 3.0
+            })
+            .collect(),
+    }
+}
+
+fn mean(data: &[f32]) -> f64 {
+    data.iter().map(|v| *v as f64).sum::<f64>() / data.len().max(1) as f64
+}
+
+fn rms(data: &[f32]) -> f64 {
+    (data.iter().map(|v| (*v as f64).powi(2)).sum::<f64>() / data.len().max(1) as f64).sqrt()
+}
+
+fn sum_timings<'a>(t: impl Iterator<Item = &'a Timings>) -> Timings {
+    let mut s = Timings {
+        density: 0.0,
+        shadow_maps: 0.0,
+        sources: 0.0,
+        solve: 0.0,
+        light_depth: 0.0,
+        render: 0.0,
+        total: 0.0,
+    };
+    for x in t {
+        s.density += x.density;
+        s.shadow_maps += x.shadow_maps;
+        s.sources += x.sources;
+        s.solve += x.solve;
+        s.light_depth += x.light_depth;
+        s.render += x.render;
+        s.total += x.total;
+    }
+    s
+}
