@@ -813,7 +813,10 @@ pub fn run(a: &RenderRequest, stdout: &mut dyn Write) -> Result<()> {
     }
     for c in &r.channels {
         let how = match (&c.copied_from, &c.solver) {
-            (Some(from), _) => format!("copied from {from} (same values)"),
+            (Some(from), _) => match c.copy_scale {
+                Some(k) if k != 1.0 => format!("{from} scaled by {k} (same medium, lights ×{k})"),
+                _ => format!("copied from {from} (same values)"),
+            },
             (None, Some(s)) => format!(
                 "solver {}: {} iterations, relative residual {:.3e}{}",
                 s.solver,
