@@ -5,7 +5,7 @@
 //! `pop::hg_patch`.)
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
-use pn_runtime::pop::propagate::{propagate, LightGrid, PopMedium};
+use pn_runtime::pop::propagate::{propagate, propagate_from, LightGrid, PopMedium};
 use pn_runtime::pop::{pop_field, solve_light, PopSeconds, PopSettings};
 use pn_runtime::render::solve_setup::solve_grid;
 use pn_runtime::render::RenderScene;
@@ -361,4 +361,79 @@ fn isotropic_lobes_give_the_infinite_medium_fluence() {
     let left: f64 = p.energy.iter().map(|e| e.left_grid).sum();
     let absorbed: f64 = p.energy.iter().map(|e| e.absorbed).sum();
     assert!((left + absorbed - p.injected).abs() < 1e-12 * p.injected);
+}
+
+/// Open point 3 measured both ways. The paper's §4.1 puts the attenuated light E·T_i with
+/// a = 1 into every cell and then propagates it; in a pure absorber (σ_s = 0, σ_a = 2; no
+/// scattering at all) the exact fluence is E·T_k, but the packets of all upstream cells pass
+/// cell k as well, each attenuated to exactly E·T_k, so A_0(k) = E·T_k (k + ½): the light is
+/// counted once per upstream cell, and more so the finer the grid (to rounding, 1e-12).
+/// The once-scattered initialisation injects nothing there (σ_s = 0), and the renderer's exact
+/// single scattering is the whole answer. On the paper's cube (σ_s = 4, albedo 1, g = 0.7)
+/// the paper's initialisation gives ∫A_0 dV far above the Monte Carlo total fluence
+/// (uncollided (1 − e^{−4})/4 = 0.2454 plus collided 0.6426 ± 0.0010 from
+/// `scripts/pop-cube-mc.py`); printed, with the once-scattered variant's value.
+#[test]
+fn paper_initialisation_counts_the_light_once_per_upstream_cell() {
+    let grid = LightGrid::around_box(DOWN, [-0.5; 3], [0.5; 3], 16).unwrap();
+    assert_eq!(grid.res, [16, 16, 16]);
+    let (n, h) = (grid.cells(), grid.h);
+    let t = |sigma: f64, k: usize| (-sigma * (k as f64 + 0.5) * h).exp();
+    let absorber = PopMedium {
+        sigma_s: vec![0.0; n],
+        sigma_a: vec![2.0; n],
+        g: 0.7,
+    };
+    let mut source = vec![0.0; n];
+    for k in 0..16 {
+        for j in 0..16 {
+            for i in 0..16 {
+                source[grid.index(i, j, k)] = t(2.0, k);
+            }
+        }
+    }
+    let p = propagate_from(&grid, &absorber, &source, 1.0, 0, 20).unwrap();
+    for k in 0..16 {
+        let a0 = p.bands[grid.index(7, 9, k)];
+        let want = t(2.0, k) * (k as f64 + 0.5);
+        assert!((a0 / want - 1.0).abs() < 1e-12, "k {k}: {a0} vs {want}");
+    }
+
+    let cube = PopMedium {
+        sigma_s: vec![4.0; n],
+        sigma_a: vec![0.0; n],
+        g: 0.7,
+    };
+    let integral = |bands: &[f64]| bands.iter().sum::<f64>() * h * h * h;
+    for k in 0..16 {
+        for j in 0..16 {
+            for i in 0..16 {
+                source[grid.index(i, j, k)] = t(4.0, k);
+            }
+        }
+    }
+    let paper = integral(
+        &propagate_from(&grid, &cube, &source, 1.0, 0, 512)
+            .unwrap()
+            .bands,
+    );
+    // The paper's other reading, T with σ_a: no attenuation at all in this albedo-1 cube.
+    let ones = vec![1.0; n];
+    let paper_sa = integral(
+        &propagate_from(&grid, &cube, &ones, 1.0, 0, 512)
+            .unwrap()
+            .bands,
+    );
+    let scattered: Vec<f64> = source.iter().map(|v| 4.0 * v * h).collect();
+    let ours = integral(&propagate(&grid, &cube, &scattered, 0, 512).unwrap().bands);
+    let (mc_total, mc_collided) = (0.2454 + 0.6426, 0.6426);
+    eprintln!(
+        "cube, 512 iterations: paper init (T with σ_t) ∫A_0 dV = {paper:.4} ({:.2} × MC total \
+         {mc_total:.4}), with σ_a {paper_sa:.4} ({:.2} ×); once-scattered init {ours:.4} \
+         ({:.2} × MC collided {mc_collided})",
+        paper / mc_total,
+        paper_sa / mc_total,
+        ours / mc_collided
+    );
+    assert!(paper > 2.0 * mc_total && paper > ours && paper_sa > paper);
 }

@@ -197,12 +197,27 @@ pub struct Propagated {
     pub residual_anisotropy: Vec<f64>,
 }
 
-/// Propagates the initial lobes `L^0 = source`, `a^0 = g` through `iterations` steps on
-/// `grid` (module docs) and accumulates the band amplitudes up to `lmax`.
+/// Propagates the initial lobes `L^0 = source`, `a^0 = g` (the once-scattered light of
+/// [`super`]) through `iterations` steps on `grid` (module docs) and accumulates the band
+/// amplitudes up to `lmax`.
 pub fn propagate(
     grid: &LightGrid,
     medium: &PopMedium,
     source: &[f64],
+    lmax: usize,
+    iterations: usize,
+) -> anyhow::Result<Propagated> {
+    propagate_from(grid, medium, source, medium.g, lmax, iterations)
+}
+
+/// [`propagate`] from lobes of anisotropy `initial_anisotropy` ∈ [0, 1] instead of g: 1 is
+/// the paper's §4.1 initialisation with the attenuated (uncollided) light, kept for the
+/// measurement of open point 3 (docs/pop-design.md).
+pub fn propagate_from(
+    grid: &LightGrid,
+    medium: &PopMedium,
+    source: &[f64],
+    initial_anisotropy: f64,
     lmax: usize,
     iterations: usize,
 ) -> anyhow::Result<Propagated> {
@@ -218,6 +233,10 @@ pub fn propagate(
         medium.g.is_finite() && (0.0..1.0).contains(&medium.g),
         "POP: the phase function's g must lie in [0, 1), got {}",
         medium.g
+    );
+    ensure!(
+        (0.0..=1.0).contains(&initial_anisotropy),
+        "POP: the initial anisotropy must lie in [0, 1], got {initial_anisotropy}"
     );
     for (name, v) in [
         ("sigma_s", medium.sigma_s.as_slice()),
@@ -240,7 +259,7 @@ pub fn propagate(
     let nb = lmax + 1;
     let mut bands = vec![0.0; n * nb];
     let mut l_cur = source.to_vec();
-    let mut a_cur = vec![g; n];
+    let mut a_cur = vec![initial_anisotropy; n];
     accumulate(&mut bands, &l_cur, &a_cur, nb, 0.5);
     let mut l_next = vec![0.0; n];
     let mut a_next = vec![0.0; n];
@@ -249,7 +268,7 @@ pub fn propagate(
     let [nx, ny, _] = grid.res;
     let plane = nx * ny;
     let mut energy = Vec::with_capacity(iterations);
-    let mut patches = vec![Patches::of(g); n];
+    let mut patches = vec![Patches::of(initial_anisotropy); n];
     for m in 1..=iterations {
         patches
             .par_iter_mut()
