@@ -181,3 +181,42 @@ fn delta_lobe_renders_a_finite_image() {
     let light = &report["pop"]["lights"][0];
     assert!(light["max_relative_imbalance"].as_f64().unwrap() < 1e-12);
 }
+
+/// Point lights are outside POP (§6 not implemented): the built-in `sphere` (one directional
+/// and one point light) renders, the point light keeps its single scattering, and the report
+/// says so in its warnings; only the directional light has an energy entry.
+#[test]
+fn point_lights_get_single_scattering_and_a_warning() {
+    let dir = tmp("sphere");
+    let out = dir.to_str().unwrap();
+    let o = pn(&[
+        "render",
+        "sphere",
+        "--method",
+        "pop",
+        "--set",
+        "camera.width=24",
+        "--set",
+        "camera.height=24",
+        "--solve-res",
+        "12",
+        "--pop-resolution",
+        "10",
+        "--out",
+        out,
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("report.json")).unwrap()).unwrap();
+    let warnings = report["warnings"].as_array().unwrap();
+    assert!(
+        warnings.iter().any(|w| w
+            .as_str()
+            .unwrap()
+            .contains("point light 1 contributes single scattering only")),
+        "{warnings:?}"
+    );
+    assert_eq!(report["pop"]["lights"].as_array().unwrap().len(), 1);
+    assert_eq!(report["pop"]["lights"][0]["light"], 0);
+    assert!(report["mean_radiance"].as_f64().unwrap() > 0.0);
+}
