@@ -316,6 +316,18 @@ pub fn solve_light(
     };
     let t0 = Instant::now();
     let grid = LightGrid::around_box(direction, lo, hi, settings.resolution)?;
+    // Per cell: σ_s, σ_a, T (and its columns while sweeping), source, two halves, L and a
+    // twice, three patch fractions and lmax + 1 band amplitudes (f64 each).
+    let bytes = grid.cells() as u128 * 8 * (14 + settings.lmax as u128 + 1);
+    let limit = crate::memory_estimate::default_limit_bytes() as u128;
+    ensure!(
+        bytes <= limit,
+        "POP: the {:?} grid needs about {:.1} GiB, more than the default memory limit of \
+         {:.1} GiB: lower the POP resolution",
+        grid.res,
+        bytes as f64 / (1u64 << 30) as f64,
+        limit as f64 / (1u64 << 30) as f64
+    );
     let (medium, subsamples) = sample_medium(scene, density, &grid, g)?;
     seconds.medium += t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
