@@ -38,6 +38,7 @@ pub struct RaceArgs {
     #[arg(long)]
     pub no_denoise: bool,
     /// pn points METHOD@RES[:rays=K][:step=S], comma separated: cda@24, p5@32:rays=1, …
+    /// (pop@20: POP with a 20-cell grid, 20 iterations and a 20-cell solve grid)
     /// (default cda, P_1, P_3 at
     /// 16,24,32,48 and P_5 at 16,24,32; p1@16 with --quick).
     #[arg(long)]

@@ -14,12 +14,21 @@ use super::Env;
 pub struct RenderArgs {
     /// A scene file (.toml) or a built-in scene: cloud, nebula, sphere, lowalbedo.
     pub scene: String,
-    /// Multiple scattering: pn, cda, fld, or none (single scattering only).
+    /// Multiple scattering: pn, cda, fld, pop (Principal-Ordinates Propagation, directional
+    /// lights), or none (single scattering only).
     #[arg(long)]
     pub method: Option<RenderMethod>,
-    /// P_N order (--method pn).
+    /// P_N order (--method pn); the highest SH band POP hands to the renderer (--method pop).
     #[arg(long, allow_negative_numbers = true)]
     pub order: Option<usize>,
+    /// --method pop: cells along the longest axis of each light-aligned grid, 1..=512
+    /// (default: the scene's [solve] pop_resolution, else 20).
+    #[arg(long, allow_negative_numbers = true)]
+    pub pop_resolution: Option<usize>,
+    /// --method pop: propagation iterations, ≥ 1 (default: the scene's [solve]
+    /// pop_iterations, else 20).
+    #[arg(long, allow_negative_numbers = true)]
+    pub pop_iterations: Option<usize>,
     /// The renderer: deterministic (default; noise-free ray marching) or montecarlo (delta
     /// tracking, --spp samples per pixel).
     #[arg(long)]
@@ -83,6 +92,8 @@ impl RenderArgs {
             scene: self.scene.clone(),
             method: self.method,
             order: self.order,
+            pop_resolution: self.pop_resolution,
+            pop_iterations: self.pop_iterations,
             spp: self.spp,
             renderer: self.renderer,
             rays: self.rays,

@@ -1,5 +1,6 @@
 //! `pn figure nebula`: the comparison figure (docs/rendering.md). Renders one scene with
-//! single scattering only, CDA, FLD, P_1, P_3 and P_5 (the same renderer for all: by default
+//! single scattering only, CDA, FLD, POP (directional lights; docs/pop-design.md), P_1, P_3
+//! and P_5 (the same renderer for all: by default
 //! the deterministic one, so the panels differ by the method alone; with `--renderer
 //! montecarlo` the same camera rays and seeds), and — when a Mitsuba reference is given (`--reference`), already present as
 //! `<out>/mitsuba.exr`, or rendered on request (`--mitsuba`) — compares each against it.
@@ -89,11 +90,13 @@ struct Entry {
     metrics: Option<Metrics>,
 }
 
-/// The methods of the figure: (label, directory, method, P_N order).
-const METHODS: [(&str, &str, RenderMethod, usize); 6] = [
+/// The methods of the figure: (label, directory, method, P_N order or POP's bands). P_5
+/// stays last: without a reference its image sets the common exposure.
+const METHODS: [(&str, &str, RenderMethod, usize); 7] = [
     ("single scattering", "single", RenderMethod::None, 1),
     ("CDA", "cda", RenderMethod::Cda, 1),
     ("FLD", "fld", RenderMethod::Fld, 1),
+    ("POP", "pop", RenderMethod::Pop, 3),
     ("P1", "p1", RenderMethod::Pn, 1),
     ("P3", "p3", RenderMethod::Pn, 3),
     ("P5", "p5", RenderMethod::Pn, 5),

@@ -4,7 +4,8 @@
 //! solver statistics, peak memory).
 //!
 //! The pieces live in `pn_runtime::render`; this module only picks the stencil (P_N or
-//! CDA through `pn_kernels`, FLD through [`super::fld_method`]) and runs the chain.
+//! CDA through `pn_kernels`, FLD through [`super::fld_method`]; POP, which needs no
+//! stencil, through [`pn_runtime::pop`]) and runs the chain.
 
 use crate::fld_setup::{fld_problem, solve_fld_route, FldSettings, SQRT_4PI};
 use crate::scene_setup::Route;
@@ -13,6 +14,7 @@ use pn_kernels::{cda_kernel, diffusion_kernel, pn_kernel, Dim, KernelChoice, Sta
 use pn_runtime::fld::{FldParams, Limiter};
 use pn_runtime::memory_estimate;
 use pn_runtime::pipeline::solve_problem;
+use pn_runtime::pop::{pop_field, PopReport, PopSettings};
 use pn_runtime::problem::Grid;
 use pn_runtime::render::first_scatter::first_scatter_problem;
 use pn_runtime::render::image_io::{write_exr_gray, write_png_tonemapped};
@@ -39,8 +41,14 @@ pub struct RenderRequest {
     pub scene: String,
     /// Multiple scattering: pn, cda, fld, or none (default: the scene's).
     pub method: Option<RenderMethod>,
-    /// P_N order (method pn; default: the scene's).
+    /// P_N order (method pn), highest band handed to the renderer (method pop); default:
+    /// the scene's.
     pub order: Option<usize>,
+    /// Method pop: cells along the longest axis of each light-aligned grid (default: the
+    /// scene's `[solve] pop_resolution`).
+    pub pop_resolution: Option<usize>,
+    /// Method pop: propagation iterations (default: the scene's `[solve] pop_iterations`).
+    pub pop_iterations: Option<usize>,
     /// Samples per pixel of the Monte Carlo renderer (default: the scene's).
     pub spp: Option<usize>,
     /// The renderer (default: the scene's, deterministic unless it says otherwise).
@@ -75,6 +83,8 @@ impl Default for RenderRequest {
             scene: "nebula".into(),
             method: None,
             order: None,
+            pop_resolution: None,
+            pop_iterations: None,
             spp: None,
             renderer: None,
             rays: None,
@@ -219,6 +229,10 @@ pub struct RenderReport {
     pub unknowns: Option<UnknownStats>,
     /// Solver statistics.
     pub solver: Option<SolverReport>,
+    /// Method pop: settings, per-light energy bookkeeping per iteration, seconds per stage
+    /// (`seconds.sources` is its medium sampling + initialisation, `seconds.solve` its
+    /// propagation + resampling).
+    pub pop: Option<PopReport>,
     /// Seconds per stage.
     pub seconds: Timings,
     /// Mean pixel value.
@@ -287,10 +301,25 @@ pub fn apply_overrides(scene: &mut RenderScene, a: &RenderRequest) -> Result<()>
     }
     if let Some(o) = a.order {
         ensure!(
-            scene.solve.method == RenderMethod::Pn,
-            "--order applies to --method pn only"
+            matches!(scene.solve.method, RenderMethod::Pn | RenderMethod::Pop),
+            "--order applies to --method pn and pop only"
         );
         scene.solve.order = o;
+    }
+    for (flag, v) in [
+        ("--pop-resolution", a.pop_resolution),
+        ("--pop-iterations", a.pop_iterations),
+    ] {
+        ensure!(
+            v.is_none() || scene.solve.method == RenderMethod::Pop,
+            "{flag} applies to --method pop only"
+        );
+    }
+    if let Some(r) = a.pop_resolution {
+        scene.solve.pop_resolution = r;
+    }
+    if let Some(i) = a.pop_iterations {
+        scene.solve.pop_iterations = i;
     }
     if let Some(s) = a.spp {
         scene.render.spp = s;
@@ -337,7 +366,7 @@ fn kernel_for(scene: &RenderScene) -> Result<Option<KernelChoice>> {
             Staggering::Staggered,
         )?),
         RenderMethod::Cda => Some(cda_kernel(Dim::Three)?),
-        RenderMethod::Fld | RenderMethod::None => None,
+        RenderMethod::Fld | RenderMethod::Pop | RenderMethod::None => None,
     })
 }
 
@@ -416,7 +445,28 @@ fn render_grey_views(
     let mut solver = None;
     let mut ms = None;
     let mut shadow_maps = None;
-    if s.method != RenderMethod::None {
+    let mut pop = None;
+    if s.method == RenderMethod::Pop {
+        // No linear system: POP's moments of the collided radiance go onto the solve grid.
+        if let Some(sg) = solve_grid(&density, s.resolution, s.padding(), true)? {
+            let settings = PopSettings {
+                resolution: s.pop_resolution,
+                iterations: s.pop_iterations,
+                lmax: s.order,
+            };
+            let run = pn_runtime::threads::with_threads(threads, || {
+                pop_field(scene, &density, &sg.grid, &settings)
+            })??;
+            let p = &run.report.seconds;
+            timings.sources = p.medium + p.initialization;
+            timings.solve = p.propagation + p.resampling;
+            ms = Some(
+                MsField::new(sg.grid, run.moments, scene.phase)?
+                    .with_lookup(scene.render.ms_lookup),
+            );
+            pop = Some(run.report);
+        }
+    } else if s.method != RenderMethod::None {
         let kernel = kernel_for(scene)?;
         let (solved, grid) =
             unknowns_on(&density, s.resolution, s.padding(), true, kernel.as_ref())?;
@@ -468,7 +518,7 @@ fn render_grey_views(
             shadow_maps = Some(fs.shadows);
         }
     }
-    let mut warnings = Vec::new();
+    let mut warnings: Vec<String> = pop.iter().flat_map(|p| p.warnings.clone()).collect();
     let support = density
         .support()
         .filter(|_| scene.medium.sigma_t_scale > 0.0);
@@ -574,7 +624,7 @@ fn render_grey_views(
     let report = RenderReport {
         scene: scene.name.clone(),
         method: s.method.name().into(),
-        order: (s.method == RenderMethod::Pn).then_some(s.order),
+        order: matches!(s.method, RenderMethod::Pn | RenderMethod::Pop).then_some(s.order),
         renderer: r.renderer.name().into(),
         rays_per_pixel: if deterministic { r.rays } else { r.spp },
         step: deterministic.then_some(r.step),
@@ -603,6 +653,7 @@ fn render_grey_views(
         .into(),
         unknowns,
         solver,
+        pop,
         seconds: timings,
         mean_radiance: mean(&image.data),
         rms_standard_error: (image
@@ -770,9 +821,13 @@ pub fn run(a: &RenderRequest, stdout: &mut dyn Write) -> Result<()> {
     run.report.overrides = a.set.iter().map(|o| o.text.clone()).collect();
     write_run(&out, &run)?;
     let r = &run.report;
-    let what = match r.order {
-        Some(n) => format!("P_{n}"),
-        None => r.method.to_uppercase(),
+    let what = match (r.order, &r.pop) {
+        (_, Some(p)) => format!(
+            "POP ({}³ grid, {} iterations, l ≤ {})",
+            p.settings.resolution, p.settings.iterations, p.settings.lmax
+        ),
+        (Some(n), None) => format!("P_{n}"),
+        (None, None) => r.method.to_uppercase(),
     };
     let how = match (r.step, r.cutoff) {
         (Some(step), Some(_)) => format!(

@@ -14,7 +14,8 @@
 //! * Solving: [`operator`] (operator and preconditioner traits), [`linalg`], [`solver`] (one
 //!   file per Krylov method, one stopping controller, the parity solvers and multigrid),
 //!   [`pipeline`] (the whole chain, [`pipeline::solve_problem`]), [`fld`] (flux-limited
-//!   diffusion), [`convergence`] (resolution studies).
+//!   diffusion), [`pop`] (Principal-Ordinates Propagation for directional lights),
+//!   [`convergence`] (resolution studies).
 //! * Results: [`unstagger`], [`energy`], [`output`], [`plot`], [`memory`] and
 //!   [`memory_estimate`]; [`threads`] for `--threads`.
 //! * [`reference`]: analytic and semi-analytic reference solutions (point source, the 1D
@@ -62,6 +63,7 @@ pub mod operator;
 pub mod output;
 pub mod pipeline;
 pub mod plot;
+pub mod pop;
 pub mod problem;
 pub mod render;
 pub mod scene_file;

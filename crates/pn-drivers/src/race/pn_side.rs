@@ -7,7 +7,7 @@ use std::fmt;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-/// A deterministic method: CDA, P_N of an order, or single scattering only.
+/// A deterministic method: CDA, P_N of an order, POP, or single scattering only.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub enum Family {
     /// Single scattering only (`--method none`).
@@ -16,6 +16,9 @@ pub enum Family {
     Cda,
     /// P_N of this order.
     Pn(usize),
+    /// Principal-Ordinates Propagation (`--method pop`, directional lights; docs/pop-design.md)
+    /// with a grid of the point's resolution and as many iterations (the paper's §7 rule).
+    Pop,
 }
 
 impl Family {
@@ -30,15 +33,17 @@ impl Family {
                 "--order".into(),
                 n.to_string(),
             ],
+            Family::Pop => vec!["--method".into(), "pop".into()],
         }
     }
 
-    /// The method column (`none`, `cda`, `pn`).
+    /// The method column (`none`, `cda`, `pn`, `pop`).
     pub fn method(self) -> &'static str {
         match self {
             Family::None => "none",
             Family::Cda => "cda",
             Family::Pn(_) => "pn",
+            Family::Pop => "pop",
         }
     }
 
@@ -57,6 +62,7 @@ impl fmt::Display for Family {
             Family::None => write!(f, "single scattering"),
             Family::Cda => write!(f, "CDA"),
             Family::Pn(n) => write!(f, "P_{n}"),
+            Family::Pop => write!(f, "POP"),
         }
     }
 }
@@ -76,7 +82,7 @@ pub struct PnPoint {
 }
 
 impl PnPoint {
-    /// Parses `cda@24`, `p5@32` (`P5@32`), `none`, each optionally followed by
+    /// Parses `cda@24`, `p5@32` (`P5@32`), `pop@20`, `none`, each optionally followed by
     /// `:rays=K` and/or `:step=S` (`p5@32:rays=1:step=1`).
     pub fn parse(s: &str) -> Result<Self> {
         let lower = s.trim().to_ascii_lowercase();
@@ -118,12 +124,13 @@ impl PnPoint {
         };
         let family = match f {
             "cda" => Family::Cda,
+            "pop" => Family::Pop,
             _ => {
                 let n = f
                     .strip_prefix('p')
                     .and_then(|n| n.parse::<usize>().ok())
                     .with_context(|| {
-                        format!("pn point {s:?}: the method is cda or pN (p1, p3, p5, …)")
+                        format!("pn point {s:?}: the method is cda, pop or pN (p1, p3, p5, …)")
                     })?;
                 ensure!(
                     (1..=60).contains(&n),
@@ -153,6 +160,7 @@ impl PnPoint {
             Family::None => "none".into(),
             Family::Cda => format!("cda@{}", self.solve_res),
             Family::Pn(n) => format!("p{n}@{}", self.solve_res),
+            Family::Pop => format!("pop@{}", self.solve_res),
         };
         if let Some(r) = self.rays {
             s += &format!(":rays={r}");
@@ -169,6 +177,7 @@ impl PnPoint {
             Family::None => "none".into(),
             Family::Cda => "cda".into(),
             Family::Pn(n) => format!("p{n}"),
+            Family::Pop => "pop".into(),
         }
     }
 
@@ -242,6 +251,10 @@ impl PnRunner {
         if point.family != Family::None {
             cmd.args(["--solve-res", &point.solve_res.to_string()]);
         }
+        if point.family == Family::Pop {
+            let n = point.solve_res.to_string();
+            cmd.args(["--pop-resolution", &n, "--pop-iterations", &n]);
+        }
         if let Some(t) = self.threads {
             cmd.args(["--threads", &t.to_string()]);
         }
@@ -306,6 +319,9 @@ mod tests {
         assert_eq!((p.solve_res, p.label().as_str()), (24, "p5@24"));
         assert_eq!(PnPoint::parse("cda@16").unwrap().family, Family::Cda);
         assert_eq!(PnPoint::parse("none").unwrap().family, Family::None);
+        let p = PnPoint::parse("POP@20").unwrap();
+        assert_eq!((p.family, p.label().as_str()), (Family::Pop, "pop@20"));
+        assert_eq!((p.family.method(), p.family.order()), ("pop", None));
         let p = PnPoint::parse("p3@32:rays=1:step=0.25").unwrap();
         assert_eq!((p.rays, p.step), (Some(1), Some(0.25)));
         assert_eq!(p.label(), "p3@32:rays=1:step=0.25");

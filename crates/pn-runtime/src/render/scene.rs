@@ -34,8 +34,10 @@
 //! width = 128
 //! height = 128
 //! [solve]
-//! method = "pn"             # "pn" | "cda" | "fld" | "none" (single scattering only)
-//! order = 3
+//! method = "pn"             # "pn" | "cda" | "fld" | "pop" | "none" (single scattering only)
+//! order = 3                 # P_N order; for "pop" the highest SH band handed to the renderer
+//! pop_resolution = 20       # "pop": cells along the longest axis of each light-aligned grid
+//! pop_iterations = 20       # "pop": propagation iterations
 //! resolution = [32, 32, 32] # solve grid over the medium box (may be coarser)
 //! margin = 2                # empty cells kept around the cropped medium
 //! absorbing_layer = 1       # cells over which the graded absorber ramps up (0 = none)
@@ -175,6 +177,8 @@ pub enum RenderMethod {
     Cda,
     /// Flux-limited diffusion.
     Fld,
+    /// Principal-Ordinates Propagation, directional lights (issue 20; [`crate::pop`]).
+    Pop,
     /// Single scattering only.
     None,
 }
@@ -186,8 +190,9 @@ impl std::str::FromStr for RenderMethod {
             "pn" => Ok(Self::Pn),
             "cda" => Ok(Self::Cda),
             "fld" => Ok(Self::Fld),
+            "pop" => Ok(Self::Pop),
             "none" => Ok(Self::None),
-            _ => bail!("unknown method {s:?} (expected pn, cda, fld or none)"),
+            _ => bail!("unknown method {s:?} (expected pn, cda, fld, pop or none)"),
         }
     }
 }
@@ -199,6 +204,7 @@ impl RenderMethod {
             Self::Pn => "pn",
             Self::Cda => "cda",
             Self::Fld => "fld",
+            Self::Pop => "pop",
             Self::None => "none",
         }
     }
@@ -227,7 +233,20 @@ pub struct SolveSettings {
     pub tolerance: f64,
     /// σ_t threshold; `None` = automatic where vacuum is present.
     pub sigma_t_min: Option<f64>,
+    /// Method pop: cells along the longest axis of each light-aligned grid.
+    pub pop_resolution: usize,
+    /// Method pop: propagation iterations.
+    pub pop_iterations: usize,
 }
+
+/// Default POP grid resolution (the paper's typical 20³, §7).
+pub const POP_DEFAULT_RESOLUTION: usize = 20;
+/// Default POP iterations (about the grid resolution along the light, the paper's §7).
+pub const POP_DEFAULT_ITERATIONS: usize = 20;
+/// Largest POP grid resolution.
+pub const POP_MAX_RESOLUTION: usize = 512;
+/// Most POP iterations.
+pub const POP_MAX_ITERATIONS: usize = 100_000;
 
 /// Where the solve grid's vacuum becomes a graded pure absorber (`[solve] absorber`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, serde::Serialize)]
@@ -443,6 +462,8 @@ struct SolveToml {
     boundary: Option<SolveBoundary>,
     tolerance: Option<f64>,
     sigma_t_min: Option<f64>,
+    pop_resolution: Option<usize>,
+    pop_iterations: Option<usize>,
 }
 
 #[derive(Deserialize, Debug)]
@@ -988,6 +1009,8 @@ fn build(t: SceneToml, base: &Path) -> anyhow::Result<RenderScene> {
         boundary: None,
         tolerance: None,
         sigma_t_min: None,
+        pop_resolution: None,
+        pop_iterations: None,
     });
     let solve = SolveSettings {
         method: s.method.unwrap_or(RenderMethod::Pn),
@@ -999,6 +1022,8 @@ fn build(t: SceneToml, base: &Path) -> anyhow::Result<RenderScene> {
         boundary: s.boundary.unwrap_or_default(),
         tolerance: s.tolerance.unwrap_or(1e-6),
         sigma_t_min: s.sigma_t_min.filter(|v| *v != 0.0),
+        pop_resolution: s.pop_resolution.unwrap_or(POP_DEFAULT_RESOLUTION),
+        pop_iterations: s.pop_iterations.unwrap_or(POP_DEFAULT_ITERATIONS),
     };
     solve.validate().context("[solve]")?;
     let r = t.render.unwrap_or(RenderToml {
@@ -1045,7 +1070,7 @@ impl SolveSettings {
         self.margin + self.absorbing_layer
     }
 
-    /// Checks order, resolution, tolerance and threshold.
+    /// Checks order, resolution, tolerance, threshold and the POP settings.
     pub fn validate(&self) -> anyhow::Result<()> {
         let max = pn_stencil::MAX_ORDER;
         ensure!(
@@ -1079,6 +1104,16 @@ impl SolveSettings {
                 "sigma_t_min must be finite and non-negative, got {t}"
             );
         }
+        ensure!(
+            (1..=POP_MAX_RESOLUTION).contains(&self.pop_resolution),
+            "pop_resolution must lie in 1..={POP_MAX_RESOLUTION}, got {}",
+            self.pop_resolution
+        );
+        ensure!(
+            (1..=POP_MAX_ITERATIONS).contains(&self.pop_iterations),
+            "pop_iterations must lie in 1..={POP_MAX_ITERATIONS}, got {}",
+            self.pop_iterations
+        );
         if self.boundary == SolveBoundary::Marshak {
             ensure!(
                 self.method == RenderMethod::Pn && self.order % 2 == 1,

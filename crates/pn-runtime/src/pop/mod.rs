@@ -1,0 +1,455 @@
+//! Principal-Ordinates Propagation (POP; `../shared/papers/principal-ordinates-propagation.txt`,
+//! issue 20) for directional lights: `pn render --method pop`.
+//!
+//! For each directional light a grid aligned with its travel direction d covers the medium's
+//! support ([`propagate::LightGrid`]); every cell holds one HG lobe about d, a magnitude L
+//! and an anisotropy a. The decisions on the paper's open points (docs/pop-design.md,
+//! `../shared/papers/README.md`):
+//!
+//! * **Initialisation (open point 3).** Not the attenuated light itself (propagating it *and*
+//!   putting it into every cell would count cell i's light once per upstream cell), but the
+//!   **once-scattered** light, which POP's basis represents exactly: around a directional
+//!   light it is an HG lobe with a = g about d, `L_i^0 = σ_s,i · E · T_i · h`, `a_i^0 = g`,
+//!   with `T_i` the exact uncollided transmittance (σ_t, [`crate::render::shadow`]) from the
+//!   light to the cell centre, accumulated in one sweep along d per column. σ_s,i is the
+//!   cell average (midpoint subsamples); `L_i^0 h²` is the power scattered once in the cell.
+//! * **Where σ_s enters (open point 4):** in that source and in Eq. 4 (`a′ = a g^{σ_s t}`);
+//!   the convolution of the lobe with the phase function is the renderer's `g^l` factor.
+//! * **What POP hands on:** the SH moments of the **collided** radiance (scattered ≥ 1
+//!   times) on the solve grid ([`accumulate`]), through the same
+//!   [`crate::render::renderer::MsField`] as P_N; the renderers add the exact single
+//!   scattering (next-event estimation with the exact transmittance), so nothing is
+//!   counted twice.
+//! * **Eq. 1 at g = 0 and a → 1 (open point 5):** [`hg_patch`].
+//! * Points 1 and 2 (prefilter, Eq. 10) concern environment lighting (§5), not implemented.
+//!
+//! Not implemented: point lights (§6; they keep their exact single scattering but get no
+//! multiple scattering from POP, with a warning), environment lighting (§5), the isotropic
+//! residuum (§5.4), the joint bilateral upsampling (§4.4; the resampling is trilinear).
+//!
+//! Settings: `[solve] pop_resolution` (cells along the longest axis of the light-aligned box,
+//! default 20 as the paper's typical 20³), `pop_iterations` (default 20: "amounts similar
+//! to the propagation grid resolution along the propagation dimension", §7), and the bands
+//! carried, `[solve] order` (lmax).
+
+pub mod accumulate;
+pub mod hg_patch;
+pub mod propagate;
+
+use crate::problem::{Grid, Phase};
+use crate::render::lights::Light;
+use crate::render::medium::DensityGrid;
+use crate::render::scene::{
+    RenderScene, POP_DEFAULT_ITERATIONS, POP_DEFAULT_RESOLUTION, POP_MAX_ITERATIONS,
+    POP_MAX_RESOLUTION,
+};
+use crate::render::shadow::Extinction;
+use crate::unstagger::CellMoments;
+use anyhow::{bail, ensure};
+use propagate::{IterationEnergy, LightGrid, PopMedium};
+use rayon::prelude::*;
+use serde::Serialize;
+use std::time::Instant;
+
+/// POP's settings.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct PopSettings {
+    /// Cells along the longest axis of each light-aligned grid (1..=512).
+    pub resolution: usize,
+    /// Propagation iterations (≥ 1).
+    pub iterations: usize,
+    /// Highest SH band handed to the renderer.
+    pub lmax: usize,
+}
+
+impl Default for PopSettings {
+    /// The paper's typical 20³ grid, 20 iterations, bands up to 3.
+    fn default() -> Self {
+        Self {
+            resolution: POP_DEFAULT_RESOLUTION,
+            iterations: POP_DEFAULT_ITERATIONS,
+            lmax: 3,
+        }
+    }
+}
+
+impl PopSettings {
+    /// Checks the ranges: resolution in 1..=512, iterations in 1..=[`POP_MAX_ITERATIONS`],
+    /// lmax ≤ [`pn_stencil::MAX_ORDER`].
+    pub fn validate(&self) -> anyhow::Result<()> {
+        ensure!(
+            (1..=POP_MAX_RESOLUTION).contains(&self.resolution),
+            "POP grid resolution must lie in 1..={POP_MAX_RESOLUTION}, got {}",
+            self.resolution
+        );
+        ensure!(
+            (1..=POP_MAX_ITERATIONS).contains(&self.iterations),
+            "POP iterations must lie in 1..={POP_MAX_ITERATIONS}, got {}",
+            self.iterations
+        );
+        ensure!(
+            self.lmax <= pn_stencil::MAX_ORDER,
+            "POP bands: lmax must be at most {}, got {}",
+            pn_stencil::MAX_ORDER,
+            self.lmax
+        );
+        Ok(())
+    }
+}
+
+/// The phase function's g for POP: isotropic is g = 0; HG needs g in [0, 1) (the paper's
+/// model has no backscattering lobes, §4; g → 1 is handled as a delta lobe by
+/// [`hg_patch`]).
+pub fn phase_g(phase: Phase) -> anyhow::Result<f64> {
+    match phase {
+        Phase::Isotropic => Ok(0.0),
+        Phase::HenyeyGreenstein(g) => {
+            ensure!(
+                g.is_finite() && (0.0..1.0).contains(&g),
+                "POP needs a Henyey–Greenstein g in [0, 1) (no backward lobes in the paper's \
+                 model), got g = {g}"
+            );
+            Ok(g)
+        }
+    }
+}
+
+/// The energy balance and grid of one light (powers in W: `Σ L h²`).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct PopLightReport {
+    /// Index of the light in the scene.
+    pub light: usize,
+    /// Its travel direction (unit).
+    pub direction: [f64; 3],
+    /// Cells of its grid along u, v, d.
+    pub grid_res: [usize; 3],
+    /// Cell side.
+    pub cell_size: f64,
+    /// Midpoint subsamples per axis and cell used for the cell averages of σ_s, σ_a.
+    pub subsamples: usize,
+    /// Once-scattered power injected, `Σ σ_s E T h³`.
+    pub injected: f64,
+    /// Left through the grid's faces, all iterations.
+    pub left_grid: f64,
+    /// Absorbed, all iterations.
+    pub absorbed: f64,
+    /// Still in flight after the last iteration (truncation of the iteration count).
+    pub in_flight_final: f64,
+    /// `in_flight_final / injected`.
+    pub in_flight_final_fraction: f64,
+    /// Largest |in flight before − after − left − absorbed| over the iterations, relative
+    /// to `injected` (rounding only).
+    pub max_relative_imbalance: f64,
+    /// One entry per iteration.
+    pub energy: Vec<IterationEnergy>,
+}
+
+/// Seconds per POP stage (all lights).
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct PopSeconds {
+    /// Sampling σ_s, σ_a onto the light grids.
+    pub medium: f64,
+    /// Uncollided transmittance sweep and the once-scattered source.
+    pub initialization: f64,
+    /// The iterations (Eqs. 2, 4–6) and the band accumulation.
+    pub propagation: f64,
+    /// Projection to SH moments and resampling onto the solve grid.
+    pub resampling: f64,
+}
+
+/// What POP did (`report.json` → "pop").
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct PopReport {
+    /// Settings used.
+    pub settings: PopSettings,
+    /// g of the phase function.
+    pub g: f64,
+    /// Per directional light.
+    pub lights: Vec<PopLightReport>,
+    /// Seconds per stage.
+    pub seconds: PopSeconds,
+    /// Lights POP ignores, an empty medium.
+    pub warnings: Vec<String>,
+}
+
+/// POP's result on the solve grid.
+#[derive(Clone, Debug)]
+pub struct PopRun {
+    /// Moments of the collided radiance at the solve-grid cell centres.
+    pub moments: CellMoments,
+    /// Bookkeeping and timings.
+    pub report: PopReport,
+}
+
+/// One propagated light: its grid and accumulated band amplitudes (for tests and studies).
+#[derive(Clone, Debug)]
+pub struct LightSolution {
+    /// The light-aligned grid.
+    pub grid: LightGrid,
+    /// The medium on it.
+    pub medium: PopMedium,
+    /// Band amplitudes and bookkeeping.
+    pub propagated: propagate::Propagated,
+    /// Midpoint subsamples per axis.
+    pub subsamples: usize,
+}
+
+/// Most medium lookups for the cell averages (cells × subsamples³).
+const MAX_LOOKUPS: usize = 1 << 26;
+
+/// Cell averages of σ_s and σ_a on `grid` (midpoint rule with `k³` subsamples per cell, k
+/// the ratio of the POP cell to the smallest density voxel, 1..=4: the paper's
+/// "downscaled version of the volume", §4.2).
+fn sample_medium(
+    scene: &RenderScene,
+    density: &DensityGrid,
+    grid: &LightGrid,
+    g: f64,
+) -> anyhow::Result<(PopMedium, usize)> {
+    let hmin = density.h().iter().fold(f64::INFINITY, |m, v| m.min(*v));
+    let mut k = ((grid.h / hmin).ceil() as usize).clamp(1, 4);
+    while k > 1 && grid.cells().saturating_mul(k * k * k) > MAX_LOOKUPS {
+        k -= 1;
+    }
+    let [nx, ny, _] = grid.res;
+    let plane = nx * ny;
+    let n = grid.cells();
+    let mut sigma_s = vec![0.0; n];
+    let mut sigma_a = vec![0.0; n];
+    let kf = k as f64;
+    sigma_s
+        .par_chunks_mut(plane)
+        .zip(sigma_a.par_chunks_mut(plane))
+        .enumerate()
+        .for_each(|(kk, (ss, sa))| {
+            for j in 0..ny {
+                for i in 0..nx {
+                    let (mut st_sum, mut ss_sum) = (0.0, 0.0);
+                    for a in 0..k {
+                        for b in 0..k {
+                            for c in 0..k {
+                                let s = [a, b, c].map(|v| (v as f64 + 0.5) / kf - 0.5);
+                                let off = [i as f64 + s[0], j as f64 + s[1], kk as f64 + s[2]];
+                                let x = [0, 1, 2].map(|q| {
+                                    grid.origin[q]
+                                        + (0..3)
+                                            .map(|ax| (off[ax] + 0.5) * grid.h * grid.axes[ax][q])
+                                            .sum::<f64>()
+                                });
+                                let (t, s) = scene.medium.coefficients_at(density, x);
+                                st_sum += t;
+                                ss_sum += s;
+                            }
+                        }
+                    }
+                    let inv = 1.0 / (kf * kf * kf);
+                    let o = j * nx + i;
+                    ss[o] = ss_sum * inv;
+                    sa[o] = ((st_sum - ss_sum) * inv).max(0.0);
+                }
+            }
+        });
+    if let Some(bad) = sigma_s.iter().chain(&sigma_a).find(|v| !v.is_finite()) {
+        bail!("POP: the medium has a non-finite coefficient ({bad}) on the propagation grid");
+    }
+    Ok((
+        PopMedium {
+            sigma_s,
+            sigma_a,
+            g,
+        },
+        k,
+    ))
+}
+
+/// `T_i` at every cell centre: exact optical depth from the light to the first centre of
+/// each column, then centre to centre along d (one sweep, [`Extinction::optical_depth`]).
+fn transmittance(ext: &Extinction, grid: &LightGrid) -> Vec<f64> {
+    let [nx, ny, nz] = grid.res;
+    let d = grid.axes[2];
+    let back = d.map(|c| -c);
+    let columns: Vec<Vec<f64>> = (0..nx * ny)
+        .into_par_iter()
+        .map(|c| {
+            let (i, j) = (c % nx, c / nx);
+            let mut col = Vec::with_capacity(nz);
+            let mut x = grid.centre([i, j, 0]);
+            let mut tau = ext.optical_depth(x, back, f64::INFINITY);
+            col.push((-tau).exp());
+            for k in 1..nz {
+                tau += ext.optical_depth(x, d, grid.h);
+                x = grid.centre([i, j, k]);
+                col.push((-tau).exp());
+            }
+            col
+        })
+        .collect();
+    let mut t = vec![0.0; grid.cells()];
+    for (c, col) in columns.iter().enumerate() {
+        let (i, j) = (c % nx, c / nx);
+        for (k, v) in col.iter().enumerate() {
+            t[grid.index(i, j, k)] = *v;
+        }
+    }
+    t
+}
+
+/// Propagates one directional light (travel `direction`, irradiance `irradiance`) through
+/// the scene's medium on a grid of `settings.resolution` cells over the density's support.
+/// `None` for an empty medium.
+pub fn solve_light(
+    scene: &RenderScene,
+    density: &DensityGrid,
+    direction: [f64; 3],
+    irradiance: f64,
+    settings: &PopSettings,
+    seconds: &mut PopSeconds,
+) -> anyhow::Result<Option<LightSolution>> {
+    settings.validate()?;
+    let g = phase_g(scene.phase)?;
+    ensure!(
+        irradiance.is_finite() && irradiance >= 0.0,
+        "POP: irradiance must be finite and non-negative, got {irradiance}"
+    );
+    let Some((lo, hi)) = density.support() else {
+        return Ok(None);
+    };
+    let t0 = Instant::now();
+    let grid = LightGrid::around_box(direction, lo, hi, settings.resolution)?;
+    // Per cell: σ_s, σ_a, T (and its columns while sweeping), source, two halves, L and a
+    // twice, three patch fractions and lmax + 1 band amplitudes (f64 each).
+    let bytes = grid.cells() as u128 * 8 * (14 + settings.lmax as u128 + 1);
+    let limit = crate::memory_estimate::default_limit_bytes() as u128;
+    ensure!(
+        bytes <= limit,
+        "POP: the {:?} grid needs about {:.1} GiB, more than the default memory limit of \
+         {:.1} GiB: lower the POP resolution",
+        grid.res,
+        bytes as f64 / (1u64 << 30) as f64,
+        limit as f64 / (1u64 << 30) as f64
+    );
+    let (medium, subsamples) = sample_medium(scene, density, &grid, g)?;
+    seconds.medium += t0.elapsed().as_secs_f64();
+    let t1 = Instant::now();
+    let ext = Extinction {
+        grid: density,
+        scale: scene.medium.sigma_t_scale,
+    };
+    let t = transmittance(&ext, &grid);
+    let source: Vec<f64> = medium
+        .sigma_s
+        .iter()
+        .zip(&t)
+        .map(|(s, t)| s * irradiance * t * grid.h)
+        .collect();
+    seconds.initialization += t1.elapsed().as_secs_f64();
+    let t2 = Instant::now();
+    let propagated =
+        propagate::propagate(&grid, &medium, &source, settings.lmax, settings.iterations)?;
+    seconds.propagation += t2.elapsed().as_secs_f64();
+    Ok(Some(LightSolution {
+        grid,
+        medium,
+        propagated,
+        subsamples,
+    }))
+}
+
+/// POP for every directional light of `scene`: the moments (l ≤ `settings.lmax`) of the
+/// collided radiance at the cell centres of `target` (the solve grid) and the report.
+pub fn pop_field(
+    scene: &RenderScene,
+    density: &DensityGrid,
+    target: &Grid,
+    settings: &PopSettings,
+) -> anyhow::Result<PopRun> {
+    settings.validate()?;
+    let g = phase_g(scene.phase)?;
+    let pc = (settings.lmax + 1) * (settings.lmax + 1);
+    let mut moments = CellMoments {
+        res: target.res,
+        per_cell: pc,
+        data: vec![0.0; target.cells() * pc],
+    };
+    let mut seconds = PopSeconds::default();
+    let mut lights = Vec::new();
+    let mut warnings = Vec::new();
+    for (n, light) in scene.lights.iter().enumerate() {
+        let (direction, irradiance) = match light {
+            Light::Directional {
+                direction,
+                irradiance,
+            } => (*direction, *irradiance),
+            Light::Point { .. } => {
+                warnings.push(format!(
+                    "POP propagates directional lights only: point light {n} contributes \
+                     single scattering only"
+                ));
+                continue;
+            }
+        };
+        let Some(sol) = solve_light(
+            scene,
+            density,
+            direction,
+            irradiance,
+            settings,
+            &mut seconds,
+        )?
+        else {
+            continue;
+        };
+        let t3 = Instant::now();
+        let p = &sol.propagated;
+        accumulate::add_light_moments(&sol.grid, &p.bands, p.lmax, target, &mut moments);
+        seconds.resampling += t3.elapsed().as_secs_f64();
+        lights.push(light_report(n, &sol));
+    }
+    if lights.is_empty() && warnings.is_empty() {
+        warnings
+            .push("POP: no directional light or an empty medium: no multiple scattering".into());
+    }
+    Ok(PopRun {
+        moments,
+        report: PopReport {
+            settings: *settings,
+            g,
+            lights,
+            seconds,
+            warnings,
+        },
+    })
+}
+
+/// The bookkeeping of one propagated light.
+pub fn light_report(light: usize, sol: &LightSolution) -> PopLightReport {
+    let p = &sol.propagated;
+    let left: f64 = p.energy.iter().map(|e| e.left_grid).sum();
+    let absorbed: f64 = p.energy.iter().map(|e| e.absorbed).sum();
+    let final_ = p.energy.last().map_or(p.injected, |e| e.in_flight_after);
+    let rel = |v: f64| {
+        if p.injected > 0.0 {
+            v / p.injected
+        } else {
+            0.0
+        }
+    };
+    PopLightReport {
+        light,
+        direction: sol.grid.axes[2],
+        grid_res: sol.grid.res,
+        cell_size: sol.grid.h,
+        subsamples: sol.subsamples,
+        injected: p.injected,
+        left_grid: left,
+        absorbed,
+        in_flight_final: final_,
+        in_flight_final_fraction: rel(final_),
+        max_relative_imbalance: p
+            .energy
+            .iter()
+            .map(|e| rel(e.imbalance().abs()))
+            .fold(0.0, f64::max),
+        energy: p.energy.clone(),
+    }
+}

@@ -1,0 +1,468 @@
+//! The light-aligned propagation grid and the six-neighbour gathering propagation
+//! (POP paper §4.2–4.3, Eqs. 2 and 4–6) with double buffering and per-iteration energy
+//! bookkeeping.
+//!
+//! **Grid.** [`LightGrid`] is a uniform grid of cubic cells of side `h` whose third axis is
+//! the light's travel direction `d` (cells are indexed `(i, j, k)`, k along d; storage
+//! `(k·ny + j)·nx + i`, so that a plane k ⟂ d is one contiguous slice: the unit of rayon
+//! parallelism). It covers the given box (the medium's support) in the frame (u, v, d).
+//!
+//! **One iteration** (Eq. 5–6, gathering): every destination cell sums what its six
+//! neighbours send it, `ΔL = L_src · frac · T_src→dst` with `frac` the source's patch
+//! fraction towards dst ([`super::hg_patch::Patches`]), and takes the ΔL-weighted mean of
+//! the reduced anisotropies `Δa = a_src · g^{σ_s t}` (Eq. 4). Following the paper,
+//! `T = exp(−σ̄_a t)` and the exponent of Eq. 4 use the mean of the two cells' σ_a and σ_s
+//! and the centre distance `t = h`; both factor into per-cell halves,
+//! `exp(−σ_a,src h/2)·exp(−σ_a,dst h/2)` and `g^{σ_s,src h/2}·g^{σ_s,dst h/2}`, computed once.
+//! Outside the grid is vacuum (σ = 0): what a face cell sends outwards has crossed half a
+//! cell of medium and is counted as having **left the grid**. All energy of a cell moves
+//! each iteration (one step of length h per iteration), so the grid `L^m` holds the light
+//! that is still in flight.
+//!
+//! **Bookkeeping.** Energy is reported as power, `Σ L · h²` (the initial `L_i^0 = σ_s E T h`
+//! of [`super`] makes `Σ L^0 h²` the once-scattered power `Σ σ_s E T h³`). Since the patches
+//! sum to one, `in flight(m+1) + left grid(m) + absorbed(m) = in flight(m)` holds to
+//! rounding in every iteration ([`IterationEnergy`]).
+//!
+//! **Accumulation** (Eq. 7–8 for every view direction at once): instead of the
+//! view-dependent scalar of Eq. 8, each cell accumulates the band amplitudes
+//! `A_l = Σ_m w_m L^m (a^m)^l`, l = 0..=lmax ([`super::accumulate`] turns them into SH
+//! moments), with `w_0 = ½` for the cell's own once-scattered light (on average a point of
+//! the cell has seen half of its own cell's emission; docs/pop-design.md) and `w_m = 1`
+//! for m ≥ 1.
+
+use super::hg_patch::Patches;
+use anyhow::ensure;
+use rayon::prelude::*;
+use serde::Serialize;
+
+/// A uniform grid of cubic cells aligned with a light's travel direction.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LightGrid {
+    /// World position of the grid's lower corner (cell (0, 0, 0)'s corner).
+    pub origin: [f64; 3],
+    /// Orthonormal axes (u, v, d): `axes[2]` is the light's travel direction.
+    pub axes: [[f64; 3]; 3],
+    /// Cells along u, v, d.
+    pub res: [usize; 3],
+    /// Cell side.
+    pub h: f64,
+}
+
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+fn normalized(a: [f64; 3]) -> [f64; 3] {
+    let n = dot(a, a).sqrt();
+    a.map(|c| c / n)
+}
+
+impl LightGrid {
+    /// The grid with third axis `direction` that covers the box `[lo, hi]`: its extent in
+    /// the frame (u, v, d) is the box's (its eight corners projected), the cell side is the
+    /// longest extent over `resolution`, and each axis gets enough cells to cover its extent
+    /// (centred on it).
+    pub fn around_box(
+        direction: [f64; 3],
+        lo: [f64; 3],
+        hi: [f64; 3],
+        resolution: usize,
+    ) -> anyhow::Result<LightGrid> {
+        let n2 = dot(direction, direction);
+        ensure!(
+            n2.is_finite() && n2 > 0.0,
+            "light direction {direction:?} is not a finite non-zero vector"
+        );
+        ensure!(
+            (0..3).all(|d| lo[d].is_finite() && hi[d].is_finite() && lo[d] <= hi[d]),
+            "POP: the box {lo:?} to {hi:?} is not a finite box"
+        );
+        ensure!(resolution > 0, "POP: the grid resolution must be positive");
+        let d = normalized(direction);
+        // u ⟂ d from the world axis least aligned with d.
+        let a = (0..3)
+            .min_by(|&x, &y| d[x].abs().total_cmp(&d[y].abs()))
+            .unwrap_or(0);
+        let mut e = [0.0; 3];
+        e[a] = 1.0;
+        let u = normalized(cross(d, e));
+        let v = cross(d, u);
+        let axes = [u, v, d];
+        let mut pmin = [f64::INFINITY; 3];
+        let mut pmax = [f64::NEG_INFINITY; 3];
+        for c in 0..8 {
+            let p = [0, 1, 2].map(|q| if c >> q & 1 == 1 { hi[q] } else { lo[q] });
+            for (ax, axis) in axes.iter().enumerate() {
+                let s = dot(p, *axis);
+                pmin[ax] = pmin[ax].min(s);
+                pmax[ax] = pmax[ax].max(s);
+            }
+        }
+        let ext = [0, 1, 2].map(|ax| pmax[ax] - pmin[ax]);
+        let longest = ext.iter().fold(0.0f64, |m, v| m.max(*v));
+        ensure!(longest > 0.0, "POP: the box {lo:?} to {hi:?} is empty");
+        let h = longest / resolution as f64;
+        let res = ext.map(|e| ((e / h - 1e-9).ceil() as usize).clamp(1, resolution));
+        // Centre each axis's cells on the box's extent.
+        let start = [0, 1, 2].map(|ax| 0.5 * (pmin[ax] + pmax[ax]) - 0.5 * res[ax] as f64 * h);
+        let origin = [0, 1, 2].map(|q| (0..3).map(|ax| start[ax] * axes[ax][q]).sum::<f64>());
+        Ok(LightGrid {
+            origin,
+            axes,
+            res,
+            h,
+        })
+    }
+
+    /// Number of cells.
+    pub fn cells(&self) -> usize {
+        self.res.iter().product()
+    }
+
+    /// Storage index of cell (i, j, k): `(k·ny + j)·nx + i` (a plane k is contiguous).
+    #[inline]
+    pub fn index(&self, i: usize, j: usize, k: usize) -> usize {
+        (k * self.res[1] + j) * self.res[0] + i
+    }
+
+    /// World position of the centre of cell `c`.
+    pub fn centre(&self, c: [usize; 3]) -> [f64; 3] {
+        let s = c.map(|v| (v as f64 + 0.5) * self.h);
+        [0, 1, 2].map(|q| self.origin[q] + (0..3).map(|ax| s[ax] * self.axes[ax][q]).sum::<f64>())
+    }
+
+    /// Continuous cell coordinates of the world point `x`: cell c's centre is at `c`.
+    pub fn local(&self, x: [f64; 3]) -> [f64; 3] {
+        let r = [0, 1, 2].map(|q| x[q] - self.origin[q]);
+        [0, 1, 2].map(|ax| dot(r, self.axes[ax]) / self.h - 0.5)
+    }
+}
+
+/// The medium on a [`LightGrid`] (per cell, in its storage order).
+#[derive(Clone, Debug, PartialEq)]
+pub struct PopMedium {
+    /// Scattering coefficient σ_s.
+    pub sigma_s: Vec<f64>,
+    /// Absorption coefficient σ_a = σ_t − σ_s.
+    pub sigma_a: Vec<f64>,
+    /// Henyey–Greenstein g of the phase function, in [0, 1).
+    pub g: f64,
+}
+
+/// The energy balance of one iteration (powers, `Σ L h²`).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct IterationEnergy {
+    /// Iteration m (1-based: the step from `L^{m−1}` to `L^m`).
+    pub iteration: usize,
+    /// In flight before the step (`Σ L^{m−1} h²`).
+    pub in_flight_before: f64,
+    /// Sent out of the grid's faces in this step.
+    pub left_grid: f64,
+    /// Absorbed on the way between cell centres in this step.
+    pub absorbed: f64,
+    /// In flight after the step (`Σ L^m h²`).
+    pub in_flight_after: f64,
+}
+
+impl IterationEnergy {
+    /// `in flight before − (in flight after + left + absorbed)`: rounding only.
+    pub fn imbalance(&self) -> f64 {
+        self.in_flight_before - (self.in_flight_after + self.left_grid + self.absorbed)
+    }
+}
+
+/// The result of [`propagate`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct Propagated {
+    /// Band amplitudes `A_l` per cell: `bands[c·(lmax+1) + l]` (c the storage index).
+    pub bands: Vec<f64>,
+    /// Highest band accumulated.
+    pub lmax: usize,
+    /// Power injected (`Σ L^0 h²`).
+    pub injected: f64,
+    /// One entry per iteration.
+    pub energy: Vec<IterationEnergy>,
+    /// `L^M`: what is still in flight after the last iteration (per cell).
+    pub residual: Vec<f64>,
+    /// The anisotropy `a^M` of the residual (per cell).
+    pub residual_anisotropy: Vec<f64>,
+}
+
+/// Propagates the initial lobes `L^0 = source`, `a^0 = g` (the once-scattered light of
+/// [`super`]) through `iterations` steps on `grid` (module docs) and accumulates the band
+/// amplitudes up to `lmax`.
+pub fn propagate(
+    grid: &LightGrid,
+    medium: &PopMedium,
+    source: &[f64],
+    lmax: usize,
+    iterations: usize,
+) -> anyhow::Result<Propagated> {
+    propagate_from(grid, medium, source, medium.g, lmax, iterations)
+}
+
+/// [`propagate`] from lobes of anisotropy `initial_anisotropy` ∈ [0, 1] instead of g: 1 is
+/// the paper's §4.1 initialisation with the attenuated (uncollided) light, kept for the
+/// measurement of open point 3 (docs/pop-design.md).
+pub fn propagate_from(
+    grid: &LightGrid,
+    medium: &PopMedium,
+    source: &[f64],
+    initial_anisotropy: f64,
+    lmax: usize,
+    iterations: usize,
+) -> anyhow::Result<Propagated> {
+    let n = grid.cells();
+    ensure!(
+        medium.sigma_s.len() == n && medium.sigma_a.len() == n && source.len() == n,
+        "POP: medium ({} / {}) and source ({}) do not fit the grid's {n} cells",
+        medium.sigma_s.len(),
+        medium.sigma_a.len(),
+        source.len()
+    );
+    ensure!(
+        medium.g.is_finite() && (0.0..1.0).contains(&medium.g),
+        "POP: the phase function's g must lie in [0, 1), got {}",
+        medium.g
+    );
+    ensure!(
+        (0.0..=1.0).contains(&initial_anisotropy),
+        "POP: the initial anisotropy must lie in [0, 1], got {initial_anisotropy}"
+    );
+    for (name, v) in [
+        ("sigma_s", medium.sigma_s.as_slice()),
+        ("sigma_a", medium.sigma_a.as_slice()),
+        ("source", source),
+    ] {
+        if let Some(bad) = v.iter().find(|x| !(x.is_finite() && **x >= 0.0)) {
+            anyhow::bail!("POP: {name} holds {bad}, not a finite non-negative value");
+        }
+    }
+    let h = grid.h;
+    let g = medium.g;
+    // Per-cell halves of Eq. 2's transmittance and Eq. 4's factor (module docs).
+    let t_half: Vec<f64> = medium
+        .sigma_a
+        .iter()
+        .map(|s| (-0.5 * s * h).exp())
+        .collect();
+    let g_half: Vec<f64> = medium.sigma_s.iter().map(|s| g.powf(0.5 * s * h)).collect();
+    let nb = lmax + 1;
+    let mut bands = vec![0.0; n * nb];
+    let mut l_cur = source.to_vec();
+    let mut a_cur = vec![initial_anisotropy; n];
+    accumulate(&mut bands, &l_cur, &a_cur, nb, 0.5);
+    let mut l_next = vec![0.0; n];
+    let mut a_next = vec![0.0; n];
+    let power = h * h;
+    let injected = sum(&l_cur) * power;
+    let [nx, ny, _] = grid.res;
+    let plane = nx * ny;
+    let mut energy = Vec::with_capacity(iterations);
+    let mut patches = vec![Patches::of(initial_anisotropy); n];
+    for m in 1..=iterations {
+        patches
+            .par_iter_mut()
+            .zip(a_cur.par_iter())
+            .for_each(|(p, a)| *p = Patches::of(*a));
+        let cur = Buffers {
+            l: &l_cur,
+            a: &a_cur,
+            patches: &patches,
+            t_half: &t_half,
+            g_half: &g_half,
+        };
+        let sums: Vec<(f64, f64, f64)> = l_next
+            .par_chunks_mut(plane)
+            .zip(a_next.par_chunks_mut(plane))
+            .zip(bands.par_chunks_mut(plane * nb))
+            .enumerate()
+            .map(|(k, ((lp, ap), bp))| {
+                let (mut inflight, mut left, mut absorbed) = (0.0, 0.0, 0.0);
+                for j in 0..ny {
+                    for i in 0..nx {
+                        let (l, a) = cur.gather(grid, i, j, k);
+                        let o = j * nx + i;
+                        lp[o] = l;
+                        ap[o] = a;
+                        inflight += l;
+                        let mut p = 1.0;
+                        for b in &mut bp[o * nb..(o + 1) * nb] {
+                            *b += l * p;
+                            p *= a;
+                        }
+                        let (lf, ab) = cur.send(grid, i, j, k);
+                        left += lf;
+                        absorbed += ab;
+                    }
+                }
+                (inflight, left, absorbed)
+            })
+            .collect();
+        let (inflight, left, absorbed) = sums
+            .iter()
+            .fold((0.0, 0.0, 0.0), |s, v| (s.0 + v.0, s.1 + v.1, s.2 + v.2));
+        energy.push(IterationEnergy {
+            iteration: m,
+            in_flight_before: sum(&l_cur) * power,
+            left_grid: left * power,
+            absorbed: absorbed * power,
+            in_flight_after: inflight * power,
+        });
+        std::mem::swap(&mut l_cur, &mut l_next);
+        std::mem::swap(&mut a_cur, &mut a_next);
+    }
+    Ok(Propagated {
+        bands,
+        lmax,
+        injected,
+        energy,
+        residual: l_cur,
+        residual_anisotropy: a_cur,
+    })
+}
+
+fn sum(v: &[f64]) -> f64 {
+    v.iter().sum()
+}
+
+/// `bands[c·nb + l] += w · L_c · a_c^l`.
+fn accumulate(bands: &mut [f64], l: &[f64], a: &[f64], nb: usize, w: f64) {
+    bands
+        .par_chunks_mut(nb)
+        .zip(l.par_iter().zip(a.par_iter()))
+        .for_each(|(b, (l, a))| {
+            let mut p = w * l;
+            for v in b {
+                *v += p;
+                p *= a;
+            }
+        });
+}
+
+/// The read-only state of one iteration.
+struct Buffers<'a> {
+    l: &'a [f64],
+    a: &'a [f64],
+    patches: &'a [Patches],
+    t_half: &'a [f64],
+    g_half: &'a [f64],
+}
+
+impl Buffers<'_> {
+    /// The six neighbours of (i, j, k) as (neighbour index or None outside, which patch of
+    /// the *source* (i, j, k) points at it): 0 front (k+1), 1 side, 2 back (k−1).
+    #[inline]
+    fn neighbours(grid: &LightGrid, i: usize, j: usize, k: usize) -> [(Option<usize>, u8); 6] {
+        let [nx, ny, nz] = grid.res;
+        let at = |ok: bool, ii: usize, jj: usize, kk: usize| ok.then(|| grid.index(ii, jj, kk));
+        [
+            (at(k + 1 < nz, i, j, k + 1), 0),
+            (at(k > 0, i, j, k.wrapping_sub(1)), 2),
+            (at(i + 1 < nx, i + 1, j, k), 1),
+            (at(i > 0, i.wrapping_sub(1), j, k), 1),
+            (at(j + 1 < ny, i, j + 1, k), 1),
+            (at(j > 0, i, j.wrapping_sub(1), k), 1),
+        ]
+    }
+
+    /// Eq. 5–6 for destination (i, j, k): the gathered magnitude and anisotropy.
+    #[inline]
+    fn gather(&self, grid: &LightGrid, i: usize, j: usize, k: usize) -> (f64, f64) {
+        let dst = grid.index(i, j, k);
+        let (mut l, mut la) = (0.0, 0.0);
+        // Seen from the destination, the neighbour at k−1 sends its *front* patch, the one
+        // at k+1 its *back* patch, the four others a side patch.
+        for (src, which) in Self::neighbours(grid, i, j, k) {
+            let Some(s) = src else { continue };
+            let ls = self.l[s];
+            if ls == 0.0 {
+                continue;
+            }
+            let p = &self.patches[s];
+            let frac = match which {
+                0 => p.back,  // src in front of dst: dst is behind src
+                2 => p.front, // src behind dst: dst is in front of src
+                _ => p.side,
+            };
+            let dl = ls * frac * self.t_half[s] * self.t_half[dst];
+            l += dl;
+            la += dl * self.a[s] * self.g_half[s] * self.g_half[dst];
+        }
+        let a = if l > 0.0 {
+            (la / l).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        (l, a)
+    }
+
+    /// What source (i, j, k) sends out of the grid and what is absorbed on its six ways.
+    #[inline]
+    fn send(&self, grid: &LightGrid, i: usize, j: usize, k: usize) -> (f64, f64) {
+        let src = grid.index(i, j, k);
+        let ls = self.l[src];
+        if ls == 0.0 {
+            return (0.0, 0.0);
+        }
+        let p = &self.patches[src];
+        let (mut left, mut absorbed) = (0.0, 0.0);
+        for (dst, which) in Self::neighbours(grid, i, j, k) {
+            let frac = match which {
+                0 => p.front,
+                2 => p.back,
+                _ => p.side,
+            };
+            let sent = ls * frac;
+            let t = self.t_half[src] * dst.map_or(1.0, |d| self.t_half[d]);
+            if dst.is_none() {
+                left += sent * t;
+            }
+            absorbed += sent * (1.0 - t);
+        }
+        (left, absorbed)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn light_grid_covers_the_box_and_is_aligned() {
+        let d = [0.3, -1.0, 0.2];
+        let g = LightGrid::around_box(d, [-1.0; 3], [1.0; 3], 16).unwrap();
+        let dn = normalized(d);
+        for (a, b) in g.axes[2].iter().zip(&dn) {
+            assert!((a - b).abs() < 1e-15);
+        }
+        for a in 0..3 {
+            for b in 0..3 {
+                let want = if a == b { 1.0 } else { 0.0 };
+                assert!((dot(g.axes[a], g.axes[b]) - want).abs() < 1e-14);
+            }
+        }
+        assert_eq!(g.res.iter().max(), Some(&16));
+        // Every corner of the box lies inside the grid (local coordinates in [−½, n − ½]).
+        for c in 0..8 {
+            let p = [0, 1, 2].map(|q| if c >> q & 1 == 1 { 1.0 } else { -1.0 });
+            let x = g.local(p);
+            for (x, n) in x.iter().zip(g.res) {
+                assert!(*x >= -0.5 - 1e-9 && *x <= n as f64 - 0.5 + 1e-9);
+            }
+        }
+        // centre and local are inverse.
+        let x = g.local(g.centre([3, 5, 7]));
+        assert!((x[0] - 3.0).abs() < 1e-12 && (x[1] - 5.0).abs() < 1e-12);
+        assert!((x[2] - 7.0).abs() < 1e-12);
+    }
+}
