@@ -69,6 +69,10 @@ pub struct RenderArgs {
     /// Print the unknowns with and without cropping and at the density resolution.
     #[arg(long)]
     pub stats: bool,
+    /// Also write the solution: `moments.npy`, float64 of shape (nx, ny, nz, (N+1)²) at the
+    /// solve-cell centres (last axis l(l+1)+m), with its grid in report.json's `unknowns`.
+    #[arg(long)]
+    pub save_moments: bool,
     /// Refuse solves whose estimated memory exceeds this (bytes, or with K/M/G/T).
     #[arg(long, value_parser = memory_estimate::parse_size)]
     pub max_memory: Option<u64>,
@@ -104,6 +108,7 @@ impl RenderArgs {
             solve_res: self.solve_res.clone(),
             out: self.out.clone(),
             stats: self.stats,
+            save_moments: self.save_moments,
             set: self.set.clone(),
             options: RenderOptions {
                 threads: self.threads,

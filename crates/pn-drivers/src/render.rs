@@ -69,6 +69,9 @@ pub struct RenderRequest {
     pub out: Option<PathBuf>,
     /// Print the unknowns with and without cropping and at the density resolution.
     pub stats: bool,
+    /// Also write `moments.npy` (the solution at the solve-cell centres, shape (nx, ny, nz,
+    /// (N+1)²)); grey scenes with a solve only.
+    pub save_moments: bool,
     /// `--set SECTION.KEY=VALUE` overrides of the scene's TOML, applied in order before the
     /// scene is checked (and before the other options here).
     pub set: Vec<SceneOverride>,
@@ -95,6 +98,7 @@ impl Default for RenderRequest {
             solve_res: None,
             out: None,
             stats: false,
+            save_moments: false,
             set: Vec::new(),
             options: RenderOptions::default(),
         }
@@ -277,6 +281,8 @@ pub struct RenderRun {
     pub views: Vec<Image>,
     /// The channel images of a coloured scene (`None` for a grey one).
     pub rgb: Option<rgb::RgbImages>,
+    /// The multiple-scattering solution on its solve grid (grey scenes with a solve).
+    pub solution: Option<MsField>,
     /// Its report.
     pub report: RenderReport,
 }
@@ -674,6 +680,7 @@ fn render_grey_views(
         image,
         views: if views > 1 { images } else { Vec::new() },
         rgb: None,
+        solution: ms,
         report,
     })
 }
@@ -817,9 +824,23 @@ pub fn run(a: &RenderRequest, stdout: &mut dyn Write) -> Result<()> {
         .out
         .clone()
         .unwrap_or_else(|| PathBuf::from("out").join(format!("render-{}", scene.name)));
+    ensure!(
+        !a.save_moments || (scene.colours.is_none() && scene.solve.method != RenderMethod::None),
+        "--save-moments needs a grey scene with a solve (method pn, cda, fld or pop); for a \
+         coloured scene, render each channel's scene"
+    );
     let mut run = render_views(&scene, &a.options, a.turntable.unwrap_or(1))?;
     run.report.overrides = a.set.iter().map(|o| o.text.clone()).collect();
+    ensure!(
+        !a.save_moments || run.solution.is_some(),
+        "--save-moments: no solution to write (an empty medium?)"
+    );
     write_run(&out, &run)?;
+    if let Some(ms) = run.solution.as_ref().filter(|_| a.save_moments) {
+        let m = &ms.moments;
+        let path = out.join("moments.npy");
+        pn_runtime::npy::write_npy(&path, &[m.res[0], m.res[1], m.res[2], m.per_cell], &m.data)?;
+    }
     let r = &run.report;
     let what = match (r.order, &r.pop) {
         (_, Some(p)) => format!(

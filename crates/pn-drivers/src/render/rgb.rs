@@ -176,6 +176,7 @@ pub(super) fn render_views_rgb(
             image,
             views: views_rgb,
         }),
+        solution: None,
         report,
     })
 }

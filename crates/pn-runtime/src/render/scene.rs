@@ -498,6 +498,39 @@ impl RenderScene {
         s
     }
 
+    /// Replaces the medium's density, and optionally its albedo, by arrays held in memory
+    /// (the Python package): `density` and `albedo` in C order of shape `dims` = (nx, ny, nz),
+    /// x the slowest axis, as `.npy` files are read; they cover the scene's medium box. The
+    /// checks are those of grid files: finite, non-negative densities, albedos in [0, 1].
+    pub fn set_density_arrays(
+        &mut self,
+        dims: [usize; 3],
+        density: Vec<f64>,
+        albedo: Option<Vec<f64>>,
+    ) -> anyhow::Result<()> {
+        let (bmin, bmax) = (self.medium.bbox_min, self.medium.bbox_max);
+        let vg = crate::field::VoxelGrid::new(dims, bmin, bmax, density).context("density")?;
+        let grid = DensityGrid::from_voxel_grid(&vg, bmin, bmax).context("density")?;
+        if let Some(a) = albedo {
+            ensure!(
+                self.colours.as_ref().is_none_or(|c| c.albedo.is_none()),
+                "give the albedo per channel or as an array, not both"
+            );
+            let va = crate::field::VoxelGrid::new(dims, bmin, bmax, a).context("albedo")?;
+            let ga = DensityGrid::from_voxel_grid(&va, bmin, bmax).context("albedo")?;
+            if let Some(p) = ga.data.iter().position(|v| *v > 1.0) {
+                bail!("albedo: value {} at index {p} exceeds 1", ga.data[p]);
+            }
+            self.medium.albedo = Albedo::Voxels(Arc::new(ga.data));
+        }
+        self.medium.resolution = grid.res;
+        self.medium.source = MediumSource::File {
+            path: PathBuf::from("<array>"),
+            grid: Arc::new(grid),
+        };
+        Ok(())
+    }
+
     /// Reads and checks a scene file (errors name the file, and the line and column for
     /// syntax and type errors).
     pub fn from_path(path: &Path) -> anyhow::Result<RenderScene> {

@@ -1,0 +1,326 @@
+//! The Python extension module `pnsolver._pnsolver` (the `pnsolver` package re-exports it;
+//! python/pnsolver/__init__.py documents the API for Python users).
+//!
+//! It exposes the library, not the command line: a [`Scene`] from a TOML file, a built-in
+//! name or a settings dictionary with numpy density and albedo arrays; [`render`] and
+//! [`solve`], which call `pn_drivers::render::render_views` with the interpreter lock
+//! released and return numpy arrays and the report as a dictionary. Errors are `ValueError`s
+//! with the messages of `pn render`.
+
+use numpy::{PyArray1, PyArrayMethods, PyReadonlyArrayDyn, PyUntypedArrayMethods};
+use pn_drivers::render::{render_views, RenderOptions, RenderRun};
+use pn_runtime::render::RenderScene;
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyList};
+
+/// An anyhow error as a Python `ValueError` with the whole chain of context.
+fn value_error(e: anyhow::Error) -> PyErr {
+    PyValueError::new_err(format!("{e:#}"))
+}
+
+/// A render scene (`pn render`'s TOML format): medium, phase, lights, camera, solve and
+/// render settings.
+#[pyclass(name = "Scene", module = "pnsolver", frozen)]
+struct Scene {
+    inner: RenderScene,
+}
+
+/// A float array of rank 3 as (shape, values in C order), from float64 or float32.
+fn array3(name: &str, a: &Bound<'_, PyAny>) -> PyResult<([usize; 3], Vec<f64>)> {
+    let (shape, data): (Vec<usize>, Vec<f64>) =
+        if let Ok(x) = a.extract::<PyReadonlyArrayDyn<'_, f64>>() {
+            (x.shape().to_vec(), x.as_array().iter().copied().collect())
+        } else if let Ok(x) = a.extract::<PyReadonlyArrayDyn<'_, f32>>() {
+            (
+                x.shape().to_vec(),
+                x.as_array().iter().map(|v| f64::from(*v)).collect(),
+            )
+        } else {
+            let ty = a
+                .getattr("dtype")
+                .map(|d| d.to_string())
+                .unwrap_or_else(|_| a.get_type().to_string());
+            return Err(PyValueError::new_err(format!(
+                "{name} must be a numpy array of float64 or float32, got {ty}"
+            )));
+        };
+    let dims: [usize; 3] = shape.as_slice().try_into().map_err(|_| {
+        PyValueError::new_err(format!(
+            "{name} must have shape (nx, ny, nz) (x first), got shape {shape:?}"
+        ))
+    })?;
+    Ok((dims, data))
+}
+
+#[pymethods]
+impl Scene {
+    /// `Scene(settings, density=None, albedo=None)`: `settings` is the TOML scene as a
+    /// dictionary (`{"medium": {...}, "phase": {...}, "light": [{...}], "camera": {...},
+    /// "solve": {...}, "render": {...}}`, keys as in the README). With `density` (a numpy
+    /// array of shape (nx, ny, nz), x first, covering `medium.bbox_min`..`bbox_max`, which are
+    /// then required) the medium is that array; `albedo` (same shape) replaces
+    /// `medium.albedo`.
+    #[new]
+    #[pyo3(signature = (settings, density = None, albedo = None))]
+    fn new(
+        py: Python<'_>,
+        settings: &Bound<'_, PyDict>,
+        density: Option<&Bound<'_, PyAny>>,
+        albedo: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Self> {
+        let json: String = py
+            .import("json")?
+            .call_method1("dumps", (settings,))?
+            .extract()?;
+        let value: serde_json::Value = serde_json::from_str(&json)
+            .map_err(|e| PyValueError::new_err(format!("settings: {e}")))?;
+        let mut table: toml::Table = toml::Value::try_from(value)
+            .ok()
+            .and_then(|v| v.as_table().cloned())
+            .ok_or_else(|| {
+                PyValueError::new_err(
+                    "settings must be a dictionary of sections with TOML values (no None)",
+                )
+            })?;
+        let arrays = match density {
+            None => {
+                if albedo.is_some() {
+                    return Err(PyValueError::new_err(
+                        "an albedo array needs a density array",
+                    ));
+                }
+                None
+            }
+            Some(d) => {
+                let (dims, data) = array3("density", d)?;
+                let albedo = albedo.map(|a| array3("albedo", a)).transpose()?;
+                if let Some((adims, _)) = &albedo {
+                    if *adims != dims {
+                        return Err(PyValueError::new_err(format!(
+                            "albedo has shape {adims:?}, the density {dims:?}"
+                        )));
+                    }
+                }
+                let medium = table
+                    .get_mut("medium")
+                    .and_then(|m| m.as_table_mut())
+                    .ok_or_else(|| PyValueError::new_err("settings need a \"medium\" section"))?;
+                for key in ["file", "grid", "seed", "albedo_file", "albedo_grid"] {
+                    if medium.contains_key(key) {
+                        return Err(PyValueError::new_err(format!(
+                            "medium.{key} does not apply to a density array"
+                        )));
+                    }
+                }
+                for key in ["bbox_min", "bbox_max"] {
+                    if !medium.contains_key(key) {
+                        return Err(PyValueError::new_err(format!(
+                            "a density array needs medium.{key} (the box it covers)"
+                        )));
+                    }
+                }
+                if let Some(kind) = medium.get("kind").and_then(|k| k.as_str()) {
+                    if kind != "grid" {
+                        return Err(PyValueError::new_err(format!(
+                            "medium.kind {kind:?} with a density array: leave it out or say \"grid\""
+                        )));
+                    }
+                }
+                if albedo.is_some() && !medium.contains_key("albedo") {
+                    // The array replaces it; the TOML check needs a value.
+                    medium.insert("albedo".into(), toml::Value::Float(0.0));
+                }
+                // A placeholder procedural medium of the array's size, replaced below.
+                medium.insert("kind".into(), toml::Value::String("box".into()));
+                let res = dims.map(|n| toml::Value::Integer(n as i64));
+                medium.insert("resolution".into(), toml::Value::Array(res.to_vec()));
+                Some((dims, data, albedo.map(|(_, a)| a)))
+            }
+        };
+        let text = toml::to_string(&table).map_err(|e| PyValueError::new_err(e.to_string()))?;
+        let mut inner =
+            RenderScene::from_toml_str(&text, std::path::Path::new(".")).map_err(value_error)?;
+        inner.name = "python".into();
+        if let Some((dims, data, albedo)) = arrays {
+            inner
+                .set_density_arrays(dims, data, albedo)
+                .map_err(value_error)?;
+        }
+        Ok(Scene { inner })
+    }
+
+    /// A built-in render scene by name (`cloud`, `nebula`, `sphere`, `lowalbedo`) or a TOML
+    /// scene file (relative paths in it resolved against its folder).
+    #[staticmethod]
+    fn load(scene: &str) -> PyResult<Self> {
+        Ok(Scene {
+            inner: RenderScene::load(scene).map_err(value_error)?,
+        })
+    }
+
+    /// The grey scene of channel `c` (0, 1, 2 = R, G, B) of a coloured scene; a grey scene
+    /// is its own channel.
+    fn channel(&self, c: usize) -> PyResult<Self> {
+        if c > 2 {
+            return Err(PyValueError::new_err(format!(
+                "channel must be 0, 1 or 2 (R, G, B), got {c}"
+            )));
+        }
+        Ok(Scene {
+            inner: self.inner.channel(c),
+        })
+    }
+
+    /// Whether any value is given per channel (then `render` returns an RGB image).
+    #[getter]
+    fn coloured(&self) -> bool {
+        self.inner.colours.is_some()
+    }
+
+    /// The scene's name (file stem, built-in name, or "python").
+    #[getter]
+    fn name(&self) -> String {
+        self.inner.name.clone()
+    }
+
+    fn __repr__(&self) -> String {
+        let s = &self.inner;
+        format!(
+            "Scene({:?}: {}×{} px, method {}, order {}, solve grid {:?}{})",
+            s.name,
+            s.camera.width,
+            s.camera.height,
+            s.solve.method.name(),
+            s.solve.order,
+            s.solve.resolution,
+            if s.colours.is_some() {
+                ", coloured"
+            } else {
+                ""
+            }
+        )
+    }
+}
+
+fn options(threads: Option<usize>, progress: bool) -> RenderOptions {
+    RenderOptions {
+        threads,
+        progress,
+        ..Default::default()
+    }
+}
+
+/// The run as a dictionary of numpy arrays and the report.
+fn result_dict<'py>(py: Python<'py>, run: &RenderRun, image: bool) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    if image {
+        let (w, h) = (run.image.width, run.image.height);
+        let img = match &run.rgb {
+            None => PyArray1::from_slice(py, &run.image.data)
+                .reshape([h, w])?
+                .into_any(),
+            Some(rgb) => {
+                let data: Vec<f32> = (0..w * h)
+                    .flat_map(|i| rgb.image.each_ref().map(|c| c.data[i]))
+                    .collect();
+                PyArray1::from_vec(py, data).reshape([h, w, 3])?.into_any()
+            }
+        };
+        d.set_item("image", img)?;
+    }
+    match &run.solution {
+        Some(ms) => {
+            let m = &ms.moments;
+            let [nx, ny, nz] = m.res;
+            let moments = PyArray1::from_slice(py, &m.data).reshape([nx, ny, nz, m.per_cell])?;
+            let sqrt_4pi = (4.0 * std::f64::consts::PI).sqrt();
+            let fluence: Vec<f64> = m.data.chunks(m.per_cell).map(|c| sqrt_4pi * c[0]).collect();
+            let fluence = PyArray1::from_vec(py, fluence).reshape([nx, ny, nz])?;
+            d.set_item("moments", moments)?;
+            d.set_item("fluence", fluence)?;
+            d.set_item("grid_min", ms.grid.min.to_vec())?;
+            d.set_item("grid_max", ms.grid.max.to_vec())?;
+            d.set_item("grid_res", ms.grid.res.to_vec())?;
+        }
+        None => {
+            for key in ["moments", "fluence", "grid_min", "grid_max", "grid_res"] {
+                d.set_item(key, py.None())?;
+            }
+        }
+    }
+    let report =
+        serde_json::to_string(&run.report).map_err(|e| PyValueError::new_err(e.to_string()))?;
+    d.set_item(
+        "report",
+        py.import("json")?.call_method1("loads", (report,))?,
+    )?;
+    Ok(d)
+}
+
+/// Solves and renders `scene`; returns a dict with `image` (numpy float32, shape (height,
+/// width), or (height, width, 3) for a coloured scene; linear radiance), the solution
+/// (`moments`, `fluence`, `grid_*`; see `solve`) and `report` (the `report.json` of
+/// `pn render`). The interpreter lock is released while it runs.
+#[pyfunction]
+#[pyo3(signature = (scene, threads = None, progress = false))]
+fn render<'py>(
+    py: Python<'py>,
+    scene: &Scene,
+    threads: Option<usize>,
+    progress: bool,
+) -> PyResult<Bound<'py, PyDict>> {
+    let opts = options(threads, progress);
+    let s = &scene.inner;
+    let run = py
+        .detach(|| render_views(s, &opts, 1))
+        .map_err(value_error)?;
+    result_dict(py, &run, true)
+}
+
+/// Solves the multiple scattering of a grey `scene` (the camera is not used: the image is
+/// skipped); returns a dict with `moments` (float64, shape (nx, ny, nz, (N+1)²), x first,
+/// last axis l(l+1)+m: the real-SH moments of the scattered radiance at the solve-cell
+/// centres, the uncollided light excluded), `fluence` (√(4π)·moment 0, shape (nx, ny, nz)),
+/// the solve grid's box `grid_min`, `grid_max` and `grid_res`, and `report`. With method
+/// "none" the solution entries are None.
+#[pyfunction]
+#[pyo3(signature = (scene, threads = None, progress = false))]
+fn solve<'py>(
+    py: Python<'py>,
+    scene: &Scene,
+    threads: Option<usize>,
+    progress: bool,
+) -> PyResult<Bound<'py, PyDict>> {
+    if scene.inner.colours.is_some() {
+        return Err(PyValueError::new_err(
+            "a coloured scene has one solution per channel: solve scene.channel(0), (1) and (2)",
+        ));
+    }
+    let mut s = scene.inner.clone();
+    // One pixel: the render step costs nothing.
+    s.camera.width = 1;
+    s.camera.height = 1;
+    let opts = options(threads, progress);
+    let run = py
+        .detach(|| render_views(&s, &opts, 1))
+        .map_err(value_error)?;
+    result_dict(py, &run, false)
+}
+
+/// The names of the built-in render scenes.
+#[pyfunction]
+fn builtin_scenes<'py>(py: Python<'py>) -> PyResult<Bound<'py, PyList>> {
+    PyList::new(py, pn_runtime::render::scene::builtin_names())
+}
+
+/// The module `pnsolver._pnsolver`.
+#[pymodule]
+fn _pnsolver(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<Scene>()?;
+    m.add_function(wrap_pyfunction!(render, m)?)?;
+    m.add_function(wrap_pyfunction!(solve, m)?)?;
+    m.add_function(wrap_pyfunction!(builtin_scenes, m)?)?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    Ok(())
+}

@@ -1,0 +1,33 @@
+"""pnsolver from Python: deterministic multiple scattering in participating media.
+
+The library behind the `pn` command, with numpy arrays in and out:
+
+    import numpy as np, pnsolver
+    scene = pnsolver.Scene.load("cloud")            # a built-in scene or a TOML file
+    out = pnsolver.render(scene)                     # out["image"]: (height, width) float32
+    sol = pnsolver.solve(scene)                      # sol["moments"]: (nx, ny, nz, (N+1)**2)
+
+    d = np.zeros((32, 32, 32)); d[8:24, 8:24, 8:24] = 1.0
+    scene = pnsolver.Scene({
+        "medium": {"bbox_min": [-1, -1, -1], "bbox_max": [1, 1, 1],
+                   "sigma_t_scale": 10.0, "albedo": 0.9},
+        "light": [{"kind": "directional", "direction": [0, -1, 0], "irradiance": 1.0}],
+        "camera": {"position": [0, 0, 4], "target": [0, 0, 0], "up": [0, 1, 0],
+                   "fov": 40.0, "width": 64, "height": 64},
+        "solve": {"method": "pn", "order": 3, "resolution": [16, 16, 16]},
+    }, density=d)
+
+`Scene(settings, density=None, albedo=None)` takes the TOML scene of `pn render` as a
+dictionary (keys as in the README); a density array has shape (nx, ny, nz) with x the first
+axis (C order, as `.npy` files) and covers medium.bbox_min..bbox_max. `render` returns a dict
+with `image` (linear radiance; (height, width, 3) for a coloured scene), the solution and
+`report`; `solve` returns the solution only: `moments` (real-SH moments of the scattered
+radiance at the solve-cell centres, last axis l(l+1)+m), `fluence` (sqrt(4 pi) times moment 0),
+`grid_min`, `grid_max`, `grid_res`, and `report` (the report.json of `pn render`). Both release
+the interpreter lock while they run; `threads=` and `progress=` are the `--threads` and
+progress-bar options. Bad input raises ValueError with the message `pn render` prints.
+"""
+
+from ._pnsolver import Scene, __version__, builtin_scenes, render, solve
+
+__all__ = ["Scene", "render", "solve", "builtin_scenes", "__version__"]
