@@ -9,6 +9,7 @@ import json
 import os
 import pathlib
 import subprocess
+import sys
 import threading
 import time
 
@@ -177,3 +178,11 @@ def test_the_interpreter_lock_is_released_during_a_solve():
     assert result["moments"] is not None
     # A tick takes ≥ 1 ms; the solve takes ≳ 0.3 s: at least a few dozen ticks.
     assert elapsed > 0.1 and ticks >= 20, (elapsed, ticks)
+
+
+def test_the_example_runs_and_writes_its_figure(tmp_path):
+    png = tmp_path / "slice.png"
+    r = subprocess.run([sys.executable, str(ROOT / "python" / "examples" / "solve_numpy_cloud.py"),
+                        str(png)], capture_output=True, text=True, check=True)
+    assert "iterations" in r.stdout and png.stat().st_size > 1000
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
