@@ -6,7 +6,9 @@
 //! the channel is k × that channel's image (the solve's error scales with it). Equal channels
 //! (k = 1) are copies: they give the grey image exactly, at the cost of one channel.
 
-use super::{render_grey_views, RenderOptions, RenderReport, RenderRun, SolverReport, Timings};
+use super::{
+    mean, render_grey_views, RenderOptions, RenderReport, RenderRun, SolverReport, Timings,
+};
 use anyhow::{Context, Result};
 use pn_runtime::render::colour::CHANNELS;
 use pn_runtime::render::image_io::{exposure, write_exr_rgb, write_png_tonemapped_rgb};
@@ -216,10 +218,6 @@ fn mean_of(c: &[Image; 3]) -> Image {
             })
             .collect(),
     }
-}
-
-fn mean(data: &[f32]) -> f64 {
-    data.iter().map(|v| *v as f64).sum::<f64>() / data.len().max(1) as f64
 }
 
 fn rms(data: &[f32]) -> f64 {

@@ -33,17 +33,9 @@ pub fn write_exr_gray(
 /// Reads an OpenEXR file as grey: `(width, height, values)` row-major from the top-left,
 /// each value the mean of R, G and B.
 pub fn read_exr_gray(path: &Path) -> anyhow::Result<(usize, usize, Vec<f32>)> {
-    let img = image::ImageReader::open(path)
-        .with_context(|| format!("cannot open {}", path.display()))?
-        .with_guessed_format()
-        .with_context(|| format!("cannot read {}", path.display()))?
-        .decode()
-        .with_context(|| format!("cannot decode {} as an image", path.display()))?
-        .into_rgb32f();
-    let (w, h) = (img.width() as usize, img.height() as usize);
-    let data = img
-        .pixels()
-        .map(|p| ((p.0[0] as f64 + p.0[1] as f64 + p.0[2] as f64) / 3.0) as f32)
+    let (w, h, [r, g, b]) = read_exr_rgb(path)?;
+    let data = (0..w * h)
+        .map(|i| ((r[i] as f64 + g[i] as f64 + b[i] as f64) / 3.0) as f32)
         .collect();
     Ok((w, h, data))
 }
