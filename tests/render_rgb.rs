@@ -183,6 +183,31 @@ fn a_grey_medium_under_coloured_light_is_one_solve_scaled() {
     }
 }
 
+/// An achromatic σ_t with three albedos: three solves (the albedo is in the operator), but G
+/// and B reuse R's deep shadow maps, which depend on σ_t and the lights' geometry only; each
+/// channel still equals the grey render of its values bit for bit.
+#[test]
+fn an_achromatic_sigma_t_shares_the_shadow_maps() {
+    let text = coloured("6.0", "[0.95, 0.8, 0.6]", "1.0", "10.0");
+    let rgb = render_scene(&scene(&text), &one_thread()).unwrap();
+    let channels = rgb.rgb.as_ref().unwrap();
+    for (c, a) in [0.95, 0.8, 0.6].into_iter().enumerate() {
+        let grey = render_scene(
+            &scene(&coloured("6.0", &format!("{a:?}"), "1.0", "10.0")),
+            &one_thread(),
+        )
+        .unwrap();
+        assert_eq!(channels.image[c].data, grey.image.data, "channel {c}");
+        let ch = &rgb.report.channels[c];
+        assert!(
+            ch.copied_from.is_none() && ch.solver.is_some(),
+            "channel {c} is solved"
+        );
+        let want = (c > 0).then(|| "R".to_string());
+        assert_eq!(ch.shadow_maps_from, want, "channel {c}");
+    }
+}
+
 #[test]
 fn bad_channel_values_are_refused() {
     for (text, want) in [

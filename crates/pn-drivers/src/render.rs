@@ -16,13 +16,13 @@ use pn_runtime::memory_estimate;
 use pn_runtime::pipeline::solve_problem;
 use pn_runtime::pop::{pop_field, PopReport, PopSettings};
 use pn_runtime::problem::Grid;
-use pn_runtime::render::first_scatter::first_scatter_problem;
+use pn_runtime::render::first_scatter::first_scatter_problem_with_shadows;
 use pn_runtime::render::image_io::{write_exr_gray, write_png_tonemapped};
 use pn_runtime::render::light_depth::LightDepth;
 use pn_runtime::render::march::{MarchSettings, Marcher};
 use pn_runtime::render::renderer::{Image, MsField, Renderer};
 use pn_runtime::render::scene::{RenderMethod, RendererKind};
-use pn_runtime::render::shadow::Extinction;
+use pn_runtime::render::shadow::{DeepShadowMaps, Extinction};
 use pn_runtime::render::solve_setup::solve_grid;
 use pn_runtime::render::{Camera, DensityFilter, DensityGrid, RenderScene, SceneOverride};
 use pn_runtime::solver::{SolverKind, SolverOptions, SolverTuning};
@@ -283,6 +283,9 @@ pub struct RenderRun {
     pub rgb: Option<rgb::RgbImages>,
     /// The multiple-scattering solution on its solve grid (grey scenes with a solve).
     pub solution: Option<MsField>,
+    /// The deep shadow maps of the first-scatter source (grey scenes with a P_N, CDA or FLD
+    /// solve).
+    pub shadow_maps: Option<DeepShadowMaps>,
     /// Its report.
     pub report: RenderReport,
 }
@@ -410,14 +413,16 @@ pub fn render_views(
     if scene.colours.is_some() {
         return rgb::render_views_rgb(scene, options, views);
     }
-    render_grey_views(scene, options, views)
+    render_grey_views(scene, options, views, None)
 }
 
-/// [`render_views`] of a grey scene.
+/// [`render_views`] of a grey scene; `shadows`: the deep shadow maps of a scene with the same
+/// σ_t and light geometry, reused instead of computed.
 fn render_grey_views(
     scene: &RenderScene,
     options: &RenderOptions,
     views: usize,
+    shadows: Option<DeepShadowMaps>,
 ) -> Result<RenderRun> {
     ensure!(
         scene.colours.is_none(),
@@ -503,7 +508,7 @@ fn render_grey_views(
                 0
             };
             let fs = pn_runtime::threads::with_threads(threads, || {
-                first_scatter_problem(scene, &density, &grid, max_band)
+                first_scatter_problem_with_shadows(scene, &density, &grid, max_band, shadows)
             })??;
             timings.shadow_maps = fs.seconds_shadow_maps;
             timings.sources = fs.seconds_sources;
@@ -681,6 +686,7 @@ fn render_grey_views(
         views: if views > 1 { images } else { Vec::new() },
         rgb: None,
         solution: ms,
+        shadow_maps,
         report,
     })
 }

@@ -4,7 +4,9 @@
 //! recomputed when an earlier channel has the same medium and lights whose strengths differ
 //! by one common factor k ([`pn_runtime::render::colour::Colours::light_scale`]): transport is linear in the sources, so
 //! the channel is k × that channel's image (the solve's error scales with it). Equal channels
-//! (k = 1) are copies: they give the grey image exactly, at the cost of one channel.
+//! (k = 1) are copies: they give the grey image exactly, at the cost of one channel. Channels
+//! with the same σ_t scale share the deep shadow maps (transmittance to the lights), which
+//! depend on nothing else.
 
 use super::{
     mean, render_grey_views, RenderOptions, RenderReport, RenderRun, SolverReport, Timings,
@@ -77,6 +79,8 @@ pub struct ChannelReport {
     pub copied_from: Option<String>,
     /// The factor of that copy (1 for equal channels; None: computed).
     pub copy_scale: Option<f64>,
+    /// The earlier channel whose deep shadow maps this channel's solve reused (same σ_t).
+    pub shadow_maps_from: Option<String>,
     /// Mean pixel value of the channel.
     pub mean_radiance: f64,
     /// The channel's solver statistics (None when copied or without a solve).
@@ -98,15 +102,28 @@ pub(super) fn render_views_rgb(
         .context("internal: render_views_rgb needs a coloured scene")?;
     let mut runs: Vec<Option<RenderRun>> = Vec::new();
     let mut copied: [Option<(usize, f64)>; 3] = [None; 3];
+    let mut shadows_from: [Option<usize>; 3] = [None; 3];
     for c in 0..3 {
         // Only computed channels are sources, so a copy never points to a copy.
         copied[c] = (0..c)
             .filter(|&p| copied[p].is_none())
             .find_map(|p| colours.light_scale(p, c).map(|k| (p, k)));
+        // The shadow maps depend on σ_t and the lights' geometry only: an earlier channel
+        // with the same σ_t scale has them.
+        let shared = (0..c)
+            .filter(|&p| colours.sigma_t_scale[p] == colours.sigma_t_scale[c])
+            .find_map(|p| {
+                let maps = runs[p].as_ref().and_then(|r| r.shadow_maps.clone())?;
+                Some((p, maps))
+            });
+        if copied[c].is_none() {
+            shadows_from[c] = shared.as_ref().map(|(p, _)| *p);
+        }
+        let shadows = shared.map(|(_, maps)| maps);
         runs.push(match copied[c] {
             Some(_) => None,
             None => Some(
-                render_grey_views(&scene.channel(c), options, views)
+                render_grey_views(&scene.channel(c), options, views, shadows)
                     .with_context(|| format!("channel {}", CHANNELS[c]))?,
             ),
         });
@@ -162,6 +179,7 @@ pub(super) fn render_views_rgb(
                 light_strength: ch.lights.iter().map(|l| l.strength()).collect(),
                 copied_from: copied[c].map(|(p, _)| CHANNELS[p].to_string()),
                 copy_scale: copied[c].map(|(_, k)| k),
+                shadow_maps_from: shadows_from[c].map(|p| CHANNELS[p].to_string()),
                 mean_radiance: mean(&image[c].data),
                 solver: copied[c]
                     .is_none()
@@ -179,6 +197,7 @@ pub(super) fn render_views_rgb(
             views: views_rgb,
         }),
         solution: None,
+        shadow_maps: None,
         report,
     })
 }

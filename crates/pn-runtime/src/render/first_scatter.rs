@@ -133,13 +133,36 @@ pub fn first_scatter_problem(
     grid: &Grid,
     max_band: u32,
 ) -> anyhow::Result<FirstScatterProblem> {
+    first_scatter_problem_with_shadows(scene, density, grid, max_band, None)
+}
+
+/// [`first_scatter_problem`] with the deep shadow maps given, when another scene with the same
+/// σ_t and the same light positions and directions computed them (the channels of a coloured
+/// scene with an achromatic σ_t): they depend on nothing else. `None` computes them.
+pub fn first_scatter_problem_with_shadows(
+    scene: &RenderScene,
+    density: &DensityGrid,
+    grid: &Grid,
+    max_band: u32,
+    shadows: Option<DeepShadowMaps>,
+) -> anyhow::Result<FirstScatterProblem> {
     let t0 = std::time::Instant::now();
     let ext = Extinction {
         grid: density,
         scale: scene.medium.sigma_t_scale,
     };
     let vgrid = density_as_grid(density);
-    let shadows = DeepShadowMaps::compute(&ext, &vgrid, &scene.lights);
+    let shadows = match shadows {
+        Some(s) => {
+            anyhow::ensure!(
+                s.maps.len() == scene.lights.len()
+                    && s.maps.iter().all(|m| m.len() == vgrid.cells()),
+                "internal: the given shadow maps do not fit the lights and the density grid"
+            );
+            s
+        }
+        None => DeepShadowMaps::compute(&ext, &vgrid, &scene.lights),
+    };
     let seconds_shadow_maps = t0.elapsed().as_secs_f64();
     let t1 = std::time::Instant::now();
     let (mut sigma_t, sigma_s) = resample(density, &scene.medium, grid);

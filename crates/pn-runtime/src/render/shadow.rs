@@ -222,6 +222,7 @@ pub(crate) fn walk_lattice(
 
 /// Transmittance from every cell centre of `grid` to each light: `maps[light][cell]` with
 /// cells in the solve grid's order (x slowest, `(i·ny + j)·nz + k`).
+#[derive(Clone, Debug, PartialEq)]
 pub struct DeepShadowMaps {
     /// One map per light.
     pub maps: Vec<Vec<f64>>,
