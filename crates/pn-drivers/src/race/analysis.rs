@@ -154,6 +154,8 @@ pub fn family_name(fam: &str) -> String {
         MITSUBA_OIDN => "Mitsuba + OIDN".into(),
         "cda" => "pn CDA".into(),
         "none" => "pn single scattering".into(),
+        "fld" => "pn FLD".into(),
+        "pop" => "pn POP".into(),
         f => match f.strip_prefix('p') {
             Some(n) => format!("pn P_{n}"),
             None => f.into(),
@@ -292,5 +294,23 @@ mod tests {
         let (name, secs, speedup) = best.unwrap();
         assert_eq!(name, "pn P_3 res=32");
         assert!((secs - 1.0).abs() < 1e-12 && (speedup - 2.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn family_names_are_readable() {
+        let names: Vec<String> = ["p5", "cda", "fld", "pop", "none"]
+            .into_iter()
+            .map(family_name)
+            .collect();
+        assert_eq!(
+            names,
+            [
+                "pn P_5",
+                "pn CDA",
+                "pn FLD",
+                "pn POP",
+                "pn single scattering"
+            ]
+        );
     }
 }
