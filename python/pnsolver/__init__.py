@@ -25,7 +25,8 @@ with `image` (linear radiance; (height, width, 3) for a coloured scene), the sol
 radiance at the solve-cell centres, last axis l(l+1)+m), `fluence` (sqrt(4 pi) times moment 0),
 `grid_min`, `grid_max`, `grid_res`, and `report` (the report.json of `pn render`). Both release
 the interpreter lock while they run; `threads=` and `progress=` are the `--threads` and
-progress-bar options. Bad input raises ValueError with the message `pn render` prints.
+progress-bar options. Ctrl-C raises KeyboardInterrupt at once; the interrupted solve finishes
+in the background and its result is dropped. Bad input raises ValueError with the message `pn render` prints.
 """
 
 from ._pnsolver import Scene, __version__, builtin_scenes, render, solve

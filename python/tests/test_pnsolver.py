@@ -186,3 +186,22 @@ def test_the_example_runs_and_writes_its_figure(tmp_path):
                         str(png)], capture_output=True, text=True, check=True)
     assert "iterations" in r.stdout and png.stat().st_size > 1000
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_ctrl_c_interrupts_a_solve_and_the_interpreter_goes_on():
+    """KeyboardInterrupt (here from _thread.interrupt_main, as Ctrl-C would) ends the call
+    within a fraction of the solve's time; the next call works."""
+    import _thread
+    scene = pnsolver.Scene.load("sphere")
+    t0 = time.perf_counter()
+    pnsolver.solve(scene, threads=1)
+    full = time.perf_counter() - t0
+    timer = threading.Timer(0.05, _thread.interrupt_main)
+    timer.start()
+    t0 = time.perf_counter()
+    with pytest.raises(KeyboardInterrupt):
+        pnsolver.solve(scene, threads=1)
+    interrupted = time.perf_counter() - t0
+    timer.join()
+    assert interrupted < 0.5 * full, (interrupted, full)
+    assert pnsolver.solve(pnsolver.Scene(SETTINGS, density=density()))["moments"] is not None

@@ -10,7 +10,7 @@
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArrayDyn, PyUntypedArrayMethods};
 use pn_drivers::render::{render_views, RenderOptions, RenderRun};
 use pn_runtime::render::RenderScene;
-use pyo3::exceptions::PyValueError;
+use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
@@ -203,6 +203,41 @@ impl Scene {
     }
 }
 
+/// Runs `render_views` on its own thread while this one waits with the interpreter lock
+/// released, looking at Python's signals every 50 ms: Ctrl-C (KeyboardInterrupt) returns at
+/// once. The interrupted solve cannot be stopped from outside; it finishes in the background
+/// and its result is dropped.
+fn run_interruptible(
+    py: Python<'_>,
+    scene: RenderScene,
+    opts: RenderOptions,
+) -> PyResult<RenderRun> {
+    use std::sync::mpsc::{channel, RecvTimeoutError};
+    let (tx, rx) = channel();
+    std::thread::spawn(move || {
+        // The receiver may be gone (interrupted); then the result is dropped.
+        let _ = tx.send(render_views(&scene, &opts, 1));
+    });
+    let mut rx = rx;
+    loop {
+        // The receiver moves into the lock-free section and back (it is Send, not Sync).
+        let (received, back) = py.detach(move || {
+            let r = rx.recv_timeout(std::time::Duration::from_millis(50));
+            (r, rx)
+        });
+        rx = back;
+        match received {
+            Ok(result) => return result.map_err(value_error),
+            Err(RecvTimeoutError::Timeout) => py.check_signals()?,
+            Err(RecvTimeoutError::Disconnected) => {
+                return Err(PyRuntimeError::new_err(
+                    "the solve ended without a result (its thread panicked)",
+                ))
+            }
+        }
+    }
+}
+
 fn options(threads: Option<usize>, progress: bool) -> RenderOptions {
     RenderOptions {
         threads,
@@ -261,7 +296,8 @@ fn result_dict<'py>(py: Python<'py>, run: &RenderRun, image: bool) -> PyResult<B
 /// Solves and renders `scene`; returns a dict with `image` (numpy float32, shape (height,
 /// width), or (height, width, 3) for a coloured scene; linear radiance), the solution
 /// (`moments`, `fluence`, `grid_*`; see `solve`) and `report` (the `report.json` of
-/// `pn render`). The interpreter lock is released while it runs.
+/// `pn render`). The interpreter lock is released while it runs; Ctrl-C raises
+/// KeyboardInterrupt at once (the solve finishes in the background, its result dropped).
 #[pyfunction]
 #[pyo3(signature = (scene, threads = None, progress = false))]
 fn render<'py>(
@@ -270,11 +306,7 @@ fn render<'py>(
     threads: Option<usize>,
     progress: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let opts = options(threads, progress);
-    let s = &scene.inner;
-    let run = py
-        .detach(|| render_views(s, &opts, 1))
-        .map_err(value_error)?;
+    let run = run_interruptible(py, scene.inner.clone(), options(threads, progress))?;
     result_dict(py, &run, true)
 }
 
@@ -301,10 +333,7 @@ fn solve<'py>(
     // One pixel: the render step costs nothing.
     s.camera.width = 1;
     s.camera.height = 1;
-    let opts = options(threads, progress);
-    let run = py
-        .detach(|| render_views(&s, &opts, 1))
-        .map_err(value_error)?;
+    let run = run_interruptible(py, s, options(threads, progress))?;
     result_dict(py, &run, false)
 }
 
