@@ -1,7 +1,7 @@
 //! `pn compare a.exr b.exr`: error metrics of image `a` against the reference `b` and a
 //! false-colour difference image (`pn_runtime::render::compare`).
 
-use pn_runtime::render::compare::{channel_metrics, compare_files, ChannelMetrics, Metrics};
+use pn_runtime::render::compare::{compare_files, ChannelMetrics, Metrics};
 use serde::Serialize;
 use std::io::Write;
 use std::path::PathBuf;
@@ -31,11 +31,8 @@ struct Output {
 /// Runs `pn compare`, printing the metrics to `stdout` (of the channel means, and per
 /// channel when either image is coloured).
 pub fn run(args: &CompareRequest, stdout: &mut dyn Write) -> anyhow::Result<()> {
-    let metrics = compare_files(&args.a, &args.b, args.out.as_deref())?;
-    let out = Output {
-        metrics,
-        channels: channel_metrics(&args.a, &args.b)?,
-    };
+    let (metrics, channels) = compare_files(&args.a, &args.b, args.out.as_deref())?;
+    let out = Output { metrics, channels };
     if args.json {
         writeln!(stdout, "{}", serde_json::to_string_pretty(&out)?)?;
     } else {

@@ -9,7 +9,7 @@
 
 use crate::fld_setup::{fld_problem, solve_fld_route, FldSettings, SQRT_4PI};
 use crate::scene_setup::Route;
-use anyhow::{ensure, Context, Result};
+use anyhow::{bail, ensure, Context, Result};
 use pn_kernels::{cda_kernel, diffusion_kernel, pn_kernel, Dim, KernelChoice, Staggering};
 use pn_runtime::fld::{FldParams, Limiter};
 use pn_runtime::memory_estimate;
@@ -151,7 +151,7 @@ pub struct UnknownStats {
 }
 
 /// Seconds per stage.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
 pub struct Timings {
     /// Building the density grid.
     pub density: f64,
@@ -445,12 +445,7 @@ fn render_grey_views(
     let s = &scene.solve;
     let mut timings = Timings {
         density: seconds_density,
-        shadow_maps: 0.0,
-        sources: 0.0,
-        solve: 0.0,
-        light_depth: 0.0,
-        render: 0.0,
-        total: 0.0,
+        ..Timings::default()
     };
     let mut unknowns = None;
     let mut solver = None;
@@ -630,7 +625,6 @@ fn render_grey_views(
     }
     timings.total = t_all.elapsed().as_secs_f64();
     let image = images[0].clone();
-    let n = image.data.len() as f64;
     let hmin = density.h().iter().fold(f64::INFINITY, |m, v| m.min(*v));
     let report = RenderReport {
         scene: scene.name.clone(),
@@ -667,13 +661,7 @@ fn render_grey_views(
         pop,
         seconds: timings,
         mean_radiance: mean(&image.data),
-        rms_standard_error: (image
-            .std_err
-            .iter()
-            .map(|v| (*v as f64).powi(2))
-            .sum::<f64>()
-            / n)
-            .sqrt(),
+        rms_standard_error: rms(&image.std_err),
         peak_memory_bytes: pn_runtime::memory::peak_memory_bytes(),
         threads: pn_runtime::threads::effective_threads(threads),
         views: view_reports,
@@ -693,6 +681,22 @@ fn render_grey_views(
 
 fn mean(data: &[f32]) -> f64 {
     data.iter().map(|v| *v as f64).sum::<f64>() / data.len().max(1) as f64
+}
+
+/// Root mean square of the values.
+fn rms(data: &[f32]) -> f64 {
+    (data.iter().map(|v| (*v as f64).powi(2)).sum::<f64>() / data.len().max(1) as f64).sqrt()
+}
+
+/// "solver NAME: K iterations, relative residual R" of the summary lines.
+fn solver_line(s: &SolverReport) -> String {
+    format!(
+        "solver {}: {} iterations, relative residual {:.3e}{}",
+        s.solver,
+        s.iterations,
+        s.relative_residual,
+        if s.converged { "" } else { " (NOT converged)" }
+    )
 }
 
 /// Solves the multiple scattering: P_N / CDA through the stencil and parity-MG, FLD through
@@ -837,12 +841,13 @@ pub fn run(a: &RenderRequest, stdout: &mut dyn Write) -> Result<()> {
     );
     let mut run = render_views(&scene, &a.options, a.turntable.unwrap_or(1))?;
     run.report.overrides = a.set.iter().map(|o| o.text.clone()).collect();
-    ensure!(
-        !a.save_moments || run.solution.is_some(),
-        "--save-moments: no solution to write (an empty medium?)"
-    );
+    let save = match &run.solution {
+        Some(ms) if a.save_moments => Some(ms),
+        None if a.save_moments => bail!("--save-moments: no solution to write (an empty medium?)"),
+        _ => None,
+    };
     write_run(&out, &run)?;
-    if let Some(ms) = run.solution.as_ref().filter(|_| a.save_moments) {
+    if let Some(ms) = save {
         let m = &ms.moments;
         let path = out.join("moments.npy");
         pn_runtime::npy::write_npy(&path, &[m.res[0], m.res[1], m.res[2], m.per_cell], &m.data)?;
@@ -884,14 +889,7 @@ pub fn run(a: &RenderRequest, stdout: &mut dyn Write) -> Result<()> {
         out.display()
     )?;
     if let Some(s) = &r.solver {
-        writeln!(
-            stdout,
-            "solver {}: {} iterations, relative residual {:.3e}{}",
-            s.solver,
-            s.iterations,
-            s.relative_residual,
-            if s.converged { "" } else { " (NOT converged)" }
-        )?;
+        writeln!(stdout, "{}", solver_line(s))?;
     }
     for c in &r.channels {
         let how = match (&c.copied_from, &c.solver) {
@@ -899,13 +897,7 @@ pub fn run(a: &RenderRequest, stdout: &mut dyn Write) -> Result<()> {
                 Some(k) if k != 1.0 => format!("{from} scaled by {k} (same medium, lights ×{k})"),
                 _ => format!("copied from {from} (same values)"),
             },
-            (None, Some(s)) => format!(
-                "solver {}: {} iterations, relative residual {:.3e}{}",
-                s.solver,
-                s.iterations,
-                s.relative_residual,
-                if s.converged { "" } else { " (NOT converged)" }
-            ),
+            (None, Some(s)) => solver_line(s),
             (None, None) => "no solve".into(),
         };
         writeln!(

@@ -9,7 +9,7 @@
 //! depend on nothing else.
 
 use super::{
-    mean, render_grey_views, RenderOptions, RenderReport, RenderRun, SolverReport, Timings,
+    mean, render_grey_views, rms, RenderOptions, RenderReport, RenderRun, SolverReport, Timings,
 };
 use anyhow::{Context, Result};
 use pn_runtime::render::colour::CHANNELS;
@@ -108,25 +108,20 @@ pub(super) fn render_views_rgb(
         copied[c] = (0..c)
             .filter(|&p| copied[p].is_none())
             .find_map(|p| colours.light_scale(p, c).map(|k| (p, k)));
+        if copied[c].is_some() {
+            runs.push(None);
+            continue;
+        }
         // The shadow maps depend on σ_t and the lights' geometry only: an earlier channel
         // with the same σ_t scale has them.
-        let shared = (0..c)
-            .filter(|&p| colours.sigma_t_scale[p] == colours.sigma_t_scale[c])
-            .find_map(|p| {
-                let maps = runs[p].as_ref().and_then(|r| r.shadow_maps.clone())?;
-                Some((p, maps))
-            });
-        if copied[c].is_none() {
-            shadows_from[c] = shared.as_ref().map(|(p, _)| *p);
-        }
-        let shadows = shared.map(|(_, maps)| maps);
-        runs.push(match copied[c] {
-            Some(_) => None,
-            None => Some(
-                render_grey_views(&scene.channel(c), options, views, shadows)
-                    .with_context(|| format!("channel {}", CHANNELS[c]))?,
-            ),
+        shadows_from[c] = (0..c).find(|&p| {
+            colours.sigma_t_scale[p] == colours.sigma_t_scale[c]
+                && runs[p].as_ref().is_some_and(|r| r.shadow_maps.is_some())
         });
+        let shadows = shadows_from[c].and_then(|p| runs[p].as_ref()?.shadow_maps.clone());
+        let run = render_grey_views(&scene.channel(c), options, views, shadows)
+            .with_context(|| format!("channel {}", CHANNELS[c]))?;
+        runs.push(Some(run));
     }
     // Channel c's run and the factor on its images.
     let run_of = |c: usize| -> Result<(&RenderRun, f64)> {
@@ -239,20 +234,8 @@ fn mean_of(c: &[Image; 3]) -> Image {
     }
 }
 
-fn rms(data: &[f32]) -> f64 {
-    (data.iter().map(|v| (*v as f64).powi(2)).sum::<f64>() / data.len().max(1) as f64).sqrt()
-}
-
 fn sum_timings<'a>(t: impl Iterator<Item = &'a Timings>) -> Timings {
-    let mut s = Timings {
-        density: 0.0,
-        shadow_maps: 0.0,
-        sources: 0.0,
-        solve: 0.0,
-        light_depth: 0.0,
-        render: 0.0,
-        total: 0.0,
-    };
+    let mut s = Timings::default();
     for x in t {
         s.density += x.density;
         s.shadow_maps += x.shadow_maps;

@@ -256,9 +256,22 @@ fn draw(
 
 /// Compares the images at `a` and `b` (the reference); with `out`, writes
 /// `out/difference.png` and `out/metrics.json`.
-pub fn compare_files(a: &Path, b: &Path, out: Option<&Path>) -> anyhow::Result<Metrics> {
-    let ia = read_gray(a)?;
-    let ib = read_gray(b)?;
+pub fn compare_files(
+    a: &Path,
+    b: &Path,
+    out: Option<&Path>,
+) -> anyhow::Result<(Metrics, Option<Vec<ChannelMetrics>>)> {
+    let (wa, ha, ca) = super::image_io::read_exr_rgb(a)?;
+    let (wb, hb, cb) = super::image_io::read_exr_rgb(b)?;
+    let grey = |width, height, c: &[Vec<f32>; 3]| GrayImage {
+        width,
+        height,
+        data: super::image_io::channel_mean(c)
+            .into_iter()
+            .map(f64::from)
+            .collect(),
+    };
+    let (ia, ib) = (grey(wa, ha, &ca), grey(wb, hb, &cb));
     let m = metrics(&ia, &ib)
         .with_context(|| format!("comparing {} with {}", a.display(), b.display()))?;
     if let Some(dir) = out {
@@ -276,10 +289,10 @@ pub fn compare_files(a: &Path, b: &Path, out: Option<&Path>) -> anyhow::Result<M
         std::fs::write(dir.join("metrics.json"), json + "\n")
             .with_context(|| format!("cannot write {}", dir.join("metrics.json").display()))?;
     }
-    Ok(m)
+    Ok((m, channel_metrics(&ca, &cb)))
 }
 
-/// Error metrics of one colour channel ([`channel_metrics`]).
+/// Error metrics of one colour channel ([`compare_files`]).
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct ChannelMetrics {
     /// "R", "G" or "B".
@@ -296,18 +309,13 @@ pub struct ChannelMetrics {
     pub mean_b: f64,
 }
 
-/// Per-channel metrics of image `a` against the reference `b`, or `None` when both are grey
-/// (equal R, G and B in every pixel), where [`compare_files`] says everything.
-pub fn channel_metrics(a: &Path, b: &Path) -> anyhow::Result<Option<Vec<ChannelMetrics>>> {
-    let (wa, ha, ca) = super::image_io::read_exr_rgb(a)?;
-    let (wb, hb, cb) = super::image_io::read_exr_rgb(b)?;
-    ensure!(
-        (wa, ha) == (wb, hb),
-        "images differ in size: {wa}×{ha} against {wb}×{hb}"
-    );
+/// Per-channel metrics of the channels `ca` against the reference's `cb` (of the same size,
+/// checked by [`metrics`] before), or `None` when both are grey (equal R, G and B in every
+/// pixel), where the metrics of the mean say everything.
+fn channel_metrics(ca: &[Vec<f32>; 3], cb: &[Vec<f32>; 3]) -> Option<Vec<ChannelMetrics>> {
     let grey = |c: &[Vec<f32>; 3]| c[0] == c[1] && c[1] == c[2];
-    if grey(&ca) && grey(&cb) {
-        return Ok(None);
+    if grey(ca) && grey(cb) {
+        return None;
     }
     let out = (0..3)
         .map(|c| {
@@ -331,7 +339,7 @@ pub fn channel_metrics(a: &Path, b: &Path) -> anyhow::Result<Option<Vec<ChannelM
             }
         })
         .collect();
-    Ok(Some(out))
+    Some(out)
 }
 
 #[cfg(test)]

@@ -22,22 +22,23 @@ pub fn write_exr_gray(
     height: usize,
     data: &[f32],
 ) -> anyhow::Result<()> {
-    check_size(width, height, data)?;
-    let rgb: Vec<f32> = data.iter().flat_map(|v| [*v, *v, *v]).collect();
-    let img = image::Rgb32FImage::from_raw(width as u32, height as u32, rgb)
-        .context("image buffer size")?;
-    img.save_with_format(path, image::ImageFormat::OpenExr)
-        .with_context(|| format!("cannot write {}", path.display()))
+    write_exr_rgb(path, width, height, [data; 3])
 }
 
 /// Reads an OpenEXR file as grey: `(width, height, values)` row-major from the top-left,
 /// each value the mean of R, G and B.
 pub fn read_exr_gray(path: &Path) -> anyhow::Result<(usize, usize, Vec<f32>)> {
-    let (w, h, [r, g, b]) = read_exr_rgb(path)?;
-    let data = (0..w * h)
-        .map(|i| ((r[i] as f64 + g[i] as f64 + b[i] as f64) / 3.0) as f32)
-        .collect();
-    Ok((w, h, data))
+    let (w, h, channels) = read_exr_rgb(path)?;
+    Ok((w, h, channel_mean(&channels)))
+}
+
+/// The per-pixel mean of R, G and B (how a colour image is read as grey).
+pub fn channel_mean([r, g, b]: &[Vec<f32>; 3]) -> Vec<f32> {
+    r.iter()
+        .zip(g)
+        .zip(b)
+        .map(|((r, g), b)| ((*r as f64 + *g as f64 + *b as f64) / 3.0) as f32)
+        .collect()
 }
 
 /// Writes three channel images (R, G, B; each row-major from the top-left) as one linear f32

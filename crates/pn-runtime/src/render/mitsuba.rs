@@ -109,10 +109,7 @@ pub fn export(scene: &RenderScene, dir: &Path, opts: &ExportOptions) -> anyhow::
     let grid = scene.density_grid()?;
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     let density = dir.join(DENSITY_FILE);
-    let (_, factors) = sigma_t_channels(scene);
-    let bytes = crate::vol::encode_vol_scaled(&grid.to_voxel_grid(), &factors);
-    std::fs::write(&density, bytes)
-        .with_context(|| format!("cannot write {}", density.display()))?;
+    write_vol(&density, &grid, &sigma_t_channels(scene).1)?;
     let albedo = match &scene.medium.albedo {
         Albedo::Constant(_) => None,
         Albedo::Voxels(v) => {
@@ -120,7 +117,7 @@ pub fn export(scene: &RenderScene, dir: &Path, opts: &ExportOptions) -> anyhow::
                 .context("albedo grid")?
                 .with_filter(grid.filter);
             let path = dir.join(ALBEDO_FILE);
-            write_vol(&path, &a)?;
+            write_vol(&path, &a, &[1.0])?;
             Some(path)
         }
     };
@@ -136,8 +133,9 @@ pub fn export(scene: &RenderScene, dir: &Path, opts: &ExportOptions) -> anyhow::
     })
 }
 
-fn write_vol(path: &Path, grid: &DensityGrid) -> anyhow::Result<()> {
-    let bytes = crate::vol::encode_vol(&grid.to_voxel_grid());
+/// Writes `grid` as a `.vol` file with one channel per factor ([`crate::vol::encode_vol_scaled`]).
+fn write_vol(path: &Path, grid: &DensityGrid, factors: &[f64]) -> anyhow::Result<()> {
+    let bytes = crate::vol::encode_vol_scaled(&grid.to_voxel_grid(), factors);
     std::fs::write(path, bytes).with_context(|| format!("cannot write {}", path.display()))
 }
 
@@ -151,6 +149,8 @@ fn sigma_t_channels(scene: &RenderScene) -> (f64, Vec<f64>) {
             let max = s[0].max(s[1]).max(s[2]);
             (max, s.iter().map(|v| v / max).collect())
         }
+        // The channel value itself: the grey field holds the channels' mean, which can
+        // differ from it in the last bit.
         Some(c) => (c.sigma_t_scale[0], vec![1.0]),
         None => (scene.medium.sigma_t_scale, vec![1.0]),
     }

@@ -517,11 +517,7 @@ impl RenderScene {
                 "give the albedo per channel or as an array, not both"
             );
             let va = crate::field::VoxelGrid::new(dims, bmin, bmax, a).context("albedo")?;
-            let ga = DensityGrid::from_voxel_grid(&va, bmin, bmax).context("albedo")?;
-            if let Some(p) = ga.data.iter().position(|v| *v > 1.0) {
-                bail!("albedo: value {} at index {p} exceeds 1", ga.data[p]);
-            }
-            self.medium.albedo = Albedo::Voxels(Arc::new(ga.data));
+            self.medium.albedo = albedo_voxels(&va, bmin, bmax).context("albedo")?;
         }
         self.medium.resolution = grid.res;
         self.medium.source = MediumSource::File {
@@ -756,6 +752,20 @@ fn read_grid_file(path: &Path, grid: Option<&str>) -> anyhow::Result<GridFile> {
     }
 }
 
+/// A per-voxel albedo on the density's voxels (the box of the medium): finite, non-negative
+/// (the density grid's checks) and at most 1.
+fn albedo_voxels(
+    vg: &crate::field::VoxelGrid,
+    bbox_min: [f64; 3],
+    bbox_max: [f64; 3],
+) -> anyhow::Result<Albedo> {
+    let g = DensityGrid::from_voxel_grid(vg, bbox_min, bbox_max)?;
+    if let Some(p) = g.data.iter().position(|v| *v > 1.0) {
+        bail!("value {} at index {p} exceeds 1", g.data[p]);
+    }
+    Ok(Albedo::Voxels(Arc::new(g.data)))
+}
+
 /// Reads the albedo grid file. A VDB albedo next to a VDB density is read over the density's
 /// index box (its inactive voxels read as 0) and must share the density's transform, so that
 /// the two grids' voxels coincide; otherwise the file's voxels are taken as they are.
@@ -897,16 +907,8 @@ fn build_medium(m: MediumToml, base: &Path) -> anyhow::Result<MediumSpec> {
                 vg.dims,
                 resolution
             );
-            let g = DensityGrid::from_voxel_grid(&vg, bbox_min, bbox_max)
-                .with_context(|| format!("albedo file {}", path.display()))?;
-            if let Some(p) = g.data.iter().position(|v| *v > 1.0) {
-                bail!(
-                    "albedo file {}: value {} at index {p} exceeds 1",
-                    path.display(),
-                    g.data[p]
-                );
-            }
-            Albedo::Voxels(Arc::new(g.data))
+            albedo_voxels(&vg, bbox_min, bbox_max)
+                .with_context(|| format!("albedo file {}", path.display()))?
         }
     };
     Ok(MediumSpec {
