@@ -2,7 +2,9 @@
 //!
 //! Transport does not couple wavelengths, so channel c of a coloured render must be the grey
 //! render of that channel's values, bit for bit (the same solve and the same deterministic
-//! renderer run on the same numbers); equal channels must give the grey image exactly. The
+//! renderer run on the same numbers; channels with the σ_t of an earlier channel start their
+//! solve from its solution, so they agree to the solver tolerance instead); equal channels
+//! must give the grey image exactly. The
 //! files must carry the three channels (linear RGB EXR, RGB PNG) and `report.json` each
 //! channel's values and solver statistics.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
@@ -184,10 +186,13 @@ fn a_grey_medium_under_coloured_light_is_one_solve_scaled() {
 }
 
 /// An achromatic σ_t with three albedos: three solves (the albedo is in the operator), but G
-/// and B reuse R's deep shadow maps, which depend on σ_t and the lights' geometry only; each
-/// channel still equals the grey render of its values bit for bit.
+/// and B reuse R's deep shadow maps, which depend on σ_t and the lights' geometry only, and
+/// start their iteration from the earlier channels' solutions. Each channel meets the same
+/// residual tolerance (1e-8) as the grey render of its values, from another start: the
+/// images agree to within what that tolerance leaves (bound 1e-6 relative, see below), and
+/// the warm-started channels need fewer iterations.
 #[test]
-fn an_achromatic_sigma_t_shares_the_shadow_maps() {
+fn an_achromatic_sigma_t_shares_the_shadow_maps_and_starts_from_earlier_channels() {
     let text = coloured("6.0", "[0.95, 0.8, 0.6]", "1.0", "10.0");
     let rgb = render_scene(&scene(&text), &one_thread()).unwrap();
     let channels = rgb.rgb.as_ref().unwrap();
@@ -197,14 +202,41 @@ fn an_achromatic_sigma_t_shares_the_shadow_maps() {
             &one_thread(),
         )
         .unwrap();
-        assert_eq!(channels.image[c].data, grey.image.data, "channel {c}");
         let ch = &rgb.report.channels[c];
-        assert!(
-            ch.copied_from.is_none() && ch.solver.is_some(),
-            "channel {c} is solved"
-        );
+        let solver = ch.solver.as_ref().expect("channel is solved");
+        let grey_solver = grey.report.solver.as_ref().unwrap();
+        assert!(ch.copied_from.is_none() && solver.converged, "channel {c}");
         let want = (c > 0).then(|| "R".to_string());
         assert_eq!(ch.shadow_maps_from, want, "channel {c}");
+        let started: Vec<String> = ["R", "G"][..c].iter().map(|s| s.to_string()).collect();
+        assert_eq!(ch.solve_started_from, started, "channel {c}");
+        if c == 0 {
+            assert_eq!(
+                channels.image[c].data, grey.image.data,
+                "channel R starts from zero"
+            );
+            continue;
+        }
+        assert!(
+            solver.iterations < grey_solver.iterations,
+            "channel {c}: {} iterations warm, {} from zero",
+            solver.iterations,
+            grey_solver.iterations
+        );
+        // Two solutions with relative residual ≤ 1e-8 differ by at most κ·2e-8 relative;
+        // the image adds single scattering, identical in both. 1e-6 leaves κ up to 50
+        // (the measured difference is far below it).
+        let (num, den) = channels.image[c].data.iter().zip(&grey.image.data).fold(
+            (0.0f64, 0.0f64),
+            |(n, d), (x, y)| {
+                (
+                    n + (f64::from(*x) - f64::from(*y)).powi(2),
+                    d + f64::from(*y).powi(2),
+                )
+            },
+        );
+        let rel = (num / den).sqrt();
+        assert!(rel < 1e-6, "channel {c}: relative difference {rel:e}");
     }
 }
 

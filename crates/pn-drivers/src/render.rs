@@ -13,7 +13,7 @@ use anyhow::{bail, ensure, Context, Result};
 use pn_kernels::{cda_kernel, diffusion_kernel, pn_kernel, Dim, KernelChoice, Staggering};
 use pn_runtime::fld::{FldParams, Limiter};
 use pn_runtime::memory_estimate;
-use pn_runtime::pipeline::solve_problem;
+use pn_runtime::pipeline::solve_problem_from;
 use pn_runtime::pop::{pop_field, PopReport, PopSettings};
 use pn_runtime::problem::Grid;
 use pn_runtime::render::first_scatter::first_scatter_problem_with_shadows;
@@ -286,8 +286,21 @@ pub struct RenderRun {
     /// The deep shadow maps of the first-scatter source (grey scenes with a P_N, CDA or FLD
     /// solve).
     pub shadow_maps: Option<DeepShadowMaps>,
+    /// The staggered solution vector of a P_N or CDA solve (grey scenes), the start guess
+    /// for another channel with the same σ_t ([`pipeline::solve_problem_from`]).
+    pub staggered: Option<Vec<f64>>,
     /// Its report.
     pub report: RenderReport,
+}
+
+/// What a channel's render may take over from channels rendered before it with the same
+/// σ_t (both depend on σ_t and the lights' geometry only, or serve as a start).
+#[derive(Default)]
+pub(crate) struct SharedWork<'a> {
+    /// The deep shadow maps of the first-scatter source.
+    pub shadows: Option<DeepShadowMaps>,
+    /// Staggered solutions on the same solve grid, to start the iteration from.
+    pub guesses: Vec<&'a [f64]>,
 }
 
 /// Camera `k` of a `views`-view turntable around `camera`: its position rotated by
@@ -413,7 +426,7 @@ pub fn render_views(
     if scene.colours.is_some() {
         return rgb::render_views_rgb(scene, options, views);
     }
-    render_grey_views(scene, options, views, None)
+    render_grey_views(scene, options, views, SharedWork::default())
 }
 
 /// [`render_views`] of a grey scene; `shadows`: the deep shadow maps of a scene with the same
@@ -422,8 +435,9 @@ fn render_grey_views(
     scene: &RenderScene,
     options: &RenderOptions,
     views: usize,
-    shadows: Option<DeepShadowMaps>,
+    shared: SharedWork<'_>,
 ) -> Result<RenderRun> {
+    let SharedWork { shadows, guesses } = shared;
     ensure!(
         scene.colours.is_none(),
         "internal: a coloured scene must be rendered channel by channel"
@@ -451,6 +465,7 @@ fn render_grey_views(
     let mut solver = None;
     let mut ms = None;
     let mut shadow_maps = None;
+    let mut staggered = None;
     let mut pop = None;
     if s.method == RenderMethod::Pop {
         // No linear system: POP's moments of the collided radiance go onto the solve grid.
@@ -508,9 +523,17 @@ fn render_grey_views(
             timings.shadow_maps = fs.seconds_shadow_maps;
             timings.sources = fs.seconds_sources;
             let t1 = Instant::now();
-            let (moments, report) = pn_runtime::threads::with_threads(threads, || {
-                solve_ms(scene, &fs.problem, kernel.as_ref(), progress, tuning)
+            let (moments, u, report) = pn_runtime::threads::with_threads(threads, || {
+                solve_ms(
+                    scene,
+                    &fs.problem,
+                    kernel.as_ref(),
+                    progress,
+                    tuning,
+                    &guesses,
+                )
             })??;
+            staggered = u;
             timings.solve = t1.elapsed().as_secs_f64();
             solver = Some(SolverReport {
                 sigma_t_min: (s.method != RenderMethod::Fld)
@@ -675,6 +698,7 @@ fn render_grey_views(
         rgb: None,
         solution: ms,
         shadow_maps,
+        staggered,
         report,
     })
 }
@@ -707,7 +731,8 @@ fn solve_ms(
     kernel: Option<&KernelChoice>,
     progress: bool,
     tuning: &SolverTuning,
-) -> Result<(CellMoments, SolverReport)> {
+    guesses: &[&[f64]],
+) -> Result<(CellMoments, Option<Vec<f64>>, SolverReport)> {
     let tol = scene.solve.tolerance;
     if scene.solve.method == RenderMethod::Fld {
         let g = &problem.grid;
@@ -748,6 +773,7 @@ fn solve_ms(
         };
         return Ok((
             moments,
+            None,
             SolverReport {
                 solver: "fld-gs (Levermore–Pomraning)".into(),
                 stencil: "fld-7point".into(),
@@ -771,7 +797,13 @@ fn solve_ms(
     // CG, stagnates on render grids where the hull absorber jumps to σ_t·h = 3 within one
     // cell of a near-vacuum (12³ sphere: residual 7.6e-2 after 100 000 iterations, where
     // multigrid converges in 195; docs/vacuum.md).
-    let sol = solve_problem(problem, kernel.kernel.as_ref(), SolverKind::ParityMg, &opts)?;
+    let sol = solve_problem_from(
+        problem,
+        kernel.kernel.as_ref(),
+        SolverKind::ParityMg,
+        &opts,
+        guesses,
+    )?;
     if !sol.stats.converged() {
         eprintln!(
             "warning: the solver stopped ({:?}) at relative residual {:.3e} after {} iterations",
@@ -788,7 +820,7 @@ fn solve_ms(
         sigma_t_min: None,
         sigma_t_min_auto: false,
     };
-    Ok((sol.moments, report))
+    Ok((sol.moments, Some(sol.u), report))
 }
 
 /// Writes `image.exr`, `image.png` and `report.json` into `dir` (a turntable:

@@ -6,10 +6,12 @@
 //! the channel is k × that channel's image (the solve's error scales with it). Equal channels
 //! (k = 1) are copies: they give the grey image exactly, at the cost of one channel. Channels
 //! with the same σ_t scale share the deep shadow maps (transmittance to the lights), which
-//! depend on nothing else.
+//! depend on nothing else, and start their solve from the earlier channels' solutions (the
+//! albedo enters the operator, so each channel is still its own system; docs/inputs.md).
 
 use super::{
-    mean, render_grey_views, rms, RenderOptions, RenderReport, RenderRun, SolverReport, Timings,
+    mean, render_grey_views, rms, RenderOptions, RenderReport, RenderRun, SharedWork, SolverReport,
+    Timings,
 };
 use anyhow::{Context, Result};
 use pn_runtime::render::colour::CHANNELS;
@@ -83,6 +85,9 @@ pub struct ChannelReport {
     pub shadow_maps_from: Option<String>,
     /// Mean pixel value of the channel.
     pub mean_radiance: f64,
+    /// The earlier channels (same σ_t) whose solutions started this channel's solve
+    /// iteration (their residual-minimising combination; empty: started from zero).
+    pub solve_started_from: Vec<String>,
     /// The channel's solver statistics (None when copied or without a solve).
     pub solver: Option<SolverReport>,
     /// The channel's seconds per stage (None when copied).
@@ -103,6 +108,7 @@ pub(super) fn render_views_rgb(
     let mut runs: Vec<Option<RenderRun>> = Vec::new();
     let mut copied: [Option<(usize, f64)>; 3] = [None; 3];
     let mut shadows_from: [Option<usize>; 3] = [None; 3];
+    let mut warm_from: [Vec<usize>; 3] = Default::default();
     for c in 0..3 {
         // Only computed channels are sources, so a copy never points to a copy.
         copied[c] = (0..c)
@@ -119,7 +125,19 @@ pub(super) fn render_views_rgb(
                 && runs[p].as_ref().is_some_and(|r| r.shadow_maps.is_some())
         });
         let shadows = shadows_from[c].and_then(|p| runs[p].as_ref()?.shadow_maps.clone());
-        let run = render_grey_views(&scene.channel(c), options, views, shadows)
+        // Earlier channels with the same σ_t were solved on the same grid and layout: their
+        // solutions start this channel's iteration (same tolerance, fewer iterations).
+        let same_sigma_t: Vec<usize> = (0..c)
+            .filter(|&p| colours.sigma_t_scale[p] == colours.sigma_t_scale[c])
+            .filter(|&p| runs[p].as_ref().is_some_and(|r| r.staggered.is_some()))
+            .collect();
+        let guesses: Vec<&[f64]> = same_sigma_t
+            .iter()
+            .filter_map(|&p| runs[p].as_ref()?.staggered.as_deref())
+            .collect();
+        warm_from[c] = same_sigma_t;
+        let shared = SharedWork { shadows, guesses };
+        let run = render_grey_views(&scene.channel(c), options, views, shared)
             .with_context(|| format!("channel {}", CHANNELS[c]))?;
         runs.push(Some(run));
     }
@@ -175,6 +193,10 @@ pub(super) fn render_views_rgb(
                 copied_from: copied[c].map(|(p, _)| CHANNELS[p].to_string()),
                 copy_scale: copied[c].map(|(_, k)| k),
                 shadow_maps_from: shadows_from[c].map(|p| CHANNELS[p].to_string()),
+                solve_started_from: warm_from[c]
+                    .iter()
+                    .map(|&p| CHANNELS[p].to_string())
+                    .collect(),
                 mean_radiance: mean(&image[c].data),
                 solver: copied[c]
                     .is_none()
@@ -193,6 +215,7 @@ pub(super) fn render_views_rgb(
         }),
         solution: None,
         shadow_maps: None,
+        staggered: None,
         report,
     })
 }

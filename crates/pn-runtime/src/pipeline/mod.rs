@@ -58,15 +58,39 @@ pub fn solve_problem(
     solver: SolverKind,
     opts: &SolverOptions,
 ) -> anyhow::Result<Solution> {
+    solve_problem_from(problem, kernel, solver, opts, &[])
+}
+
+/// [`solve_problem`] with start guesses: staggered solution vectors ([`Solution::u`]) of
+/// problems on the same grid and layout, for example the other colour channels of a medium
+/// with one σ_t. The parity route starts from their residual-minimising combination
+/// ([`crate::solver::parity::ParityCg::solve_split_from`]); the tolerance is the same, so
+/// only the number of iterations changes. The other routes start from zero and ignore them.
+/// A guess whose length differs from the layout's is an error.
+pub fn solve_problem_from(
+    problem: &Problem,
+    kernel: &dyn StencilKernel,
+    solver: SolverKind,
+    opts: &SolverOptions,
+    guesses: &[&[f64]],
+) -> anyhow::Result<Solution> {
     if solver.is_matrix_free() {
         return matrix_free::solve_problem_matrix_free(problem, kernel, solver, opts);
     }
     problem.validate()?;
     problem.check_not_singular()?;
     let layout = Layout::new(&problem.grid, kernel.moments())?;
+    if let Some(g) = guesses.iter().find(|g| g.len() != layout.len()) {
+        anyhow::bail!(
+            "a start guess has {} values but the layout has {} unknowns (guesses must come \
+             from the same grid and stencil)",
+            g.len(),
+            layout.len()
+        );
+    }
     let split_route = match solver.parity_solver_for(&layout) {
         Some(parity) if has_parity_structure(kernel) => {
-            solve_split_system(problem, kernel, &layout, &parity, opts)?
+            solve_split_system(problem, kernel, &layout, &parity, opts, guesses)?
         }
         _ => None,
     };
@@ -124,6 +148,7 @@ fn solve_split_system(
     layout: &Layout,
     parity: &LayoutSolver,
     opts: &SolverOptions,
+    guesses: &[&[f64]],
 ) -> anyhow::Result<Option<Solved>> {
     let t0 = Instant::now();
     let system = match assemble_split(problem, kernel, layout)? {
@@ -139,8 +164,11 @@ fn solve_split_system(
     }
     check_magnitude_values(system.max_entry, true, &system.rhs)?;
     let t1 = Instant::now();
-    let (u, stats) =
-        solve_with_scaled_rhs(&system.rhs, |b| parity.solve_split(&system.split, b, opts));
+    // The guesses' combination is fitted to the (possibly rescaled) rhs, so they need no
+    // rescaling.
+    let (u, stats) = solve_with_scaled_rhs(&system.rhs, |b| {
+        parity.solve_split_from(&system.split, b, opts, guesses)
+    });
     let seconds_solve = t1.elapsed().as_secs_f64();
     let nonzeros = system.split.nnz_a;
     drop(system);

@@ -54,8 +54,9 @@ pub use reduced::ReducedMode;
 pub use split::ParityError;
 
 use super::{LinearSolver, SolveStats, SolveStatus, SolverOptions};
-use crate::linalg::norm;
+use crate::linalg::{dot, norm};
 use crate::operator::Counted;
+use crate::operator::LinearOperator;
 use crate::solver::control::{Control, Outcome};
 use crate::solver::multigrid::{Geometry, COARSE_SYMMETRY_TOL};
 use sprs::CsMat;
@@ -105,6 +106,9 @@ pub struct ParityReport {
     pub seconds_setup: f64,
     /// Seconds spent iterating (including the final residual checks).
     pub seconds_iterate: f64,
+    /// Whether the iteration started from a combination of given guesses
+    /// ([`ParityCg::solve_split_from`]) rather than from zero.
+    pub warm_start: bool,
 }
 
 impl ParityReport {
@@ -203,7 +207,7 @@ impl ParityCg {
         let t0 = Instant::now();
         let sp = split::split(a, &self.mask(a)?)?;
         let t_split = t0.elapsed().as_secs_f64();
-        self.solve_split_timed(&sp, b, opts, t_split)
+        self.solve_split_timed(&sp, b, opts, t_split, &[])
     }
 
     /// Solves the system given by its parity blocks (for example straight from
@@ -217,7 +221,24 @@ impl ParityCg {
         b: &[f64],
         opts: &SolverOptions,
     ) -> Result<(Vec<f64>, ParityReport), ParityError> {
-        self.solve_split_timed(sp, b, opts, 0.0)
+        self.solve_split_timed(sp, b, opts, 0.0, &[])
+    }
+
+    /// [`ParityCg::solve_split`] started from the best combination of `guesses` (full
+    /// vectors in the unknown order of `b`, e.g. the solutions of neighbouring colour
+    /// channels of the same σ_t): the iteration starts at `x₀ = Σ c_k g_k,e` with the
+    /// coefficients that minimise the reduced residual `‖f − S x₀‖₂` ([`start_from`]).
+    /// The stopping rule is unchanged (`‖b − A u‖ ≤ tol·‖b‖`), so the answer meets the same
+    /// tolerance; a good guess only saves iterations. Guesses of the wrong length are an
+    /// error; guesses that do not lower the residual below ‖f‖ are not used.
+    pub fn solve_split_from(
+        &self,
+        sp: &split::Split,
+        b: &[f64],
+        opts: &SolverOptions,
+        guesses: &[&[f64]],
+    ) -> Result<(Vec<f64>, ParityReport), ParityError> {
+        self.solve_split_timed(sp, b, opts, 0.0, guesses)
     }
 
     fn solve_split_timed(
@@ -226,7 +247,14 @@ impl ParityCg {
         b: &[f64],
         opts: &SolverOptions,
         t_split: f64,
+        guesses: &[&[f64]],
     ) -> Result<(Vec<f64>, ParityReport), ParityError> {
+        if let Some(g) = guesses.iter().find(|g| g.len() != b.len()) {
+            return Err(ParityError::GuessLength {
+                expected: b.len(),
+                got: g.len(),
+            });
+        }
         let t0 = Instant::now();
         let nnz_a = sp.nnz_a;
         let mut precond_used = self.resolve_precond(nnz_a);
@@ -291,11 +319,16 @@ impl ParityCg {
         let bnorm = norm(b);
         let (b_e, b_o) = sp.gather(b);
         let f = op.rhs(&b_e, &b_o);
-        let mut x = vec![0.0; op.len()];
-        let scale = if bnorm > 0.0 { bnorm } else { 1.0 };
-        let mut ctl = Control::for_options(opts, bnorm);
         // Every application of S, by the Krylov method and inside the multigrid cycle.
         let s_apps = Counted::new(&op);
+        let even_guesses: Vec<Vec<f64>> = guesses.iter().map(|g| sp.gather(g).0).collect();
+        let (mut x, guess_used) = if bnorm > 0.0 {
+            start_from(&s_apps, &f, &even_guesses)
+        } else {
+            (vec![0.0; op.len()], false)
+        };
+        let scale = if bnorm > 0.0 { bnorm } else { 1.0 };
+        let mut ctl = Control::for_options(opts, bnorm);
         let prec = pre.with_fine(&s_apps);
         let mut full_applications = 0usize;
         let (u, status, rel, abs) = loop {
@@ -375,10 +408,88 @@ impl ParityCg {
             full_applications,
             seconds_setup,
             seconds_iterate: t1.elapsed().as_secs_f64(),
+            warm_start: guess_used,
         };
         report.stats.operator_applications = report.a_equivalent_applications();
         Ok((u, report))
     }
+}
+
+/// The start of a warm-started iteration on `S x = f`: `x₀ = Σ_k c_k g_k` with the `c` that
+/// minimises `‖f − S x₀‖₂`, from the normal equations `Σ_j (w_i·w_j) c_j = w_i·f` with
+/// `w_k = S g_k` (k ≤ a few; one application of `S` each). Returns zero and `false` when
+/// there are no guesses, the Gram matrix is singular, or the combination does not bring
+/// the residual below `‖f‖` (the residual of the zero start).
+fn start_from(s: &dyn LinearOperator, f: &[f64], guesses: &[Vec<f64>]) -> (Vec<f64>, bool) {
+    let n = f.len();
+    let zero = || (vec![0.0; n], false);
+    if guesses.is_empty() {
+        return zero();
+    }
+    let w: Vec<Vec<f64>> = guesses
+        .iter()
+        .map(|g| {
+            let mut y = vec![0.0; n];
+            s.apply(g, &mut y);
+            y
+        })
+        .collect();
+    let k = w.len();
+    let mut gram: Vec<Vec<f64>> = (0..k)
+        .map(|i| (0..k).map(|j| dot(&w[i], &w[j])).collect())
+        .collect();
+    let mut c: Vec<f64> = w.iter().map(|wi| dot(wi, f)).collect();
+    if !gauss_solve(&mut gram, &mut c) {
+        return zero();
+    }
+    let mut x = vec![0.0; n];
+    for (ck, g) in c.iter().zip(guesses) {
+        x.iter_mut().zip(g).for_each(|(xi, gi)| *xi += ck * gi);
+    }
+    // ‖f − S x₀‖² = ‖f‖² − cᵀ(w·f) at the minimiser; recompute it plainly instead.
+    let mut r = vec![0.0; n];
+    s.apply(&x, &mut r);
+    r.iter_mut().zip(f).for_each(|(ri, fi)| *ri = fi - *ri);
+    if norm(&r).is_finite() && norm(&r) < norm(f) {
+        (x, true)
+    } else {
+        zero()
+    }
+}
+
+/// Solves the small dense system `a c = rhs` in place (Gaussian elimination with partial
+/// pivoting); `false` when `a` is numerically singular (pivot below 1e-14 of the largest
+/// diagonal entry) or a value is not finite.
+fn gauss_solve(a: &mut [Vec<f64>], rhs: &mut [f64]) -> bool {
+    let k = rhs.len();
+    let scale = (0..k).fold(0.0f64, |m, i| m.max(a[i][i].abs()));
+    if !(scale.is_finite() && scale > 0.0) {
+        return false;
+    }
+    for col in 0..k {
+        let piv = (col..k)
+            .max_by(|&i, &j| a[i][col].abs().total_cmp(&a[j][col].abs()))
+            .unwrap_or(col);
+        if a[piv][col].abs() <= 1e-14 * scale {
+            return false;
+        }
+        a.swap(col, piv);
+        rhs.swap(col, piv);
+        let (upper, lower) = a.split_at_mut(col + 1);
+        let pivot_row = &upper[col];
+        for (offset, row) in lower.iter_mut().enumerate() {
+            let m = row[col] / pivot_row[col];
+            for (x, p) in row[col..k].iter_mut().zip(&pivot_row[col..k]) {
+                *x -= m * p;
+            }
+            rhs[col + 1 + offset] -= m * rhs[col];
+        }
+    }
+    for col in (0..k).rev() {
+        let sum: f64 = (col + 1..k).map(|j| a[col][j] * rhs[j]).sum();
+        rhs[col] = (rhs[col] - sum) / a[col][col];
+    }
+    rhs.iter().all(|v| v.is_finite())
 }
 
 impl LinearSolver for ParityCg {

@@ -116,18 +116,33 @@ impl LayoutSolver {
         b: &[f64],
         opts: &SolverOptions,
     ) -> (Vec<f64>, SolveStats) {
-        match self.parity.solve_split(split, b, opts) {
+        self.solve_split_from(split, b, opts, &[])
+    }
+
+    /// [`LayoutSolver::solve_split`] started from the best combination of `guesses`
+    /// ([`ParityCg::solve_split_from`]; the fallbacks start from them too).
+    pub fn solve_split_from(
+        &self,
+        split: &Split,
+        b: &[f64],
+        opts: &SolverOptions,
+        guesses: &[&[f64]],
+    ) -> (Vec<f64>, SolveStats) {
+        match self.parity.solve_split_from(split, b, opts, guesses) {
+            Err(e @ crate::solver::parity::ParityError::GuessLength { .. }) => {
+                failed_solve(b.len(), opts, &e.to_string())
+            }
             Ok((u, report)) => (u, report.stats),
             Err(e) => {
                 eprintln!("note: the parity preconditioner could not be built ({e}); using Jacobi");
                 let jacobi = self.parity.clone().with_precond(Precond::Jacobi);
-                match jacobi.solve_split(split, b, opts) {
+                match jacobi.solve_split_from(split, b, opts, guesses) {
                     Ok((u, report)) => (u, report.stats),
                     Err(e) => {
                         eprintln!("note: Jacobi could not be built either ({e}); unpreconditioned");
                         match jacobi
                             .with_precond(Precond::None)
-                            .solve_split(split, b, opts)
+                            .solve_split_from(split, b, opts, guesses)
                         {
                             Ok((u, report)) => (u, report.stats),
                             // Unreachable: `Precond::None` builds nothing that can fail.

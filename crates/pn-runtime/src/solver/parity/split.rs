@@ -13,6 +13,14 @@ use sprs::CsMat;
 /// Why the parity elimination does not apply to a matrix.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum ParityError {
+    /// A start guess does not have one value per unknown.
+    #[error("a start guess has {got} values but the system has {expected} unknowns")]
+    GuessLength {
+        /// Unknowns of the system.
+        expected: usize,
+        /// Values of the guess.
+        got: usize,
+    },
     /// The even/odd mask does not match the matrix size.
     #[error("the even/odd mask has {mask} entries but the matrix has {rows} rows")]
     MaskLength {
