@@ -252,6 +252,7 @@ struct Ctx<'a> {
 /// Runs `pn race`.
 pub fn run(req: &RaceRequest, stdout: &mut dyn Write) -> Result<()> {
     if req.markdown_only {
+        redraw_error_time_plots(&req.out, stdout)?;
         if let Some(p) = ablation::draw_order_plot(&req.out)? {
             writeln!(stdout, "wrote {}", p.display())?;
         }
@@ -493,42 +494,7 @@ fn race_scene(
     analysis::derive(&mut table, noise);
     table.write(&dir.join("points.csv"))?;
     let pts = analysis::points(&table);
-    let curves: Vec<plot::Curve> = analysis::families(&pts)
-        .into_iter()
-        .map(|fam| {
-            let v: Vec<(f64, f64, String)> = pts
-                .iter()
-                .filter(|p| p.family == fam)
-                .map(|p| {
-                    let label = match p.spp {
-                        Some(s) => s.to_string(),
-                        None => p
-                            .settings
-                            .split_whitespace()
-                            .next()
-                            .unwrap_or("")
-                            .trim_start_matches("res=")
-                            .to_string(),
-                    };
-                    (p.seconds, p.rel_rmse, label)
-                })
-                .collect();
-            plot::Curve {
-                mitsuba: fam.starts_with("mitsuba"),
-                name: analysis::family_name(&fam),
-                points: v,
-            }
-        })
-        .collect();
-    plot::draw(
-        &dir.join("error_time.png"),
-        &format!(
-            "{name}: error against wall time (reference {} spp)",
-            plan.reference_spp
-        ),
-        &curves,
-        noise,
-    )?;
+    draw_error_time(&dir, &name, plan.reference_spp, &table, noise)?;
     let (lines, best) = analysis::crossings(&pts, plan.target_spp);
     std::fs::write(dir.join("crossings.txt"), lines.join("\n") + "\n")?;
     for l in &lines {
@@ -824,6 +790,76 @@ fn turntable(
         ("turntable_mitsuba_seconds", num(Some(m.wall))),
         ("turntable_speedup", num(Some(speedup))),
     ])
+}
+
+/// `<dir>/error_time.png` from a scene's points table (`points.csv`): one curve per family.
+fn draw_error_time(
+    dir: &Path,
+    name: &str,
+    reference_spp: usize,
+    table: &table::Table,
+    noise: f64,
+) -> Result<()> {
+    let pts = analysis::points(table);
+    let curves: Vec<plot::Curve> = analysis::families(&pts)
+        .into_iter()
+        .map(|fam| {
+            let v: Vec<(f64, f64, String)> = pts
+                .iter()
+                .filter(|p| p.family == fam)
+                .map(|p| {
+                    let label = match p.spp {
+                        Some(s) => s.to_string(),
+                        None => p
+                            .settings
+                            .split_whitespace()
+                            .next()
+                            .unwrap_or("")
+                            .trim_start_matches("res=")
+                            .to_string(),
+                    };
+                    (p.seconds, p.rel_rmse, label)
+                })
+                .collect();
+            plot::Curve {
+                mitsuba: fam.starts_with("mitsuba"),
+                name: analysis::family_name(&fam),
+                points: v,
+            }
+        })
+        .collect();
+    plot::draw(
+        &dir.join("error_time.png"),
+        &format!("{name}: error against wall time (reference {reference_spp} spp)"),
+        &curves,
+        noise,
+    )?;
+    Ok(())
+}
+
+/// Redraws every scene's `error_time.png` under `out` from its `points.csv`, with the
+/// reference's spp and noise from `summary.csv` (for `--markdown-only`).
+fn redraw_error_time_plots(out: &Path, stdout: &mut dyn Write) -> Result<()> {
+    let summary = out.join("summary.csv");
+    if !summary.exists() {
+        return Ok(());
+    }
+    for r in table::Table::read(&summary)?.records() {
+        let (Some(scene), Some(spp), Some(noise)) = (
+            r.get("scene"),
+            r.get("reference_spp").and_then(|v| v.parse::<usize>().ok()),
+            r.get("reference_noise").and_then(|v| v.parse::<f64>().ok()),
+        ) else {
+            continue;
+        };
+        let dir = out.join(scene);
+        let points = dir.join("points.csv");
+        if points.exists() {
+            draw_error_time(&dir, scene, spp, &table::Table::read(&points)?, noise)?;
+            writeln!(stdout, "wrote {}", dir.join("error_time.png").display())?;
+        }
+    }
+    Ok(())
 }
 
 #[cfg(test)]

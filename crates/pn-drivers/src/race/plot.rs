@@ -63,8 +63,8 @@ pub fn draw(path: &Path, title: &str, curves: &[Curve], ref_noise: f64) -> Resul
         .y_desc("relative RMSE against the reference (log)")
         .axis_desc_style(("sans-serif", 20))
         .label_style(("sans-serif", 16))
-        .x_label_formatter(&|v| format!("{v:.3}"))
-        .y_label_formatter(&|v| format!("{v:.3}"))
+        .x_label_formatter(&|v| log_tick_label(*v))
+        .y_label_formatter(&|v| log_tick_label(*v))
         .draw()
         .map_err(|e| err(&e))?;
     if ok(ref_noise) {
@@ -248,4 +248,39 @@ pub fn draw_bias_vs_order(path: &Path, series: &[OrderSeries]) -> Result<()> {
         }
     }
     finish_chart(&mut chart, &root, path, 16, SeriesLabelPosition::LowerRight)
+}
+
+/// The label of a tick on a log axis: 1, 2 and 5 times a power of ten get their value
+/// (`0.05`, `2`, `10`), the ticks between them none, so that labels never run together
+/// where plotters puts nine ticks into one decade.
+fn log_tick_label(v: f64) -> String {
+    if !(v.is_finite() && v > 0.0) {
+        return String::new();
+    }
+    let exp = v.log10().floor();
+    let mantissa = v / 10f64.powf(exp);
+    let nice = [1.0, 2.0, 5.0, 10.0]
+        .iter()
+        .any(|m| (mantissa - m).abs() < 1e-6 * m);
+    if !nice {
+        return String::new();
+    }
+    let digits = (-exp).max(0.0) as usize;
+    format!("{v:.digits$}")
+}
+
+#[cfg(test)]
+mod tick_tests {
+    use super::log_tick_label;
+
+    #[test]
+    fn only_one_two_five_ticks_are_labelled() {
+        assert_eq!(log_tick_label(0.05), "0.05");
+        assert_eq!(log_tick_label(2.0), "2");
+        assert_eq!(log_tick_label(10.0), "10");
+        assert_eq!(log_tick_label(0.1), "0.1");
+        assert_eq!(log_tick_label(7.0), "");
+        assert_eq!(log_tick_label(0.3), "");
+        assert_eq!(log_tick_label(0.0), "");
+    }
 }
