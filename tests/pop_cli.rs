@@ -110,6 +110,54 @@ fn pop_render_is_brighter_than_single_scattering() {
     assert!(report["solver"].is_null());
 }
 
+/// The isotropic residuum (§5.4) from the command line: the report says where it switched
+/// and that the power in flight fell to ε_L; the propagation went on past the fixed count,
+/// so the image is brighter than the 24-iteration one (more of the scattered light counted)
+/// and still finite and non-negative.
+#[test]
+fn pop_residuum_runs_to_epsilon_l_and_reports_it() {
+    let dir = tmp("residuum");
+    let (fixed, fixed_report) = render(
+        "pop",
+        &["--pop-resolution", "16", "--pop-iterations", "24"],
+        &dir.join("fixed"),
+    );
+    let (res, report) = render(
+        "pop",
+        &[
+            "--pop-resolution",
+            "16",
+            "--pop-residuum",
+            "--pop-epsilon-l",
+            "1e-3",
+        ],
+        &dir.join("residuum"),
+    );
+    assert_eq!(res.len(), fixed.len());
+    assert!(res.iter().all(|v| v.is_finite() && *v >= 0.0));
+    let light = &report["pop"]["lights"][0];
+    let r = &light["residuum"];
+    assert_eq!(r["reached_epsilon_l"], true, "{r}");
+    let switch = r["switch_iteration"].as_u64().unwrap();
+    let iso = r["isotropic_iterations"].as_u64().unwrap();
+    assert!(switch >= 16 && iso > 0, "{r}");
+    assert_eq!(
+        light["energy"].as_array().unwrap().len() as u64,
+        switch + iso
+    );
+    assert!(light["in_flight_final_fraction"].as_f64().unwrap() <= 1e-3);
+    assert!(light["max_relative_imbalance"].as_f64().unwrap() < 1e-12);
+    assert!(fixed_report["pop"]["lights"][0]["residuum"].is_null());
+    let (m_res, m_fixed) = (
+        report["mean_radiance"].as_f64().unwrap(),
+        fixed_report["mean_radiance"].as_f64().unwrap(),
+    );
+    assert!(
+        m_res > m_fixed,
+        "residuum {m_res} vs 24 iterations {m_fixed}"
+    );
+}
+
 /// Test 6 of issue 20 on the command line: POP grid resolution 0 or 513, 0 iterations,
 /// the POP flags with another method, a backward HG lobe, a misspelt method: each fails
 /// with one message naming the problem, no panic.
@@ -133,6 +181,24 @@ fn bad_pop_input_is_one_clear_error() {
         (
             vec!["--method", "pn", "--pop-iterations", "5"],
             "--pop-iterations applies to --method pop only",
+        ),
+        (
+            vec!["--method", "pn", "--pop-residuum"],
+            "--pop-residuum applies to --method pop only",
+        ),
+        (
+            vec![
+                "--method",
+                "pop",
+                "--pop-residuum",
+                "--pop-epsilon-a",
+                "1.5",
+            ],
+            "pop_epsilon_a must lie in (0, 1)",
+        ),
+        (
+            vec!["--method", "pop", "--pop-residuum", "--pop-epsilon-l", "0"],
+            "pop_epsilon_l must lie in (0, 1)",
         ),
         (
             vec!["--method", "pop", "--set", "phase.g=-0.3"],

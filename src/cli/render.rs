@@ -29,6 +29,18 @@ pub struct RenderArgs {
     /// pop_iterations, else 20).
     #[arg(long, allow_negative_numbers = true)]
     pub pop_iterations: Option<usize>,
+    /// --method pop: the isotropic residuum (the paper's §5.4): after m′ iterations (Eq. 10)
+    /// the lobes are made isotropic and propagated until --pop-epsilon-l of the injected
+    /// power is left in flight; --pop-iterations is then not used.
+    #[arg(long)]
+    pub pop_residuum: bool,
+    /// --method pop --pop-residuum: ε_a of Eq. 10, in (0, 1) (default 0.1).
+    #[arg(long)]
+    pub pop_epsilon_a: Option<f64>,
+    /// --method pop --pop-residuum: stop when this fraction of the injected power is still in
+    /// flight, in (0, 1) (default 1e-3).
+    #[arg(long)]
+    pub pop_epsilon_l: Option<f64>,
     /// The renderer: deterministic (default; noise-free ray marching) or montecarlo (delta
     /// tracking, --spp samples per pixel).
     #[arg(long)]
@@ -98,6 +110,9 @@ impl RenderArgs {
             order: self.order,
             pop_resolution: self.pop_resolution,
             pop_iterations: self.pop_iterations,
+            pop_residuum: self.pop_residuum,
+            pop_epsilon_a: self.pop_epsilon_a,
+            pop_epsilon_l: self.pop_epsilon_l,
             spp: self.spp,
             renderer: self.renderer,
             rays: self.rays,

@@ -14,7 +14,7 @@ use pn_kernels::{cda_kernel, diffusion_kernel, pn_kernel, Dim, KernelChoice, Sta
 use pn_runtime::fld::{FldParams, Limiter};
 use pn_runtime::memory_estimate;
 use pn_runtime::pipeline::solve_problem_from;
-use pn_runtime::pop::{pop_field, PopReport, PopSettings};
+use pn_runtime::pop::{pop_field, PopReport, PopSettings, ResiduumSettings};
 use pn_runtime::problem::Grid;
 use pn_runtime::render::first_scatter::first_scatter_problem_with_shadows;
 use pn_runtime::render::image_io::{write_exr_gray, write_png_tonemapped};
@@ -49,6 +49,12 @@ pub struct RenderRequest {
     pub pop_resolution: Option<usize>,
     /// Method pop: propagation iterations (default: the scene's `[solve] pop_iterations`).
     pub pop_iterations: Option<usize>,
+    /// Method pop: use the isotropic residuum (§5.4; or the scene's `[solve] pop_residuum`).
+    pub pop_residuum: bool,
+    /// Method pop, residuum: ε_a (default: the scene's `[solve] pop_epsilon_a`).
+    pub pop_epsilon_a: Option<f64>,
+    /// Method pop, residuum: ε_L (default: the scene's `[solve] pop_epsilon_l`).
+    pub pop_epsilon_l: Option<f64>,
     /// Samples per pixel of the Monte Carlo renderer (default: the scene's).
     pub spp: Option<usize>,
     /// The renderer (default: the scene's, deterministic unless it says otherwise).
@@ -88,6 +94,9 @@ impl Default for RenderRequest {
             order: None,
             pop_resolution: None,
             pop_iterations: None,
+            pop_residuum: false,
+            pop_epsilon_a: None,
+            pop_epsilon_l: None,
             spp: None,
             renderer: None,
             rays: None,
@@ -337,8 +346,27 @@ pub fn apply_overrides(scene: &mut RenderScene, a: &RenderRequest) -> Result<()>
             "{flag} applies to --method pop only"
         );
     }
+    for (flag, given) in [
+        ("--pop-residuum", a.pop_residuum),
+        ("--pop-epsilon-a", a.pop_epsilon_a.is_some()),
+        ("--pop-epsilon-l", a.pop_epsilon_l.is_some()),
+    ] {
+        ensure!(
+            !given || scene.solve.method == RenderMethod::Pop,
+            "{flag} applies to --method pop only"
+        );
+    }
     if let Some(r) = a.pop_resolution {
         scene.solve.pop_resolution = r;
+    }
+    if a.pop_residuum {
+        scene.solve.pop_residuum = true;
+    }
+    if let Some(e) = a.pop_epsilon_a {
+        scene.solve.pop_epsilon_a = e;
+    }
+    if let Some(e) = a.pop_epsilon_l {
+        scene.solve.pop_epsilon_l = e;
     }
     if let Some(i) = a.pop_iterations {
         scene.solve.pop_iterations = i;
@@ -474,6 +502,10 @@ fn render_grey_views(
                 resolution: s.pop_resolution,
                 iterations: s.pop_iterations,
                 lmax: s.order,
+                residuum: s.pop_residuum.then_some(ResiduumSettings {
+                    epsilon_a: s.pop_epsilon_a,
+                    epsilon_l: s.pop_epsilon_l,
+                }),
             };
             let run = pn_runtime::threads::with_threads(threads, || {
                 pop_field(scene, &density, &sg.grid, &settings)

@@ -5,8 +5,12 @@
 //! `pop::hg_patch`.)
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
-use pn_runtime::pop::propagate::{propagate, propagate_from, LightGrid, PopMedium};
-use pn_runtime::pop::{pop_field, solve_light, PopSeconds, PopSettings};
+use pn_runtime::pop::propagate::{
+    propagate, propagate_from, propagate_scheduled, LightGrid, PopMedium, Schedule,
+};
+use pn_runtime::pop::{
+    pop_field, residuum_switch_iteration, solve_light, PopSeconds, PopSettings, ResiduumSettings,
+};
 use pn_runtime::render::solve_setup::solve_grid;
 use pn_runtime::render::RenderScene;
 use std::path::Path;
@@ -51,6 +55,7 @@ fn settings(resolution: usize, iterations: usize) -> PopSettings {
         resolution,
         iterations,
         lmax: 3,
+        residuum: None,
     }
 }
 
@@ -436,4 +441,131 @@ fn paper_initialisation_counts_the_light_once_per_upstream_cell() {
         ours / mc_collided
     );
     assert!(paper > 2.0 * mc_total && paper > ours && paper_sa > paper);
+}
+
+/// The isotropic residuum (§5.4) on the paper's cube (albedo 1, g = 0.7): the switch comes at
+/// Eq. 10's m′ = (ln ε_a − ln g)/ln g /(σ_s h) (≥ the 16 cells along the light), every
+/// iteration still balances to rounding, nothing is absorbed, and the iteration runs until at
+/// most ε_L of the injected power is in flight: left + in flight = injected.
+#[test]
+fn residuum_switches_at_eq_10_and_runs_to_epsilon_l() {
+    let scene = cube(4.0, 1.0, 0.7, DOWN);
+    let density = scene.density_grid().unwrap();
+    let mut secs = PopSeconds::default();
+    let mut set = settings(16, 1);
+    set.residuum = Some(ResiduumSettings {
+        epsilon_a: 0.1,
+        epsilon_l: 1e-4,
+    });
+    let sol = solve_light(&scene, &density, DOWN, 1.0, &set, &mut secs)
+        .unwrap()
+        .unwrap();
+    let p = &sol.propagated;
+    let r = p.residuum.as_ref().expect("residuum info");
+    // σ_s = 4 in the cube's cells (the cell averages are exact: the faces lie on cell faces).
+    let m_prime = ((0.1f64.ln() - 0.7f64.ln()) / 0.7f64.ln() / (4.0 * sol.grid.h)).ceil() as usize;
+    assert_eq!(m_prime, 22, "(ln 0.1 − ln 0.7)/ln 0.7 · 16/4 = 21.8");
+    assert_eq!(r.switch_iteration, m_prime);
+    assert_eq!(
+        residuum_switch_iteration(&sol.grid, &sol.medium, 0.1),
+        m_prime
+    );
+    // Eq. 10 is a bound on the decay of the lobes that travelled the whole time: the
+    // energy-weighted mean anisotropy at the switch is below ε_a.
+    assert!(
+        r.mean_anisotropy_at_switch < 0.1 && r.mean_anisotropy_at_switch > 0.0,
+        "{r:?}"
+    );
+    assert!(r.reached_epsilon_l && r.isotropic_iterations > 0, "{r:?}");
+    assert_eq!(p.energy.len(), r.switch_iteration + r.isotropic_iterations);
+    let mut left = 0.0;
+    for e in &p.energy {
+        assert_eq!(e.absorbed, 0.0);
+        assert!(e.imbalance().abs() < 1e-13 * p.injected, "{e:?}");
+        left += e.left_grid;
+    }
+    let last = p.energy.last().unwrap().in_flight_after;
+    assert!(last <= 1e-4 * p.injected, "in flight {last}");
+    assert!((left + last - p.injected).abs() < 1e-12 * p.injected);
+    // After the switch only band 0 grows; the lobes left in flight are isotropic.
+    assert!(p.residual_anisotropy.iter().all(|a| *a == 0.0));
+}
+
+/// With isotropic scattering (g = 0) the lobes are isotropic from the start, so the residuum
+/// changes nothing: it gives the fixed-count propagation of the same number of iterations
+/// exactly. And the switch is a controlled approximation: as ε_a → 0 (later switch) the
+/// residuum's fluence integral tends to the converged propagation with lobes throughout.
+#[test]
+fn residuum_is_exact_for_isotropic_lobes_and_converges_as_epsilon_a_shrinks() {
+    let grid = LightGrid::around_box(DOWN, [-0.5; 3], [0.5; 3], 16).unwrap();
+    let (n, h) = (grid.cells(), grid.h);
+    let source: Vec<f64> = (0..n)
+        .map(|c| {
+            let k = c / 256;
+            4.0 * (-4.0 * (k as f64 + 0.5) * h).exp() * h
+        })
+        .collect();
+    let iso = PopMedium {
+        sigma_s: vec![4.0; n],
+        sigma_a: vec![0.4; n],
+        g: 0.0,
+    };
+    let schedule = Schedule::Residuum {
+        anisotropic: 16,
+        epsilon_l: 1e-3,
+        max_total: 10_000,
+    };
+    let res = propagate_scheduled(&grid, &iso, &source, 0.0, 3, schedule).unwrap();
+    let m = res.energy.len();
+    let fixed = propagate_from(&grid, &iso, &source, 0.0, 3, m).unwrap();
+    assert_eq!(res.bands, fixed.bands, "g = 0: {m} iterations");
+
+    let lobes = PopMedium {
+        sigma_s: vec![4.0; n],
+        sigma_a: vec![0.4; n],
+        g: 0.7,
+    };
+    let integral = |bands: &[f64]| bands.iter().step_by(4).sum::<f64>() * h * h * h;
+    let converged = propagate(&grid, &lobes, &source, 3, 2000).unwrap();
+    assert!(converged.energy.last().unwrap().in_flight_after < 1e-9 * converged.injected);
+    let want = integral(&converged.bands);
+    let mut errors = vec![];
+    for eps_a in [0.3, 0.1, 0.01, 1e-4] {
+        let schedule = Schedule::Residuum {
+            anisotropic: residuum_switch_iteration(&grid, &lobes, eps_a),
+            epsilon_l: 1e-9,
+            max_total: 10_000,
+        };
+        let p = propagate_scheduled(&grid, &lobes, &source, 0.7, 3, schedule).unwrap();
+        let r = p.residuum.as_ref().unwrap();
+        assert!(r.reached_epsilon_l, "{r:?}");
+        let err = (integral(&p.bands) / want - 1.0).abs();
+        eprintln!(
+            "eps_a {eps_a}: switch after {} iterations, ∫A_0 error {err:.2e}",
+            r.switch_iteration
+        );
+        errors.push(err);
+    }
+    assert!(errors.windows(2).all(|w| w[1] <= w[0]), "{errors:?}");
+    assert!(errors[3] < 1e-3, "{errors:?}");
+}
+
+/// Out-of-range thresholds are one clear error.
+#[test]
+fn residuum_thresholds_out_of_range_are_errors() {
+    for (a, l) in [
+        (0.0, 1e-3),
+        (1.0, 1e-3),
+        (f64::NAN, 1e-3),
+        (0.1, 0.0),
+        (0.1, 1.5),
+    ] {
+        let mut set = settings(16, 20);
+        set.residuum = Some(ResiduumSettings {
+            epsilon_a: a,
+            epsilon_l: l,
+        });
+        let e = set.validate().unwrap_err().to_string();
+        assert!(e.contains("POP residuum: epsilon_"), "{e}");
+    }
 }

@@ -23,9 +23,13 @@
 //! * **Eq. 1 at g = 0 and a → 1 (open point 5):** [`hg_patch`].
 //! * Points 1 and 2 (prefilter, Eq. 10) concern environment lighting (§5), not implemented.
 //!
+//! * **Isotropic residuum (§5.4), optional** ([`ResiduumSettings`]): after m′ iterations
+//!   (Eq. 10, [`residuum_switch_iteration`]) the lobes are made isotropic and propagated
+//!   until the power in flight falls below ε_L; each light in its own grid (no merge).
+//!
 //! Not implemented: point lights (§6; they keep their exact single scattering but get no
-//! multiple scattering from POP, with a warning), environment lighting (§5), the isotropic
-//! residuum (§5.4), the joint bilateral upsampling (§4.4; the resampling is trilinear).
+//! multiple scattering from POP, with a warning), environment lighting (§5), the joint
+//! bilateral upsampling (§4.4; the resampling is trilinear).
 //!
 //! Settings: `[solve] pop_resolution` (cells along the longest axis of the light-aligned box,
 //! default 20 as the paper's typical 20³), `pop_iterations` (default 20: "amounts similar
@@ -40,13 +44,13 @@ use crate::problem::{Grid, Phase};
 use crate::render::lights::Light;
 use crate::render::medium::DensityGrid;
 use crate::render::scene::{
-    RenderScene, POP_DEFAULT_ITERATIONS, POP_DEFAULT_RESOLUTION, POP_MAX_ITERATIONS,
-    POP_MAX_RESOLUTION,
+    RenderScene, POP_DEFAULT_EPSILON_A, POP_DEFAULT_EPSILON_L, POP_DEFAULT_ITERATIONS,
+    POP_DEFAULT_RESOLUTION, POP_MAX_ITERATIONS, POP_MAX_RESOLUTION,
 };
 use crate::render::shadow::Extinction;
 use crate::unstagger::CellMoments;
 use anyhow::{bail, ensure};
-use propagate::{IterationEnergy, LightGrid, PopMedium};
+use propagate::{IterationEnergy, LightGrid, PopMedium, ResiduumInfo, Schedule};
 use rayon::prelude::*;
 use serde::Serialize;
 use std::time::Instant;
@@ -56,21 +60,72 @@ use std::time::Instant;
 pub struct PopSettings {
     /// Cells along the longest axis of each light-aligned grid (1..=512).
     pub resolution: usize,
-    /// Propagation iterations (≥ 1).
+    /// Propagation iterations (≥ 1; without the residuum).
     pub iterations: usize,
     /// Highest SH band handed to the renderer.
     pub lmax: usize,
+    /// The isotropic residuum of §5.4 (None: `iterations` iterations with lobes).
+    pub residuum: Option<ResiduumSettings>,
+}
+
+/// The isotropic residuum's thresholds (§5.4).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct ResiduumSettings {
+    /// ε_a: lobes count as isotropic once their anisotropy would have decayed below it; the
+    /// switch iteration m′ follows from Eq. 10 (the paper: "around 0.1, or even higher").
+    pub epsilon_a: f64,
+    /// ε_L: the isotropic iteration stops when the power in flight is at most ε_L times the
+    /// injected power.
+    pub epsilon_l: f64,
+}
+
+impl Default for ResiduumSettings {
+    fn default() -> Self {
+        Self {
+            epsilon_a: POP_DEFAULT_EPSILON_A,
+            epsilon_l: POP_DEFAULT_EPSILON_L,
+        }
+    }
 }
 
 impl Default for PopSettings {
-    /// The paper's typical 20³ grid, 20 iterations, bands up to 3.
+    /// The paper's typical 20³ grid, 20 iterations, bands up to 3, no residuum.
     fn default() -> Self {
         Self {
             resolution: POP_DEFAULT_RESOLUTION,
             iterations: POP_DEFAULT_ITERATIONS,
             lmax: 3,
+            residuum: None,
         }
     }
+}
+
+/// m′ of Eq. 10, the iteration after which the lobes count as isotropic: light that has
+/// travelled t = m′ h through the mean scattering coefficient σ̄_s has anisotropy
+/// `â g^{σ̄_s t} = ε_a`, with â = g (the once-scattered lobes POP starts from). At least the
+/// grid's cells along the light (the paper: so that light from the first plane reaches the
+/// rest), at most [`POP_MAX_ITERATIONS`]. σ̄_s is the mean over the cells with σ_s > 0 (the
+/// medium, not the empty corners of the light-aligned box).
+pub fn residuum_switch_iteration(grid: &LightGrid, medium: &PopMedium, epsilon_a: f64) -> usize {
+    let along = grid.res[2];
+    let g = medium.g;
+    let (sum, count) = medium
+        .sigma_s
+        .iter()
+        .filter(|s| **s > 0.0)
+        .fold((0.0, 0usize), |(a, c), s| (a + s, c + 1));
+    if g <= epsilon_a || count == 0 {
+        return along.min(POP_MAX_ITERATIONS);
+    }
+    let mean = sum / count as f64;
+    // (ln ε_a − ln â) / ln g / (σ̄_s h); ln g < 0 and ln ε_a < ln â, so this is positive.
+    let m = (epsilon_a.ln() - g.ln()) / g.ln() / (mean * grid.h);
+    let m = if m.is_finite() {
+        m.ceil().min(POP_MAX_ITERATIONS as f64) as usize
+    } else {
+        POP_MAX_ITERATIONS
+    };
+    m.max(along).min(POP_MAX_ITERATIONS)
 }
 
 impl PopSettings {
@@ -87,6 +142,18 @@ impl PopSettings {
             "POP iterations must lie in 1..={POP_MAX_ITERATIONS}, got {}",
             self.iterations
         );
+        if let Some(r) = self.residuum {
+            ensure!(
+                r.epsilon_a.is_finite() && r.epsilon_a > 0.0 && r.epsilon_a < 1.0,
+                "POP residuum: epsilon_a must lie in (0, 1), got {}",
+                r.epsilon_a
+            );
+            ensure!(
+                r.epsilon_l.is_finite() && r.epsilon_l > 0.0 && r.epsilon_l < 1.0,
+                "POP residuum: epsilon_l must lie in (0, 1), got {}",
+                r.epsilon_l
+            );
+        }
         ensure!(
             self.lmax <= pn_stencil::MAX_ORDER,
             "POP bands: lmax must be at most {}, got {}",
@@ -140,6 +207,8 @@ pub struct PopLightReport {
     /// Largest |in flight before − after − left − absorbed| over the iterations, relative
     /// to `injected` (rounding only).
     pub max_relative_imbalance: f64,
+    /// What the isotropic residuum did (None without it).
+    pub residuum: Option<ResiduumInfo>,
     /// One entry per iteration.
     pub energy: Vec<IterationEnergy>,
 }
@@ -344,8 +413,16 @@ pub fn solve_light(
         .collect();
     seconds.initialization += t1.elapsed().as_secs_f64();
     let t2 = Instant::now();
+    let schedule = match settings.residuum {
+        None => Schedule::Fixed(settings.iterations),
+        Some(r) => Schedule::Residuum {
+            anisotropic: residuum_switch_iteration(&grid, &medium, r.epsilon_a),
+            epsilon_l: r.epsilon_l,
+            max_total: POP_MAX_ITERATIONS,
+        },
+    };
     let propagated =
-        propagate::propagate(&grid, &medium, &source, settings.lmax, settings.iterations)?;
+        propagate::propagate_scheduled(&grid, &medium, &source, g, settings.lmax, schedule)?;
     seconds.propagation += t2.elapsed().as_secs_f64();
     Ok(Some(LightSolution {
         grid,
@@ -403,6 +480,24 @@ pub fn pop_field(
         let p = &sol.propagated;
         accumulate::add_light_moments(&sol.grid, &p.bands, p.lmax, target, &mut moments);
         seconds.resampling += t3.elapsed().as_secs_f64();
+        if let Some(r) = sol
+            .propagated
+            .residuum
+            .as_ref()
+            .filter(|r| !r.reached_epsilon_l)
+        {
+            warnings.push(format!(
+                "POP residuum, light {n}: the power in flight did not fall to epsilon_l within \
+                 {POP_MAX_ITERATIONS} iterations ({} isotropic); {:.3e} of the injected power \
+                 is still in flight",
+                r.isotropic_iterations,
+                sol.propagated
+                    .energy
+                    .last()
+                    .map_or(1.0, |e| e.in_flight_after)
+                    / sol.propagated.injected.max(f64::MIN_POSITIVE)
+            ));
+        }
         lights.push(light_report(n, &sol));
     }
     if lights.is_empty() && warnings.is_empty() {
@@ -450,6 +545,7 @@ pub fn light_report(light: usize, sol: &LightSolution) -> PopLightReport {
             .iter()
             .map(|e| rel(e.imbalance().abs()))
             .fold(0.0, f64::max),
+        residuum: p.residuum.clone(),
         energy: p.energy.clone(),
     }
 }

@@ -24,6 +24,14 @@
 //! sum to one, `in flight(m+1) + left grid(m) + absorbed(m) = in flight(m)` holds to
 //! rounding in every iteration ([`IterationEnergy`]).
 //!
+//! **Isotropic residuum** (§5.4, [`Schedule::Residuum`]): after m′ iterations the lobes'
+//! anisotropies are set to 0 (magnitudes kept, so the bookkeeping is unchanged) and the
+//! iteration goes on with the fixed isotropic patches (Eq. 3 at a = 0, computed once) until
+//! the power in flight falls below ε_L times the injected power. With one grid per light the
+//! paper's merging of all lights' grids into one medium-aligned grid is not done: each light
+//! finishes isotropically in its own grid (the same transport, without the resampling error
+//! of a merge; docs/pop-design.md).
+//!
 //! **Accumulation** (Eq. 7–8 for every view direction at once): instead of the
 //! view-dependent scalar of Eq. 8, each cell accumulates the band amplitudes
 //! `A_l = Σ_m w_m L^m (a^m)^l`, l = 0..=lmax ([`super::accumulate`] turns them into SH
@@ -180,6 +188,44 @@ impl IterationEnergy {
     }
 }
 
+/// How many iterations to run ([`propagate_scheduled`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Schedule {
+    /// A fixed number of iterations, with lobes throughout (the paper's §4).
+    Fixed(usize),
+    /// The isotropic residuum (§5.4): `anisotropic` iterations with lobes, then every lobe is
+    /// made isotropic (a = 0; the magnitudes, hence the energy, are kept) and the iteration
+    /// goes on without anisotropies until the power in flight is at most `epsilon_l` times
+    /// the injected power, or `max_total` iterations in all have run.
+    Residuum {
+        /// Iterations with lobes before the switch (m′ of Eq. 10).
+        anisotropic: usize,
+        /// Stop when `in flight ≤ epsilon_l · injected`.
+        epsilon_l: f64,
+        /// At most this many iterations in all.
+        max_total: usize,
+    },
+}
+
+/// What the isotropic residuum did ([`Schedule::Residuum`]).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ResiduumInfo {
+    /// The iteration after which the lobes were made isotropic.
+    pub switch_iteration: usize,
+    /// The energy-weighted mean anisotropy `Σ L a / Σ L` of the lobes at the switch.
+    pub mean_anisotropy_at_switch: f64,
+    /// The largest anisotropy at the switch among cells holding at least 1e−3 of the
+    /// largest magnitude.
+    pub max_anisotropy_at_switch: f64,
+    /// Fraction of the injected power in flight at the switch.
+    pub in_flight_fraction_at_switch: f64,
+    /// Isotropic iterations after the switch.
+    pub isotropic_iterations: usize,
+    /// Whether the power in flight fell to `epsilon_l` of the injected power (false: the
+    /// iteration cap was reached first).
+    pub reached_epsilon_l: bool,
+}
+
 /// The result of [`propagate`].
 #[derive(Clone, Debug, PartialEq)]
 pub struct Propagated {
@@ -195,6 +241,8 @@ pub struct Propagated {
     pub residual: Vec<f64>,
     /// The anisotropy `a^M` of the residual (per cell).
     pub residual_anisotropy: Vec<f64>,
+    /// What the isotropic residuum did (None for [`Schedule::Fixed`]).
+    pub residuum: Option<ResiduumInfo>,
 }
 
 /// Propagates the initial lobes `L^0 = source`, `a^0 = g` (the once-scattered light of
@@ -221,6 +269,35 @@ pub fn propagate_from(
     lmax: usize,
     iterations: usize,
 ) -> anyhow::Result<Propagated> {
+    let schedule = Schedule::Fixed(iterations);
+    propagate_scheduled(grid, medium, source, initial_anisotropy, lmax, schedule)
+}
+
+/// [`propagate_from`] with the iteration count given by `schedule`: a fixed count, or the
+/// isotropic residuum of §5.4 ([`Schedule::Residuum`]).
+pub fn propagate_scheduled(
+    grid: &LightGrid,
+    medium: &PopMedium,
+    source: &[f64],
+    initial_anisotropy: f64,
+    lmax: usize,
+    schedule: Schedule,
+) -> anyhow::Result<Propagated> {
+    if let Schedule::Residuum {
+        epsilon_l,
+        max_total,
+        anisotropic,
+    } = schedule
+    {
+        ensure!(
+            epsilon_l.is_finite() && epsilon_l > 0.0 && epsilon_l < 1.0,
+            "POP: the residuum's epsilon_l must lie in (0, 1), got {epsilon_l}"
+        );
+        ensure!(
+            anisotropic <= max_total,
+            "POP: {anisotropic} anisotropic iterations exceed the cap of {max_total}"
+        );
+    }
     let n = grid.cells();
     ensure!(
         medium.sigma_s.len() == n && medium.sigma_a.len() == n && source.len() == n,
@@ -267,13 +344,48 @@ pub fn propagate_from(
     let injected = sum(&l_cur) * power;
     let [nx, ny, _] = grid.res;
     let plane = nx * ny;
-    let mut energy = Vec::with_capacity(iterations);
+    let mut energy = Vec::new();
     let mut patches = vec![Patches::of(initial_anisotropy); n];
-    for m in 1..=iterations {
-        patches
-            .par_iter_mut()
-            .zip(a_cur.par_iter())
-            .for_each(|(p, a)| *p = Patches::of(*a));
+    let mut residuum: Option<ResiduumInfo> = None;
+    let mut m = 0;
+    loop {
+        let in_flight = sum(&l_cur) * power;
+        match schedule {
+            Schedule::Fixed(iterations) if m == iterations => break,
+            Schedule::Fixed(_) => {}
+            Schedule::Residuum {
+                anisotropic,
+                epsilon_l,
+                max_total,
+            } => {
+                if m == anisotropic && residuum.is_none() {
+                    // §5.4: the lobes are nearly isotropic; drop their anisotropy (keeping
+                    // the magnitudes) and go on with isotropic scattering only.
+                    residuum = Some(switch_to_isotropic(
+                        &mut a_cur, &l_cur, in_flight, injected, m,
+                    ));
+                    patches.fill(Patches::of(0.0));
+                }
+                if let Some(r) = residuum.as_mut() {
+                    r.isotropic_iterations = m - r.switch_iteration;
+                    r.reached_epsilon_l = in_flight <= epsilon_l * injected;
+                    if r.reached_epsilon_l {
+                        break;
+                    }
+                }
+                if m == max_total {
+                    break;
+                }
+            }
+        }
+        m += 1;
+        if residuum.is_none() {
+            // Isotropic lobes keep a = 0 and their patches (Eq. 3 at a = 0) once set.
+            patches
+                .par_iter_mut()
+                .zip(a_cur.par_iter())
+                .for_each(|(p, a)| *p = Patches::of(*a));
+        }
         let cur = Buffers {
             l: &l_cur,
             a: &a_cur,
@@ -313,7 +425,7 @@ pub fn propagate_from(
             .fold((0.0, 0.0, 0.0), |s, v| (s.0 + v.0, s.1 + v.1, s.2 + v.2));
         energy.push(IterationEnergy {
             iteration: m,
-            in_flight_before: sum(&l_cur) * power,
+            in_flight_before: in_flight,
             left_grid: left * power,
             absorbed: absorbed * power,
             in_flight_after: inflight * power,
@@ -328,11 +440,44 @@ pub fn propagate_from(
         energy,
         residual: l_cur,
         residual_anisotropy: a_cur,
+        residuum,
     })
 }
 
 fn sum(v: &[f64]) -> f64 {
     v.iter().sum()
+}
+
+/// Makes every lobe isotropic (a = 0) after iteration `m` and records the state at the switch.
+fn switch_to_isotropic(
+    a: &mut [f64],
+    l: &[f64],
+    in_flight: f64,
+    injected: f64,
+    m: usize,
+) -> ResiduumInfo {
+    let total: f64 = sum(l);
+    let weighted: f64 = l.iter().zip(a.iter()).map(|(l, a)| l * a).sum();
+    let lmax = l.iter().fold(0.0f64, |x, v| x.max(*v));
+    let max_a = l
+        .iter()
+        .zip(a.iter())
+        .filter(|(l, _)| **l >= 1e-3 * lmax && **l > 0.0)
+        .map(|(_, a)| *a)
+        .fold(0.0f64, f64::max);
+    a.fill(0.0);
+    ResiduumInfo {
+        switch_iteration: m,
+        mean_anisotropy_at_switch: if total > 0.0 { weighted / total } else { 0.0 },
+        max_anisotropy_at_switch: max_a,
+        in_flight_fraction_at_switch: if injected > 0.0 {
+            in_flight / injected
+        } else {
+            0.0
+        },
+        isotropic_iterations: 0,
+        reached_epsilon_l: false,
+    }
 }
 
 /// `bands[c·nb + l] += w · L_c · a_c^l`.

@@ -37,7 +37,10 @@
 //! method = "pn"             # "pn" | "cda" | "fld" | "pop" | "none" (single scattering only)
 //! order = 3                 # P_N order; for "pop" the highest SH band handed to the renderer
 //! pop_resolution = 20       # "pop": cells along the longest axis of each light-aligned grid
-//! pop_iterations = 20       # "pop": propagation iterations
+//! pop_iterations = 20       # "pop": propagation iterations (without the residuum)
+//! pop_residuum = false      # "pop": the isotropic residuum of the paper's §5.4
+//! pop_epsilon_a = 0.1       # "pop" residuum: anisotropy threshold of the switch (Eq. 10)
+//! pop_epsilon_l = 1e-3      # "pop" residuum: stop when this fraction is still in flight
 //! resolution = [32, 32, 32] # solve grid over the medium box (may be coarser)
 //! margin = 2                # empty cells kept around the cropped medium
 //! absorbing_layer = 1       # cells over which the graded absorber ramps up (0 = none)
@@ -235,14 +238,25 @@ pub struct SolveSettings {
     pub sigma_t_min: Option<f64>,
     /// Method pop: cells along the longest axis of each light-aligned grid.
     pub pop_resolution: usize,
-    /// Method pop: propagation iterations.
+    /// Method pop: propagation iterations (without the residuum).
     pub pop_iterations: usize,
+    /// Method pop: the isotropic residuum (§5.4) instead of a fixed iteration count.
+    pub pop_residuum: bool,
+    /// Method pop, residuum: ε_a, the anisotropy below which lobes count as isotropic.
+    pub pop_epsilon_a: f64,
+    /// Method pop, residuum: ε_L, the fraction of the injected power still in flight at
+    /// which the isotropic iteration stops.
+    pub pop_epsilon_l: f64,
 }
 
 /// Default POP grid resolution (the paper's typical 20³, §7).
 pub const POP_DEFAULT_RESOLUTION: usize = 20;
 /// Default POP iterations (about the grid resolution along the light, the paper's §7).
 pub const POP_DEFAULT_ITERATIONS: usize = 20;
+/// Default ε_a of POP's isotropic residuum (the paper's "around 0.1", §5.4).
+pub const POP_DEFAULT_EPSILON_A: f64 = 0.1;
+/// Default ε_L of POP's isotropic residuum (relative to the injected power).
+pub const POP_DEFAULT_EPSILON_L: f64 = 1e-3;
 /// Largest POP grid resolution.
 pub const POP_MAX_RESOLUTION: usize = 512;
 /// Most POP iterations.
@@ -464,6 +478,9 @@ struct SolveToml {
     sigma_t_min: Option<f64>,
     pop_resolution: Option<usize>,
     pop_iterations: Option<usize>,
+    pop_residuum: Option<bool>,
+    pop_epsilon_a: Option<f64>,
+    pop_epsilon_l: Option<f64>,
 }
 
 #[derive(Deserialize, Debug)]
@@ -1046,6 +1063,9 @@ fn build(t: SceneToml, base: &Path) -> anyhow::Result<RenderScene> {
         sigma_t_min: None,
         pop_resolution: None,
         pop_iterations: None,
+        pop_residuum: None,
+        pop_epsilon_a: None,
+        pop_epsilon_l: None,
     });
     let solve = SolveSettings {
         method: s.method.unwrap_or(RenderMethod::Pn),
@@ -1059,6 +1079,9 @@ fn build(t: SceneToml, base: &Path) -> anyhow::Result<RenderScene> {
         sigma_t_min: s.sigma_t_min.filter(|v| *v != 0.0),
         pop_resolution: s.pop_resolution.unwrap_or(POP_DEFAULT_RESOLUTION),
         pop_iterations: s.pop_iterations.unwrap_or(POP_DEFAULT_ITERATIONS),
+        pop_residuum: s.pop_residuum.unwrap_or(false),
+        pop_epsilon_a: s.pop_epsilon_a.unwrap_or(POP_DEFAULT_EPSILON_A),
+        pop_epsilon_l: s.pop_epsilon_l.unwrap_or(POP_DEFAULT_EPSILON_L),
     };
     solve.validate().context("[solve]")?;
     let r = t.render.unwrap_or(RenderToml {
@@ -1149,6 +1172,15 @@ impl SolveSettings {
             "pop_iterations must lie in 1..={POP_MAX_ITERATIONS}, got {}",
             self.pop_iterations
         );
+        for (name, v) in [
+            ("pop_epsilon_a", self.pop_epsilon_a),
+            ("pop_epsilon_l", self.pop_epsilon_l),
+        ] {
+            ensure!(
+                v.is_finite() && v > 0.0 && v < 1.0,
+                "{name} must lie in (0, 1), got {v}"
+            );
+        }
         if self.boundary == SolveBoundary::Marshak {
             ensure!(
                 self.method == RenderMethod::Pn && self.order % 2 == 1,
