@@ -7,13 +7,16 @@ use std::fmt;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-/// A deterministic method: CDA, P_N of an order, POP, or single scattering only.
+/// A deterministic method: CDA, flux-limited diffusion, P_N of an order, POP, or single
+/// scattering only.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub enum Family {
     /// Single scattering only (`--method none`).
     None,
     /// Classical diffusion.
     Cda,
+    /// Flux-limited diffusion (`--method fld`, Levermore–Pomraning limiter).
+    Fld,
     /// P_N of this order.
     Pn(usize),
     /// Principal-Ordinates Propagation (`--method pop`, directional lights; docs/pop-design.md)
@@ -27,6 +30,7 @@ impl Family {
         match self {
             Family::None => vec!["--method".into(), "none".into()],
             Family::Cda => vec!["--method".into(), "cda".into()],
+            Family::Fld => vec!["--method".into(), "fld".into()],
             Family::Pn(n) => vec![
                 "--method".into(),
                 "pn".into(),
@@ -37,11 +41,12 @@ impl Family {
         }
     }
 
-    /// The method column (`none`, `cda`, `pn`, `pop`).
+    /// The method column (`none`, `cda`, `fld`, `pn`, `pop`).
     pub fn method(self) -> &'static str {
         match self {
             Family::None => "none",
             Family::Cda => "cda",
+            Family::Fld => "fld",
             Family::Pn(_) => "pn",
             Family::Pop => "pop",
         }
@@ -61,6 +66,7 @@ impl fmt::Display for Family {
         match self {
             Family::None => write!(f, "single scattering"),
             Family::Cda => write!(f, "CDA"),
+            Family::Fld => write!(f, "FLD"),
             Family::Pn(n) => write!(f, "P_{n}"),
             Family::Pop => write!(f, "POP"),
         }
@@ -82,7 +88,7 @@ pub struct PnPoint {
 }
 
 impl PnPoint {
-    /// Parses `cda@24`, `p5@32` (`P5@32`), `pop@20`, `none`, each optionally followed by
+    /// Parses `cda@24`, `fld@24`, `p5@32` (`P5@32`), `pop@20`, `none`, each optionally followed by
     /// `:rays=K` and/or `:step=S` (`p5@32:rays=1:step=1`).
     pub fn parse(s: &str) -> Result<Self> {
         let lower = s.trim().to_ascii_lowercase();
@@ -124,13 +130,14 @@ impl PnPoint {
         };
         let family = match f {
             "cda" => Family::Cda,
+            "fld" => Family::Fld,
             "pop" => Family::Pop,
             _ => {
                 let n = f
                     .strip_prefix('p')
                     .and_then(|n| n.parse::<usize>().ok())
                     .with_context(|| {
-                        format!("pn point {s:?}: the method is cda, pop or pN (p1, p3, p5, …)")
+                        format!("pn point {s:?}: the method is cda, fld, pop or pN (p1, p3, p5, …)")
                     })?;
                 ensure!(
                     (1..=60).contains(&n),
@@ -159,6 +166,7 @@ impl PnPoint {
         let mut s = match self.family {
             Family::None => "none".into(),
             Family::Cda => format!("cda@{}", self.solve_res),
+            Family::Fld => format!("fld@{}", self.solve_res),
             Family::Pn(n) => format!("p{n}@{}", self.solve_res),
             Family::Pop => format!("pop@{}", self.solve_res),
         };
@@ -176,6 +184,7 @@ impl PnPoint {
         match self.family {
             Family::None => "none".into(),
             Family::Cda => "cda".into(),
+            Family::Fld => "fld".into(),
             Family::Pn(n) => format!("p{n}"),
             Family::Pop => "pop".into(),
         }
@@ -322,6 +331,9 @@ mod tests {
         let p = PnPoint::parse("POP@20").unwrap();
         assert_eq!((p.family, p.label().as_str()), (Family::Pop, "pop@20"));
         assert_eq!((p.family.method(), p.family.order()), ("pop", None));
+        let p = PnPoint::parse("fld@24").unwrap();
+        assert_eq!((p.family, p.label().as_str()), (Family::Fld, "fld@24"));
+        assert_eq!((p.family.method(), p.family_key().as_str()), ("fld", "fld"));
         let p = PnPoint::parse("p3@32:rays=1:step=0.25").unwrap();
         assert_eq!((p.rays, p.step), (Some(1), Some(0.25)));
         assert_eq!(p.label(), "p3@32:rays=1:step=0.25");
