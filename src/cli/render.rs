@@ -99,6 +99,14 @@ pub struct RenderArgs {
         allow_hyphen_values = true
     )]
     pub set: Vec<SceneOverride>,
+    /// Solve the linear PDE system in this text file for the multiple scattering instead of
+    /// --method (docs/pde-text.md; e.g. pdes/sp3.pde); isotropic first-scatter source, the
+    /// PDE's radiance moments handed to the renderer.
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["method", "order"])]
+    pub pde: Option<std::path::PathBuf>,
+    /// Override a `param` of the --pde file (repeatable), e.g. --pde-param sigma_f=2.
+    #[arg(long, value_name = "NAME=VALUE", value_parser = pn_drivers::pde_text::parse_param, requires = "pde")]
+    pub pde_param: Vec<(String, String)>,
 }
 
 impl RenderArgs {
@@ -130,7 +138,10 @@ impl RenderArgs {
                 max_memory: self.max_memory,
                 progress: true,
                 tuning: env.tuning.clone(),
+                pde: None,
             },
+            pde: self.pde.clone(),
+            pde_params: self.pde_param.clone(),
         }
     }
 }

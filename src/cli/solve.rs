@@ -173,6 +173,13 @@ pub struct SolveFlags {
     /// pointsource: cell (Q_0^0 = 1/h³ in cell n/2) or gaussian:<std-dev>.
     #[arg(long)]
     pub source: Option<PointSourceShape>,
+    /// Solve the linear PDE system written in this text file instead of --method's
+    /// equations (docs/pde-text.md; shipped: pdes/cda.pde, sp1.pde, sp3.pde, fpn.pde).
+    #[arg(long, value_name = "FILE")]
+    pub pde: Option<PathBuf>,
+    /// Override a `param` of the --pde file (repeatable), e.g. --pde-param sigma_f=2.
+    #[arg(long, value_name = "NAME=VALUE", value_parser = pn_drivers::pde_text::parse_param)]
+    pub pde_param: Vec<(String, String)>,
 }
 
 /// `--limiter`: the library's parser (its error names the limiters).
@@ -212,6 +219,8 @@ impl SolveFlags {
             half_width: self.half_width,
             source: self.source,
             tuning: env.tuning.clone(),
+            pde: self.pde.clone(),
+            pde_params: self.pde_param.clone(),
         }
     }
 }

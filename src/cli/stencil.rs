@@ -29,6 +29,12 @@ pub struct StencilArgs {
     /// from the half-range Gram matrix (JSON: a "marshak" entry).
     #[arg(long, conflicts_with_all = ["collocated", "cda", "diffusion"])]
     pub marshak: bool,
+    /// The stencil of the linear PDE system in this text file (docs/pde-text.md).
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["collocated", "cda", "diffusion", "marshak"])]
+    pub pde: Option<std::path::PathBuf>,
+    /// Override a `param` of the --pde file (repeatable), e.g. --pde-param N=5.
+    #[arg(long, value_name = "NAME=VALUE", value_parser = pn_drivers::pde_text::parse_param, requires = "pde")]
+    pub pde_param: Vec<(String, String)>,
 }
 
 impl StencilArgs {
@@ -42,6 +48,8 @@ impl StencilArgs {
             diffusion: self.diffusion,
             json: self.json,
             marshak: self.marshak,
+            pde: self.pde.clone(),
+            pde_params: self.pde_param.clone(),
         }
     }
 }

@@ -378,6 +378,8 @@ pub fn generate_source(irs: &[StencilIr]) -> Result<String, StencilError> {
     }
     let idents: Vec<Ident> = irs.iter().map(|ir| ident(&ir.name)).collect();
     let count = irs.len();
+    let names: Vec<&str> = irs.iter().map(|ir| ir.name.as_str()).collect();
+    let prints: Vec<u64> = irs.iter().map(StencilIr::fingerprint).collect();
     let file = quote! {
         #(#modules)*
 
@@ -388,6 +390,14 @@ pub fn generate_source(irs: &[StencilIr]) -> Result<String, StencilError> {
         /// The compiled stencil called `name`, if it was generated.
         pub fn find(name: &str) -> Option<&'static dyn pn_stencil::StencilKernel> {
             KERNELS.iter().copied().find(|k| k.name() == name)
+        }
+
+        /// `(name, StencilIr::fingerprint)` of every compiled stencil.
+        pub static FINGERPRINTS: [(&str, u64); #count] = [#((#names, #prints)),*];
+
+        /// The fingerprint of the IR the compiled stencil `name` was generated from.
+        pub fn fingerprint(name: &str) -> Option<u64> {
+            FINGERPRINTS.iter().find(|(n, _)| *n == name).map(|(_, f)| *f)
         }
     };
     let parsed: syn::File = syn::parse2(file)
@@ -440,6 +450,8 @@ pub struct Builder {
     dims: Vec<Dim>,
     layouts: Vec<Staggering>,
     diffusion: bool,
+    /// PDE text files (docs/pde-text.md) compiled with their default parameters.
+    pdes: Vec<PathBuf>,
 }
 
 impl Default for Builder {
@@ -459,6 +471,7 @@ impl Builder {
             dims: vec![Dim::Two, Dim::Three],
             layouts: vec![Staggering::Staggered, Staggering::Collocated],
             diffusion: true,
+            pdes: Vec::new(),
         }
     }
 
@@ -493,6 +506,38 @@ impl Builder {
         self
     }
 
+    /// Adds PDE text files (docs/pde-text.md), compiled in every dimension of the builder
+    /// with their default parameters, as `pde_<name>_<d>d`.
+    pub fn pde_files(mut self, files: &[PathBuf]) -> Builder {
+        self.pdes.extend(files.iter().cloned());
+        self
+    }
+
+    /// Reads the PDE files to compile from the environment variable `var`
+    /// (comma-separated paths; unset: every `*.pde` in `default_dir`, sorted; empty: none).
+    pub fn pde_files_from_env(self, var: &str, default_dir: &Path) -> Builder {
+        let files: Vec<PathBuf> = match std::env::var(var) {
+            Ok(v) => v
+                .split(',')
+                .map(str::trim)
+                .filter(|s| !s.is_empty())
+                .map(PathBuf::from)
+                .collect(),
+            Err(_) => {
+                let mut fs: Vec<PathBuf> = std::fs::read_dir(default_dir)
+                    .map(|rd| {
+                        rd.filter_map(|e| e.ok().map(|e| e.path()))
+                            .filter(|p| p.extension().is_some_and(|x| x == "pde"))
+                            .collect()
+                    })
+                    .unwrap_or_default();
+                fs.sort();
+                fs
+            }
+        };
+        self.pde_files(&files)
+    }
+
     /// All stencil IRs the builder would compile.
     pub fn irs(&self) -> Result<Vec<StencilIr>, StencilError> {
         let mut irs = Vec::new();
@@ -510,6 +555,18 @@ impl Builder {
                 irs.push(diffusion_ir(dim)?);
             }
         }
+        for path in &self.pdes {
+            let src = std::fs::read_to_string(path)
+                .map_err(|e| StencilError::Config(format!("reading {}: {e}", path.display())))?;
+            let pde = crate::text::parse_pde(&src, &[])
+                .map_err(|e| StencilError::Config(format!("{}: {e}", path.display())))?;
+            for &dim in &self.dims {
+                irs.push(
+                    pde.ir(dim)
+                        .map_err(|e| StencilError::Config(format!("{}: {e}", path.display())))?,
+                );
+            }
+        }
         Ok(irs)
     }
 
@@ -521,13 +578,25 @@ impl Builder {
     }
 
     /// For build scripts: prints `cargo:rerun-if-env-changed=PN_ORDERS` and writes
-    /// `$OUT_DIR/stencils.rs` for the orders in `PN_ORDERS`. Cargo re-runs the build script
+    /// `$OUT_DIR/stencils.rs` for the orders in `PN_ORDERS` and the PDE text files in
+    /// `PN_PDES` (default: every `*.pde` in the workspace's `pdes/`). Cargo re-runs the build script
     /// by itself when this crate or `cas` (its build dependencies) change.
     pub fn compile_for_build_script() -> Result<PathBuf, StencilError> {
         println!("cargo:rerun-if-env-changed=PN_ORDERS");
-        let builder = Builder::new().orders_from_env("PN_ORDERS")?;
+        println!("cargo:rerun-if-env-changed=PN_PDES");
         let out = std::env::var_os("OUT_DIR")
             .ok_or_else(|| StencilError::Config("OUT_DIR is not set".into()))?;
+        // The workspace's pdes/ folder, two levels above the calling crate.
+        let pde_dir = std::env::var_os("CARGO_MANIFEST_DIR")
+            .map(|d| PathBuf::from(d).join("../../pdes"))
+            .unwrap_or_else(|| PathBuf::from("pdes"));
+        println!("cargo:rerun-if-changed={}", pde_dir.display());
+        let builder = Builder::new()
+            .orders_from_env("PN_ORDERS")?
+            .pde_files_from_env("PN_PDES", &pde_dir);
+        for p in &builder.pdes {
+            println!("cargo:rerun-if-changed={}", p.display());
+        }
         let path = PathBuf::from(out).join("stencils.rs");
         builder.write(&path)?;
         Ok(path)

@@ -350,6 +350,16 @@ impl Walker<'_> {
                     .add(lo?.scale(-1.0))
                     .mul_poly(&Poly::atom(Atom::InvH(d))))
             }
+            // Math functions of constants (from PDE text, e.g. a filter strength).
+            Expr::Func(f, args) if args.len() == 1 => {
+                let x = self.constant(&args[0], "the argument of a function")?;
+                crate::text::math(f, x)
+                    .filter(|v| v.is_finite())
+                    .map(|v| Lin::poly(Poly::constant(v)))
+                    .ok_or_else(|| {
+                        StencilError::Unsupported(format!("{f}({x}) has no finite value"))
+                    })
+            }
             other => Err(StencilError::Unsupported(format!(
                 "node not allowed in an expanded equation: {other:?}"
             ))),

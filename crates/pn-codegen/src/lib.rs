@@ -4,6 +4,8 @@
 //! * [`pde`], [`placement`], [`discretize`]: input PDE systems (P_N, its 2D reduction, CDA),
 //!   staggered placement and the offset-stack discretizer producing the stencil IR of the
 //!   `pn-stencil` crate.
+//! * [`text`]: linear PDE systems written as text (`pn solve --pde FILE`), parsed into
+//!   the same [`pde::PdeSystem`] form.
 //! * [`codegen`]: Rust code generation, with the [`codegen::Builder`] that the `pn-kernels`
 //!   build script calls (like `prost-build`: the generated code depends only on
 //!   `pn-stencil`).
@@ -47,3 +49,4 @@ pub mod derive;
 pub mod discretize;
 pub mod pde;
 pub mod placement;
+pub mod text;

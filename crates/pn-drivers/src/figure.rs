@@ -177,6 +177,7 @@ pub fn run(a: &FigureRequest, stdout: &mut dyn std::io::Write) -> Result<()> {
             max_memory: None,
             progress: true,
             tuning: a.tuning.clone(),
+            pde: None,
         };
         let run = render_scene(&s, &options)?;
         let dir = out.join(key);

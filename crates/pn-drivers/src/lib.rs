@@ -52,6 +52,7 @@ pub mod export_mitsuba;
 pub mod figure;
 pub mod fld_method;
 pub mod fld_setup;
+pub mod pde_text;
 pub mod pointsource_extras;
 pub mod race;
 pub mod render;

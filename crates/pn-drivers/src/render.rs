@@ -83,6 +83,11 @@ pub struct RenderRequest {
     pub set: Vec<SceneOverride>,
     /// Threads, memory limit, progress bars and solver tuning.
     pub options: RenderOptions,
+    /// Solve this PDE text file (docs/pde-text.md) for the multiple scattering instead of
+    /// the scene's method.
+    pub pde: Option<PathBuf>,
+    /// `NAME=VALUE` overrides of the PDE file's `param`s.
+    pub pde_params: Vec<(String, String)>,
 }
 
 impl Default for RenderRequest {
@@ -110,6 +115,8 @@ impl Default for RenderRequest {
             save_moments: false,
             set: Vec::new(),
             options: RenderOptions::default(),
+            pde: None,
+            pde_params: Vec::new(),
         }
     }
 }
@@ -126,6 +133,10 @@ pub struct RenderOptions {
     pub progress: bool,
     /// Expert solver settings (the `pn` binary reads them from the environment).
     pub tuning: SolverTuning,
+    /// A text PDE solved for the multiple scattering instead of the scene's method
+    /// ([`RenderRequest::pde`]; the scene's method is then `cda`'s route: isotropic first-
+    /// scatter source, the radiance moments of the solution handed to the renderer).
+    pub pde: Option<std::sync::Arc<crate::pde_text::PdeKernel>>,
 }
 
 impl Default for RenderOptions {
@@ -136,6 +147,7 @@ impl Default for RenderOptions {
             max_memory: None,
             progress: true,
             tuning: SolverTuning::default(),
+            pde: None,
         }
     }
 }
@@ -408,7 +420,17 @@ pub fn apply_overrides(scene: &mut RenderScene, a: &RenderRequest) -> Result<()>
 }
 
 /// The stencil of a method (None for FLD's Gauss–Seidel route and for "none").
-fn kernel_for(scene: &RenderScene) -> Result<Option<KernelChoice>> {
+fn kernel_for(
+    scene: &RenderScene,
+    pde: Option<&crate::pde_text::PdeKernel>,
+) -> Result<Option<KernelChoice>> {
+    if let Some(p) = pde {
+        ensure!(
+            scene.solve.method == RenderMethod::Cda,
+            "internal: a text PDE is solved on the cda route"
+        );
+        return Ok(Some(p.choice.clone()));
+    }
     Ok(match scene.solve.method {
         RenderMethod::Pn => Some(pn_kernel(
             scene.solve.order,
@@ -479,7 +501,9 @@ fn render_grey_views(
         max_memory,
         progress,
         ref tuning,
+        ref pde,
     } = *options;
+    let pde = pde.as_deref();
     let t_all = Instant::now();
     let t0 = Instant::now();
     let density = scene.density_grid()?;
@@ -520,7 +544,7 @@ fn render_grey_views(
             pop = Some(run.report);
         }
     } else if s.method != RenderMethod::None {
-        let kernel = kernel_for(scene)?;
+        let kernel = kernel_for(scene, pde)?;
         let (solved, grid) =
             unknowns_on(&density, s.resolution, s.padding(), true, kernel.as_ref())?;
         if let Some(grid) = grid {
@@ -566,6 +590,12 @@ fn render_grey_views(
                 )
             })??;
             staggered = u;
+            let mut moments = moments;
+            if let Some(p) = pde {
+                // Auxiliary unknowns (SP_3's φ_2) are not radiance moments: the renderer
+                // must not read them as spherical-harmonic coefficients.
+                p.zero_auxiliary(&mut moments);
+            }
             timings.solve = t1.elapsed().as_secs_f64();
             solver = Some(SolverReport {
                 sigma_t_min: (s.method != RenderMethod::Fld)
@@ -683,7 +713,10 @@ fn render_grey_views(
     let hmin = density.h().iter().fold(f64::INFINITY, |m, v| m.min(*v));
     let report = RenderReport {
         scene: scene.name.clone(),
-        method: s.method.name().into(),
+        method: match pde {
+            Some(p) => format!("pde:{}", p.name),
+            None => s.method.name().into(),
+        },
         order: matches!(s.method, RenderMethod::Pn | RenderMethod::Pop).then_some(s.order),
         renderer: r.renderer.name().into(),
         rays_per_pixel: if deterministic { r.rays } else { r.spp },
@@ -894,6 +927,18 @@ pub fn write_run(dir: &Path, run: &RenderRun) -> Result<()> {
 pub fn run(a: &RenderRequest, stdout: &mut dyn Write) -> Result<()> {
     let mut scene = RenderScene::load_with_overrides(&a.scene, &a.set)?;
     apply_overrides(&mut scene, a)?;
+    let mut options = a.options.clone();
+    if let Some(path) = &a.pde {
+        ensure!(
+            a.method.is_none() && a.order.is_none(),
+            "--pde replaces --method and --order (the PDE file says what is solved)"
+        );
+        scene.solve.method = RenderMethod::Cda;
+        options.pde = Some(std::sync::Arc::new(crate::pde_text::PdeKernel::load(
+            path,
+            &a.pde_params,
+        )?));
+    }
     let out = a
         .out
         .clone()
@@ -903,7 +948,7 @@ pub fn run(a: &RenderRequest, stdout: &mut dyn Write) -> Result<()> {
         "--save-moments needs a grey scene with a solve (method pn, cda, fld or pop); for a \
          coloured scene, render each channel's scene"
     );
-    let mut run = render_views(&scene, &a.options, a.turntable.unwrap_or(1))?;
+    let mut run = render_views(&scene, &options, a.turntable.unwrap_or(1))?;
     run.report.overrides = a.set.iter().map(|o| o.text.clone()).collect();
     let save = match &run.solution {
         Some(ms) if a.save_moments => Some(ms),

@@ -156,6 +156,10 @@ pub struct SolveRequest {
     pub source: Option<PointSourceShape>,
     /// Expert solver settings (the `pn` binary reads them from the environment).
     pub tuning: SolverTuning,
+    /// A PDE text file (docs/pde-text.md) solved instead of `method`'s equations.
+    pub pde: Option<PathBuf>,
+    /// `NAME=VALUE` overrides of the PDE file's `param`s.
+    pub pde_params: Vec<(String, String)>,
 }
 
 impl Default for SolveRequest {
@@ -191,6 +195,8 @@ impl Default for SolveRequest {
             half_width: None,
             source: None,
             tuning: SolverTuning::default(),
+            pde: None,
+            pde_params: Vec::new(),
         }
     }
 }
@@ -296,6 +302,18 @@ pub fn kernel_for(req: &SolveRequest, scene: &Scene) -> Result<(KernelChoice, us
         req.method
     );
     let dim = scene.problem.grid.dim;
+    if let Some(path) = &req.pde {
+        ensure!(
+            req.method == Method::Pn,
+            "--pde replaces --method (the PDE file says what is solved)"
+        );
+        ensure!(
+            req.order.is_none() && !req.collocated,
+            "--order and --collocated do not apply to --pde (orders and placement are in the PDE file)"
+        );
+        let pde = crate::pde_text::load(path, &req.pde_params)?;
+        return Ok((pn_kernels::pde_kernel(&pde, dim)?, 0));
+    }
     let layout = if req.collocated {
         Staggering::Collocated
     } else {

@@ -58,7 +58,11 @@ pub fn run(req: &SolveRequest, stdout: &mut dyn Write) -> anyhow::Result<()> {
 
     let info = RunInfo {
         scene: scene.name.clone(),
-        method: a.method.name().to_string(),
+        method: if a.pde.is_some() {
+            "pde".to_string()
+        } else {
+            a.method.name().to_string()
+        },
         order,
         layout: if a.collocated {
             "collocated"
@@ -74,7 +78,8 @@ pub fn run(req: &SolveRequest, stdout: &mut dyn Write) -> anyhow::Result<()> {
     write_outputs(&out, &problem.grid, &sol, &report)
         .with_context(|| format!("writing results to {}", out.display()))?;
     crate::error_estimate::after_solve(req, problem, &sol, &out)?;
-    if crate::vacuum_extras::applies(&scene.name) {
+    // The extras compare with the P_N/CDA references; a text PDE has its own.
+    if a.pde.is_none() && crate::vacuum_extras::applies(&scene.name) {
         crate::vacuum_extras::write_extras(
             &out,
             &scene.name,
@@ -85,7 +90,7 @@ pub fn run(req: &SolveRequest, stdout: &mut dyn Write) -> anyhow::Result<()> {
             stdout,
         )?;
     }
-    if scene.name == "pointsource" {
+    if a.pde.is_none() && scene.name == "pointsource" {
         crate::pointsource_extras::write_extras(
             &out,
             &a.pointsource_params(),
@@ -102,7 +107,9 @@ pub fn run(req: &SolveRequest, stdout: &mut dyn Write) -> anyhow::Result<()> {
         .map(|n| n.to_string())
         .collect::<Vec<_>>()
         .join("×");
-    let what = if a.method == Method::Cda {
+    let what = if a.pde.is_some() {
+        format!("PDE {}", kernel.name())
+    } else if a.method == Method::Cda {
         "CDA".to_string()
     } else {
         format!("P_{order}")

@@ -12,7 +12,7 @@ use std::io::Write;
 use pn_kernels::Staggering;
 
 /// Which stencil `pn stencil` prints, and how.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq, Eq)]
 pub struct StencilRequest {
     /// P_N order.
     pub order: usize,
@@ -29,6 +29,10 @@ pub struct StencilRequest {
     /// Also print the Marshak vacuum conditions of every axis, derived from the half-range
     /// Gram matrix ([`pn_stencil::marshak`]; staggered P_N with odd N).
     pub marshak: bool,
+    /// A PDE text file (docs/pde-text.md) instead of P_N.
+    pub pde: Option<std::path::PathBuf>,
+    /// `NAME=VALUE` overrides of the PDE file's `param`s.
+    pub pde_params: Vec<(String, String)>,
 }
 
 impl Default for StencilRequest {
@@ -42,6 +46,8 @@ impl Default for StencilRequest {
             diffusion: false,
             json: false,
             marshak: false,
+            pde: None,
+            pde_params: Vec::new(),
         }
     }
 }
@@ -49,6 +55,12 @@ impl Default for StencilRequest {
 /// The IR selected by the arguments.
 fn build_ir(args: &StencilRequest) -> anyhow::Result<StencilIr> {
     let dim = args.dim;
+    if let Some(path) = &args.pde {
+        let pde = crate::pde_text::load(path, &args.pde_params)?;
+        return pde
+            .ir(dim)
+            .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()));
+    }
     if args.cda {
         return discretize::cda_ir(dim).context("building the CDA stencil");
     }
@@ -264,6 +276,16 @@ pub fn run(args: &StencilRequest, stdout: &mut dyn Write) -> anyhow::Result<()> 
         }
         writeln!(stdout, "{}", serde_json::to_string_pretty(&v)?)?;
     } else {
+        if let Some(path) = &args.pde {
+            let pde = crate::pde_text::load(path, &args.pde_params)?;
+            writeln!(
+                stdout,
+                "PDE {} from {}: unknowns {}",
+                pde.system.name,
+                path.display(),
+                crate::pde_text::describe_unknowns(&pde)
+            )?;
+        }
         write!(stdout, "{}", to_text(&ir))?;
         if let Some(c) = &closures {
             write!(stdout, "{}", marshak_text(&ir, c))?;

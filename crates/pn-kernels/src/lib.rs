@@ -121,3 +121,28 @@ pub fn diffusion_kernel(dim: Dim) -> anyhow::Result<KernelChoice> {
         discretize::diffusion_ir(dim).context("building the diffusion stencil")
     })
 }
+
+/// The stencil of a text PDE (docs/pde-text.md) in `dim`: the compiled one when `build.rs`
+/// compiled the same IR (same name and [`StencilIr::fingerprint`]), else the IR interpreted.
+pub fn pde_kernel(pde: &pn_codegen::text::TextPde, dim: Dim) -> anyhow::Result<KernelChoice> {
+    let ir = pde
+        .ir(dim)
+        .map_err(|e| anyhow::anyhow!("PDE {}: {e}", pde.system.name))?;
+    if let (Some(k), Some(print)) = (compiled::find(&ir.name), compiled::fingerprint(&ir.name)) {
+        if print == ir.fingerprint() {
+            return Ok(KernelChoice {
+                kernel: Arc::new(Compiled(k)),
+                compiled: true,
+            });
+        }
+        eprintln!(
+            "note: the compiled stencil {} was built from a different text or other parameters; \
+             interpreting this one",
+            ir.name
+        );
+    }
+    Ok(KernelChoice {
+        kernel: Arc::new(InterpretedKernel::new(ir)),
+        compiled: false,
+    })
+}

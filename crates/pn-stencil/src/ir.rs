@@ -144,6 +144,20 @@ pub struct StencilIr {
     pub rows: Vec<StencilRow>,
 }
 
+impl StencilIr {
+    /// A 64-bit FNV-1a hash of the whole IR (name, placement, every term and weight, in
+    /// `Debug` form, where floats print exactly). Compiled stencils carry the fingerprint
+    /// of the IR they were generated from, so a text PDE edited after the build is not
+    /// mistaken for its compiled version.
+    pub fn fingerprint(&self) -> u64 {
+        format!("{self:?}")
+            .bytes()
+            .fold(0xcbf2_9ce4_8422_2325u64, |h, b| {
+                (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
+            })
+    }
+}
+
 /// Field values and grid spacing for the row being evaluated.
 ///
 /// The runtime implements this for one row location at a time; `offset` is relative to

@@ -498,15 +498,13 @@ impl LinearSolver for ParityCg {
     }
 
     /// Solves with parity elimination; when the matrix lacks the parity structure (a user
-    /// PDE, a collocated stencil), prints why and falls back to CGNR. Call
+    /// PDE, a collocated stencil), prints why and falls back to ILU(0)-GMRES, then CGNR
+    /// ([`super::gmres_ilu::fallback`]). Call
     /// [`ParityCg::check`] first to turn that case into an error instead.
     fn solve(&self, a: &CsMat<f64>, b: &[f64], opts: &SolverOptions) -> (Vec<f64>, SolveStats) {
         match self.solve_detailed(a, b, opts) {
             Ok((u, report)) => (u, report.stats),
-            Err(e) => {
-                eprintln!("note: parity-cg does not apply ({e}); falling back to cgnr");
-                super::cgnr::Cgnr.solve(a, b, opts)
-            }
+            Err(e) => super::gmres_ilu::fallback(a, b, opts, &e.to_string()),
         }
     }
 }

@@ -190,10 +190,7 @@ impl LinearSolver for LayoutSolver {
                         Cgnr.solve(a, b, opts)
                     }
                 },
-                _ => {
-                    eprintln!("note: parity-cg does not apply ({e}); falling back to cgnr");
-                    Cgnr.solve(a, b, opts)
-                }
+                _ => super::gmres_ilu::fallback(a, b, opts, &e.to_string()),
             },
         }
     }

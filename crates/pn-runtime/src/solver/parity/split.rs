@@ -41,8 +41,7 @@ pub enum ParityError {
     #[error(
         "row {row} couples to unknown {col} of the same parity ({parity}) off the diagonal \
          (value {value:e}); parity elimination needs the collision/scattering part to be \
-         diagonal and transport to couple even-l only to odd-l moments (docs/design.md §5) — \
-         use --solver cgnr for this system"
+         diagonal and transport to couple even-l only to odd-l moments (docs/design.md §5)"
     )]
     SameParityCoupling {
         /// Row index.

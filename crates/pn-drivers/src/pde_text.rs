@@ -1,0 +1,102 @@
+//! PDE text files (docs/pde-text.md) for `pn solve --pde`, `pn stencil --pde` and the
+//! bench: reading, parameter overrides and errors that name the file, line and column.
+
+use anyhow::Context;
+use pn_codegen::text::{parse_pde, TextPde};
+use std::path::Path;
+
+/// Reads and parses the PDE file `path` with the `NAME=VALUE` overrides `params`. Errors
+/// read `FILE:LINE:COLUMN: reason`.
+pub fn load(path: &Path, params: &[(String, String)]) -> anyhow::Result<TextPde> {
+    let src = std::fs::read_to_string(path)
+        .with_context(|| format!("reading the PDE file {}", path.display()))?;
+    parse_pde(&src, params).map_err(|e| {
+        if e.line == 0 {
+            anyhow::anyhow!("{}: {}", path.display(), e.message)
+        } else {
+            anyhow::anyhow!("{}:{}:{}: {}", path.display(), e.line, e.col, e.message)
+        }
+    })
+}
+
+/// Parses a `--pde-param` value `NAME=VALUE`.
+pub fn parse_param(s: &str) -> anyhow::Result<(String, String)> {
+    let (name, value) = s
+        .split_once('=')
+        .with_context(|| format!("--pde-param {s:?}: expected NAME=VALUE, e.g. sigma_f=2"))?;
+    let (name, value) = (name.trim(), value.trim());
+    anyhow::ensure!(
+        !name.is_empty() && !value.is_empty(),
+        "--pde-param {s:?}: expected NAME=VALUE, e.g. sigma_f=2"
+    );
+    Ok((name.to_string(), value.to_string()))
+}
+
+/// A one-line description of the unknowns: names, labels and which are radiance moments.
+pub fn describe_unknowns(pde: &TextPde) -> String {
+    pde.unknowns
+        .iter()
+        .map(|u| {
+            if u.radiance {
+                format!("{} = L({}, {})", u.name, u.label.0, u.label.1)
+            } else {
+                format!(
+                    "{} (auxiliary, stored as moment ({}, {}))",
+                    u.name, u.label.0, u.label.1
+                )
+            }
+        })
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// A text PDE's 3D stencil for `pn render --pde`, with what the renderer must ignore.
+#[derive(Clone, Debug)]
+pub struct PdeKernel {
+    /// The PDE's name (`pde NAME`).
+    pub name: String,
+    /// The 3D stencil (compiled or interpreted).
+    pub choice: pn_kernels::KernelChoice,
+    /// Storage slots `l(l+1)+m` of the auxiliary unknowns.
+    pub auxiliary_slots: Vec<usize>,
+}
+
+impl PartialEq for PdeKernel {
+    /// Same PDE name, same stencil name, same auxiliary slots.
+    fn eq(&self, other: &Self) -> bool {
+        self.name == other.name
+            && self.choice.kernel.name() == other.choice.kernel.name()
+            && self.auxiliary_slots == other.auxiliary_slots
+    }
+}
+
+impl PdeKernel {
+    /// Loads `path` ([`load`]) and builds its 3D stencil.
+    pub fn load(path: &Path, params: &[(String, String)]) -> anyhow::Result<PdeKernel> {
+        let pde = load(path, params)?;
+        let choice = pn_kernels::pde_kernel(&pde, pn_kernels::Dim::Three)
+            .with_context(|| format!("{}", path.display()))?;
+        Ok(PdeKernel {
+            name: pde.system.name.clone(),
+            choice,
+            auxiliary_slots: pde
+                .unknowns
+                .iter()
+                .filter(|u| !u.radiance)
+                .map(|u| (u.label.0 * (u.label.0 + 1) + u.label.1) as usize)
+                .collect(),
+        })
+    }
+
+    /// Sets the auxiliary unknowns of `moments` to zero.
+    pub fn zero_auxiliary(&self, moments: &mut pn_runtime::unstagger::CellMoments) {
+        let per = moments.per_cell;
+        for cell in moments.data.chunks_mut(per) {
+            for &s in &self.auxiliary_slots {
+                if s < per {
+                    cell[s] = 0.0;
+                }
+            }
+        }
+    }
+}
