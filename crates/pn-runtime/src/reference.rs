@@ -6,7 +6,8 @@
 //! (and of the albedo α and the Henyey–Greenstein g) only. The `*_world` helpers convert to
 //! the fluence φ in world units for a given σ_t.
 //!
-//! * [`pointsource`]: the semi-analytic P_N solution for any order (slab eigen-decomposition).
+//! * [`pointsource`]: the semi-analytic P_N solution for any order (slab eigen-decomposition),
+//!   CDA and SP_3 as modes of the same form.
 //! * [`closed_forms`]: CDA (= P_1), Grosjean's approximation, and the exact transport
 //!   diffusion mode for isotropic scattering.
 //! * [`gaussian`]: the same solutions for a source with a 3D Gaussian profile (for
