@@ -353,7 +353,7 @@ impl Walker<'_> {
             // Math functions of constants (from PDE text, e.g. a filter strength).
             Expr::Func(f, args) if args.len() == 1 => {
                 let x = self.constant(&args[0], "the argument of a function")?;
-                crate::text::math(f, x)
+                math(f, x)
                     .filter(|v| v.is_finite())
                     .map(|v| Lin::poly(Poly::constant(v)))
                     .ok_or_else(|| {
@@ -402,6 +402,19 @@ impl Walker<'_> {
         }
         Ok(acc)
     }
+}
+
+/// The math functions of constants that equations may contain (`Expr::Func`, from PDE
+/// text: `exp`, `ln`, `sin`, `cos`, `abs`).
+pub(crate) fn math(f: &str, x: f64) -> Option<f64> {
+    Some(match f {
+        "exp" => x.exp(),
+        "ln" => x.ln(),
+        "sin" => x.sin(),
+        "cos" => x.cos(),
+        "abs" => x.abs(),
+        _ => return None,
+    })
 }
 
 /// The stencil field of a `cas` field name.

@@ -1,5 +1,6 @@
 //! The PDE text syntax: the shipped PDE files, exactness against the built-in stencils, and
 //! errors with line and column.
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
 use pn_codegen::discretize::{cda_ir, pn_ir_for_order};
 use pn_codegen::text::{parse_pde, PdeTextError, TextPde};

@@ -10,6 +10,7 @@ use num_rational::Rational64;
 use super::lex::Pos;
 use super::parse::{Ast, BinOp, Stmt, Target};
 use super::{PdeTextError, TextPde, TextUnknown};
+use crate::discretize::math;
 use crate::pde::{PdeEquation, PdeSystem};
 use pn_stencil::Dim;
 
@@ -154,18 +155,6 @@ pub(super) fn const_value(e: &Expr) -> Option<f64> {
         Expr::Mul(fs) => fs.iter().map(const_value).product::<Option<f64>>()?,
         Expr::Pow(b, x) => const_value(b)?.powf(const_value(x)?),
         Expr::Func(f, args) if args.len() == 1 => math(f, const_value(&args[0])?)?,
-        _ => return None,
-    })
-}
-
-/// The math functions of the syntax.
-pub(crate) fn math(f: &str, x: f64) -> Option<f64> {
-    Some(match f {
-        "exp" => x.exp(),
-        "ln" => x.ln(),
-        "sin" => x.sin(),
-        "cos" => x.cos(),
-        "abs" => x.abs(),
         _ => return None,
     })
 }

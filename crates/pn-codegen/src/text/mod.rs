@@ -38,7 +38,6 @@ mod lower;
 mod parse;
 
 pub use lex::Pos;
-pub(crate) use lower::math;
 
 use crate::discretize;
 use crate::pde::PdeSystem;

@@ -24,7 +24,6 @@ pub mod cgnr;
 pub mod cgnr_mf;
 pub mod control;
 pub mod gmres;
-pub mod gmres_ilu;
 pub mod krylov;
 pub mod lsmr;
 pub mod lsqr;

@@ -43,6 +43,7 @@
 //! fraction of an `S` application, ILU(0) about one (compare seconds for those).
 
 pub mod coloring;
+pub mod fallback;
 pub mod galerkin;
 pub mod precond;
 pub mod reduced;
@@ -499,12 +500,12 @@ impl LinearSolver for ParityCg {
 
     /// Solves with parity elimination; when the matrix lacks the parity structure (a user
     /// PDE, a collocated stencil), prints why and falls back to ILU(0)-GMRES, then CGNR
-    /// ([`super::gmres_ilu::fallback`]). Call
+    /// ([`fallback::fallback`]). Call
     /// [`ParityCg::check`] first to turn that case into an error instead.
     fn solve(&self, a: &CsMat<f64>, b: &[f64], opts: &SolverOptions) -> (Vec<f64>, SolveStats) {
         match self.solve_detailed(a, b, opts) {
             Ok((u, report)) => (u, report.stats),
-            Err(e) => super::gmres_ilu::fallback(a, b, opts, &e.to_string()),
+            Err(e) => fallback::fallback(a, b, opts, &e.to_string()),
         }
     }
 }

@@ -190,7 +190,7 @@ impl LinearSolver for LayoutSolver {
                         Cgnr.solve(a, b, opts)
                     }
                 },
-                _ => super::gmres_ilu::fallback(a, b, opts, &e.to_string()),
+                _ => super::parity::fallback::fallback(a, b, opts, &e.to_string()),
             },
         }
     }

@@ -4,15 +4,15 @@
 //!
 //! The preconditioner is the incomplete LU factorisation of `A` on its own pattern
 //! ([`Ilu0`], the one the parity solvers use on the reduced system), applied from the right
-//! ([`super::gmres`]), so the tolerance is on the true residual `‖b − Au‖₂/‖b‖₂`. When the
+//! ([`crate::solver::gmres`]), so the tolerance is on the true residual `‖b − Au‖₂/‖b‖₂`. When the
 //! factorisation meets a zero pivot or GMRES does not reach the tolerance, CGNR (the
 //! paper's baseline, robust for any non-singular `A`) takes over from zero.
 
-use super::cgnr::Cgnr;
-use super::control::run_from_zero;
-use super::parity::precond::Ilu0;
-use super::{LinearSolver, SolveStats, SolveStatus, SolverOptions};
+use super::precond::Ilu0;
 use crate::operator::AssembledOperator;
+use crate::solver::cgnr::Cgnr;
+use crate::solver::control::run_from_zero;
+use crate::solver::{LinearSolver, SolveStats, SolveStatus, SolverOptions};
 use sprs::CsMat;
 
 /// GMRES with ILU(0) on `a u = b` from zero; `None` when ILU(0) breaks down or GMRES
@@ -25,7 +25,7 @@ pub fn gmres_ilu(
     let ilu = Ilu0::new(a).ok()?;
     let op = AssembledOperator::new(a);
     let (x, stats) = run_from_zero(&op, b, opts, "gmres-ilu", |a, _bnorm, x, ctl| {
-        super::gmres::gmres(a, &ilu, b, x, ctl).status()
+        crate::solver::gmres::gmres(a, &ilu, b, x, ctl).status()
     });
     (stats.status == SolveStatus::Converged).then_some((x, stats))
 }
