@@ -74,6 +74,26 @@ fn compiled_and_interpreted_stencils_agree() {
             }
         }
     }
+    // The PDE text files build.rs compiles by default (every pdes/*.pde), both dimensions.
+    let pde_dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../pdes");
+    let mut pde_files = 0;
+    for entry in std::fs::read_dir(&pde_dir).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_some_and(|x| x == "pde") {
+            pde_files += 1;
+            let text = std::fs::read_to_string(&path).unwrap();
+            let pde = pn_codegen::text::parse_pde(&text, &[]).unwrap();
+            for dim in [Dim::Two, Dim::Three] {
+                let ir = pde.ir(dim).unwrap();
+                if std::env::var_os("PN_PDES").is_none() {
+                    assert_eq!(compiled::fingerprint(&ir.name), Some(ir.fingerprint()));
+                }
+                if compiled::find(&ir.name).is_some() {
+                    irs.push(ir);
+                }
+            }
+        }
+    }
     for ir in irs {
         let k = compiled::find(&ir.name).unwrap_or_else(|| panic!("{} not compiled", ir.name));
         assert_same_kernel(k, &InterpretedKernel::new(ir.clone()));
@@ -88,8 +108,9 @@ fn compiled_and_interpreted_stencils_agree() {
         );
     }
     // The default build (PN_ORDERS unset) compiles P_1..P_5 in 2D/3D, both layouts.
-    if std::env::var_os("PN_ORDERS").is_none() {
-        assert_eq!(compiled::KERNELS.len(), 5 * 2 * 2 + 4);
+    // and the PDE files in both dimensions.
+    if std::env::var_os("PN_ORDERS").is_none() && std::env::var_os("PN_PDES").is_none() {
+        assert_eq!(compiled::KERNELS.len(), 5 * 2 * 2 + 4 + 2 * pde_files);
     }
 }
 
