@@ -192,6 +192,17 @@ def test_ctrl_c_interrupts_a_solve_and_the_interpreter_goes_on():
     """KeyboardInterrupt (here from _thread.interrupt_main, as Ctrl-C would) ends the call
     within a fraction of the solve's time; the next call works."""
     import _thread
+    import signal
+    # interrupt_main() does nothing where SIGINT is ignored (a shell's background job):
+    # install Python's own handler for this test.
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        _interrupt_a_solve(_thread)
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
+def _interrupt_a_solve(_thread):
     scene = pnsolver.Scene.load("sphere")
     t0 = time.perf_counter()
     pnsolver.solve(scene, threads=1)
