@@ -98,7 +98,8 @@ pub struct FirstScatterProblem {
     /// Fields and sources on the solve grid; Dirichlet boundary (light leaves);
     /// σ_t threshold from the scene or automatic where vacuum is present.
     pub problem: Problem,
-    /// Transmittance from each density-voxel centre to each light (on [`density_as_grid`]).
+    /// Transmittance from each density-voxel centre to each light (on [`density_as_grid`]),
+    /// at the voxels near the medium ([`DeepShadowMaps::compute_near_medium`]; 0 elsewhere).
     pub shadows: DeepShadowMaps,
     /// Whether the σ_t threshold was chosen automatically.
     pub auto_sigma_t_min: bool,
@@ -161,7 +162,7 @@ pub fn first_scatter_problem_with_shadows(
             );
             s
         }
-        None => DeepShadowMaps::compute(&ext, &vgrid, &scene.lights),
+        None => DeepShadowMaps::compute_near_medium(&ext, &scene.lights),
     };
     let seconds_shadow_maps = t0.elapsed().as_secs_f64();
     let t1 = std::time::Instant::now();

@@ -125,17 +125,48 @@ impl Extinction<'_> {
             }
             DensityFilter::Trilinear => {
                 // Dual lattice: cell 0 is [bbox_min − h/2, c_0], cell n is [c_{n−1}, bbox_max
-                // + h/2]; the box clip cuts the outer ones to the half-voxel slabs.
+                // + h/2]; the box clip cuts the outer ones to the half-voxel slabs. Inside dual
+                // cell c the field is the trilinear blend of the 8 voxels (c−1, c) per axis
+                // (clamped to the grid: constant along an axis in its outer slabs), so the
+                // corners are read once per cell and cells with 8 empty corners add nothing.
                 let h = g.h();
                 let lo = [0, 1, 2].map(|d| g.bbox_min[d] - 0.5 * h[d]);
                 let n = g.res.map(|v| v + 1);
+                // Voxel-centre coordinate u = (x − bbox_min)·res/extent − ½ (as `sample`).
+                let scale = [0, 1, 2].map(|d| g.res[d] as f64 / (g.bbox_max[d] - g.bbox_min[d]));
                 // 2-point Gauss–Legendre nodes on [0, 1]: ½ ∓ 1/(2√3), weights ½.
                 let off = 0.5 / 3f64.sqrt();
-                let at = |t: f64| g.density_at([0, 1, 2].map(|d| origin[d] + t * dir[d]));
-                self.traverse_lattice(origin, dir, tmax, lo, n, |a, b, _| {
+                let [rx, ry, _] = g.res;
+                let data = &g.data;
+                self.traverse_lattice(origin, dir, tmax, lo, n, |a, b, cell| {
+                    let pair = |d: usize| {
+                        let top = g.res[d] as i64 - 1;
+                        (
+                            (cell[d] - 1).clamp(0, top) as usize,
+                            cell[d].clamp(0, top) as usize,
+                        )
+                    };
+                    let ((x0, x1), (y0, y1), (z0, z1)) = (pair(0), pair(1), pair(2));
+                    let at = |i: usize, j: usize, k: usize| data[(k * ry + j) * rx + i] as f64;
+                    // c[z][y][x] with 0 = the lower voxel of the pair.
+                    let c = [z0, z1].map(|k| [y0, y1].map(|j| [at(x0, j, k), at(x1, j, k)]));
+                    if c.iter().flatten().flatten().all(|v| *v == 0.0) {
+                        return;
+                    }
                     let len = b - a;
                     let mid = 0.5 * (a + b);
-                    tau += 0.5 * len * (at(mid - off * len) + at(mid + off * len));
+                    let blend = |t: f64| {
+                        // Fractions inside the cell (the lower voxel's centre is at u = c − 1).
+                        let f = [0, 1, 2].map(|d| {
+                            let u = (origin[d] + t * dir[d] - g.bbox_min[d]) * scale[d] - 0.5;
+                            u - (cell[d] - 1) as f64
+                        });
+                        let lerp = |p: f64, q: f64, w: f64| p + w * (q - p);
+                        let row = |r: [f64; 2]| lerp(r[0], r[1], f[0]);
+                        let plane = |pl: [[f64; 2]; 2]| lerp(row(pl[0]), row(pl[1]), f[1]);
+                        lerp(plane(c[0]), plane(c[1]), f[2])
+                    };
+                    tau += 0.5 * len * (blend(mid - off * len) + blend(mid + off * len));
                 });
             }
         }
@@ -241,6 +272,42 @@ impl DeepShadowMaps {
                         let (i, j, k) = (c / (ny * nz), (c / nz) % ny, c % nz);
                         let x = cell_centre(grid, [i, j, k]);
                         ext.transmittance_to(x, light)
+                    })
+                    .collect()
+            })
+            .collect();
+        Self { maps }
+    }
+
+    /// The maps at the voxel centres of the extinction's own density grid (the cells of
+    /// [`super::first_scatter::density_as_grid`]), computed only where they can be read: at
+    /// voxels within one voxel (the 26-neighbourhood) of a voxel with non-zero density.
+    /// Elsewhere they hold 0. The first-scatter source reads T only at voxels with σ_s > 0,
+    /// and a trilinear read of τ at a point of non-zero density (either filter) only reads
+    /// the 8 voxel centres around it, which all lie within one voxel of a non-empty voxel;
+    /// so every value that is used equals [`Self::compute`]'s, and rays from the empty space
+    /// around the medium are not traced.
+    pub fn compute_near_medium(ext: &Extinction, lights: &[Light]) -> Self {
+        let g = ext.grid;
+        let [nx, ny, nz] = g.res;
+        let grid = super::first_scatter::density_as_grid(g);
+        let occupied = |i: usize, j: usize, k: usize| g.data[g.index(i, j, k)] != 0.0;
+        let near = |i: usize, j: usize, k: usize| {
+            let span = |c: usize, n: usize| c.saturating_sub(1)..=(c + 1).min(n - 1);
+            span(i, nx).any(|a| span(j, ny).any(|b| span(k, nz).any(|c| occupied(a, b, c))))
+        };
+        let maps = lights
+            .iter()
+            .map(|light| {
+                (0..nx * ny * nz)
+                    .into_par_iter()
+                    .map(|c| {
+                        let (i, j, k) = (c / (ny * nz), (c / nz) % ny, c % nz);
+                        if near(i, j, k) {
+                            ext.transmittance_to(cell_centre(&grid, [i, j, k]), light)
+                        } else {
+                            0.0
+                        }
                     })
                     .collect()
             })
@@ -444,6 +511,97 @@ mod tests {
                     "{filter:?} {o:?}: {tau} vs {brute}"
                 );
             }
+        }
+    }
+
+    /// The maps near the medium equal the full maps at every voxel within one voxel of a
+    /// non-empty one, hold 0 elsewhere, and give the same τ at any point of non-zero density
+    /// through the voxel-centre interpolation of `LightDepth` (both filters, a point light so
+    /// that the voxel-centre grid is what the renderer reads).
+    #[test]
+    fn shadow_maps_near_the_medium_agree_where_they_are_read() {
+        use crate::render::light_depth::LightDepth;
+        // A 9³ grid with two blobs of density and empty space between them and the faces.
+        let n = 9;
+        let mut data = vec![0.0f32; n * n * n];
+        for (i, j, k, v) in [
+            (2, 2, 2, 1.0),
+            (3, 2, 2, 0.5),
+            (6, 6, 5, 2.0),
+            (6, 5, 5, 0.3),
+        ] {
+            data[(k * n + j) * n + i] = v;
+        }
+        let base = DensityGrid::new([n; 3], [-1.0; 3], [1.0; 3], data).unwrap();
+        let lights = [
+            Light::Point {
+                position: [1.7, 2.1, -1.3],
+                power: 1.0,
+            },
+            Light::Directional {
+                direction: [0.3, -0.9, 0.3],
+                irradiance: 1.0,
+            },
+        ];
+        for filter in [DensityFilter::Trilinear, DensityFilter::Nearest] {
+            let g = base.clone().with_filter(filter);
+            let ext = Extinction {
+                grid: &g,
+                scale: 3.0,
+            };
+            let full = DeepShadowMaps::compute(
+                &ext,
+                &super::super::first_scatter::density_as_grid(&g),
+                &lights,
+            );
+            let near = DeepShadowMaps::compute_near_medium(&ext, &lights);
+            let mut skipped = 0;
+            for (f, m) in full.maps.iter().zip(&near.maps) {
+                for c in 0..f.len() {
+                    let (i, j, k) = (c / (n * n), (c / n) % n, c % n);
+                    let close = (0..n * n * n).any(|o| {
+                        let (a, b, d) = (o % n, (o / n) % n, o / (n * n));
+                        g.at(a, b, d) > 0.0
+                            && a.abs_diff(i) <= 1
+                            && b.abs_diff(j) <= 1
+                            && d.abs_diff(k) <= 1
+                    });
+                    if close {
+                        assert_eq!(m[c], f[c], "{filter:?} voxel ({i}, {j}, {k})");
+                    } else {
+                        assert_eq!(m[c], 0.0);
+                        skipped += 1;
+                    }
+                }
+            }
+            assert!(skipped > 1000, "{skipped}");
+            let a = LightDepth::from_shadow_maps(
+                &ext,
+                &lights[..1],
+                &DeepShadowMaps {
+                    maps: vec![full.maps[0].clone()],
+                },
+            )
+            .unwrap();
+            let b = LightDepth::from_shadow_maps(
+                &ext,
+                &lights[..1],
+                &DeepShadowMaps {
+                    maps: vec![near.maps[0].clone()],
+                },
+            )
+            .unwrap();
+            let mut read = 0;
+            // A lattice three times finer than the voxels, off the voxel planes.
+            for s in 0..27 * 27 * 27 {
+                let x =
+                    [s % 27, (s / 27) % 27, s / 729].map(|a| -1.0 + 2.0 * (a as f64 + 0.37) / 27.0);
+                if ext.sigma_t(x) > 0.0 {
+                    read += 1;
+                    assert_eq!(a.tau(&ext, 0, x), b.tau(&ext, 0, x), "{filter:?} {x:?}");
+                }
+            }
+            assert!(read > 20, "{read}");
         }
     }
 
