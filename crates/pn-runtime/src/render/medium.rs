@@ -35,6 +35,7 @@
 
 use crate::field::VoxelGrid;
 use anyhow::{bail, ensure, Context};
+use rayon::prelude::*;
 
 /// ⌊x⌋ for finite |x| < 2⁶³ without the libm call `f64::floor` becomes on baseline x86-64
 /// (no SSE4.1 `roundsd`): truncation, one down for negative non-integers. The renderers'
@@ -475,7 +476,8 @@ impl Procedural {
                 format!("medium resolution {res:?} exceeds {MAX_PROCEDURAL_VOXELS} voxels")
             })?;
         let mut data = vec![0.0f32; n];
-        for (idx, v) in data.iter_mut().enumerate() {
+        // Each voxel is a function of its centre and the seed alone: parallel, same values.
+        data.par_iter_mut().enumerate().for_each(|(idx, v)| {
             let c = [
                 idx % res[0],
                 (idx / res[0]) % res[1],
@@ -484,7 +486,7 @@ impl Procedural {
             // Voxel centre mapped to [−1, 1].
             let u = [0, 1, 2].map(|d| 2.0 * (c[d] as f64 + 0.5) / res[d] as f64 - 1.0);
             *v = self.density(u, seed) as f32;
-        }
+        });
         DensityGrid::new(res, bbox_min, bbox_max, data)
     }
 }
