@@ -25,6 +25,7 @@ use pn_runtime::render::scene::{RenderMethod, RendererKind};
 use pn_runtime::render::shadow::{DeepShadowMaps, Extinction};
 use pn_runtime::render::solve_setup::solve_grid;
 use pn_runtime::render::{Camera, DensityFilter, DensityGrid, RenderScene, SceneOverride};
+use pn_runtime::solver::multigrid::FineCycle;
 use pn_runtime::solver::{SolverKind, SolverOptions, SolverTuning};
 use pn_runtime::unstagger::CellMoments;
 use serde::Serialize;
@@ -788,6 +789,28 @@ fn solver_line(s: &SolverReport) -> String {
     )
 }
 
+/// The solver tuning of render solves: `tuning` with the multigrid's finest level
+/// multiplicative (Chebyshev smoothing around the coarse correction) unless a fine cycle was
+/// asked for (`PN_MG_ADDITIVE`). The solver's own default joins the finest level additively
+/// where the operator is symmetric, which is best on homogeneous media (80³ P_1 point source,
+/// docs/solvers.md); render media are clouds in near-vacuum with the hull absorber around
+/// them, where the additive form needs 3–4× the iterations. Measured 2026-12-04
+/// (`PN_SOLVER_PROFILE=1 pn render <scene> --order N --solve-res R`, CG iterations and
+/// iterate seconds, additive → multiplicative): P_3 @ 16³ puff 224 → 66 (0.34 → 0.21 s),
+/// nebula 209 → 65 (0.32 → 0.20 s), cumulus 254 → 74 (0.39 → 0.23 s); P_5 @ 32³ puff 351 →
+/// 102 (5.3 → 4.2 s), nebula 320 → 98 (3.9 → 3.3 s), cumulus 400 → 115 (5.8 → 4.4 s), cloud
+/// 348 → 102 (4.9 → 4.4 s).
+fn render_tuning(tuning: &SolverTuning) -> SolverTuning {
+    let mut mg = tuning.multigrid.clone().unwrap_or_default();
+    if mg.fine_cycle == FineCycle::AdditiveIfSymmetric {
+        mg.fine_cycle = FineCycle::Multiplicative;
+    }
+    SolverTuning {
+        multigrid: Some(mg),
+        ..tuning.clone()
+    }
+}
+
 /// Solves the multiple scattering: P_N / CDA through the stencil and parity-MG, FLD through
 /// its Gauss–Seidel solver (Levermore–Pomraning limiter). Returns the cell-centred moments.
 fn solve_ms(
@@ -855,7 +878,7 @@ fn solve_ms(
     let opts = SolverOptions {
         tol,
         progress,
-        tuning: tuning.clone(),
+        tuning: render_tuning(tuning),
         ..Default::default()
     };
     // Always multigrid: parity-cg's automatic choice for small systems, ILU(0)-preconditioned
