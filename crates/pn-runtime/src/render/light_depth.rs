@@ -26,7 +26,7 @@
 //! built in the light's frame ([`PlaneDepth`]): planes perpendicular to the travel direction
 //! d, one smallest voxel side apart, each holding τ on a square lattice of spacing
 //! `h_⊥ = `[`PLANE_SPACING`]` × smallest voxel side`, computed exactly column by column
-//! (one [`Extinction::optical_depth`] per plane interval). A lookup at x takes the plane
+//! (one traversal per column, [`Extinction::optical_depth_at_marks`]). A lookup at x takes the plane
 //! upstream of x, interpolates τ *bilinearly in the plane only*, and adds the exact optical
 //! depth of the short segment (shorter than one voxel side) from x back to that plane.
 //! The only approximation left is the transverse interpolation, O(h_⊥²·|∂²_⊥τ|) where τ is
@@ -48,8 +48,13 @@ use rayon::prelude::*;
 pub const MAX_TAU: f64 = 745.0;
 
 /// Transverse lattice spacing of the light-frame planes of a directional light, in units of
-/// the smallest voxel side (the planes themselves are one voxel side apart).
-pub const PLANE_SPACING: f64 = 0.5;
+/// the smallest voxel side (the planes themselves are one voxel side apart). The transverse
+/// interpolation error is O(h_⊥²): single scattering of `scenes/cumulus.toml` (96×96) against
+/// exact transmittance has relative bias −0.57 % at spacing ½ and −0.14 % at ¼ (2026-12-04);
+/// the built-in cloud (test `light_depth_grid_error_on_the_cloud`) −0.15 % and −0.04 %. Each
+/// column is one traversal ([`Extinction::optical_depth_at_marks`]), so ¼ costs about what ½
+/// did with one traversal per plane interval (cumulus: 0.08 s against 0.09 s).
+pub const PLANE_SPACING: f64 = 0.25;
 
 /// Optical depth at which a light-frame column stops (T = e^{−40} < 10⁻¹⁷).
 pub const TAU_CUTOFF: f64 = 40.0;
@@ -127,17 +132,13 @@ impl PlaneDepth {
             .map(|c| {
                 let (u, v) = (u0 + (c / nv) as f64 * hu, v0 + (c % nv) as f64 * hu);
                 let at = |s: f64| [0, 1, 2].map(|q| u * e1[q] + v * e2[q] + s * d[q]);
-                let mut col = vec![0.0f32; ns];
-                let mut tau = 0.0;
-                for (k, slot) in col.iter_mut().enumerate().skip(1) {
-                    if tau > TAU_CUTOFF {
-                        *slot = f32::INFINITY;
-                        continue;
-                    }
-                    tau += ext.optical_depth(at(s0 + (k - 1) as f64 * ds), d, ds);
-                    *slot = tau as f32;
-                }
-                col
+                // τ at the planes k = 1, 2, … from plane 0, in one exact traversal.
+                let marks: Vec<f64> = (1..ns).map(|k| k as f64 * ds).collect();
+                let mut depth = vec![0.0; ns - 1];
+                ext.optical_depth_at_marks(at(s0), d, &marks, TAU_CUTOFF, &mut depth);
+                std::iter::once(0.0f32)
+                    .chain(depth.iter().map(|t| *t as f32))
+                    .collect::<Vec<f32>>()
             })
             .collect();
         let mut tau = vec![0.0f32; nu * nv * ns];

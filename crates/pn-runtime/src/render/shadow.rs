@@ -112,15 +112,86 @@ impl Extinction<'_> {
     /// Optical depth ∫σ_t along `origin + t·dir`, `t ∈ [0, tmax]`, `dir` a unit vector
     /// (other lengths give ∫σ_t dt in units of t), exact for the grid's filter (module docs).
     pub fn optical_depth(&self, origin: [f64; 3], dir: [f64; 3], tmax: f64) -> f64 {
-        let g = self.grid;
         let mut tau = 0.0;
+        self.walk_pieces(origin, dir, tmax, |a, b, piece| {
+            tau += piece.integral(a, b);
+            true
+        });
+        self.scale * tau
+    }
+
+    /// The optical depth from `origin` to each of the increasing parameters `marks` along
+    /// `dir` (`τ(marks[i])`, exact as [`Self::optical_depth`]), in one traversal. Once a
+    /// depth exceeds `cutoff` the walk stops and the later marks get +∞.
+    pub fn optical_depth_at_marks(
+        &self,
+        origin: [f64; 3],
+        dir: [f64; 3],
+        marks: &[f64],
+        cutoff: f64,
+        out: &mut [f64],
+    ) {
+        let Some(&last) = marks.last() else {
+            return;
+        };
+        let mut tau = 0.0;
+        let mut next = 0;
+        let mut past_cutoff = false;
+        // Marks at or before `t` get the depth accumulated so far (the pieces between them
+        // and `t`, if any, were empty); false once the cutoff is passed.
+        let mut settle = |t: f64, tau: f64, next: &mut usize, past: &mut bool| {
+            while *next < marks.len() && marks[*next] <= t {
+                out[*next] = tau;
+                *next += 1;
+                if tau > cutoff {
+                    *past = true;
+                    return false;
+                }
+            }
+            true
+        };
+        self.walk_pieces(origin, dir, last, |a, b, piece| {
+            if !settle(a, self.scale * tau, &mut next, &mut past_cutoff) {
+                return false;
+            }
+            let mut from = a;
+            while next < marks.len() && marks[next] <= b {
+                tau += piece.integral(from, marks[next]);
+                from = marks[next];
+                if !settle(from, self.scale * tau, &mut next, &mut past_cutoff) {
+                    return false;
+                }
+            }
+            tau += piece.integral(from, b);
+            true
+        });
+        if !past_cutoff {
+            settle(f64::INFINITY, self.scale * tau, &mut next, &mut past_cutoff);
+        }
+        for v in &mut out[next..marks.len()] {
+            *v = f64::INFINITY;
+        }
+    }
+
+    /// Calls `visit(t_enter, t_exit, piece)` for every piece of the segment `origin + t·dir`,
+    /// `t ∈ [0, tmax]`, inside the box on which the filtered density is one polynomial, in
+    /// order, skipping pieces where it vanishes, until `visit` returns false.
+    fn walk_pieces(
+        &self,
+        origin: [f64; 3],
+        dir: [f64; 3],
+        tmax: f64,
+        mut visit: impl FnMut(f64, f64, &Piece) -> bool,
+    ) {
+        let g = self.grid;
+        let Some((t0, t1)) = self.clip(origin, dir, tmax) else {
+            return;
+        };
         match g.filter {
             DensityFilter::Nearest => {
-                self.traverse(origin, dir, tmax, |a, b, [i, j, k]| {
-                    let rho = g.at(i, j, k);
-                    if rho > 0.0 {
-                        tau += rho * (b - a);
-                    }
+                walk_lattice(origin, dir, t0, t1, g.bbox_min, g.h(), g.res, |a, b, c| {
+                    let rho = g.at(c[0] as usize, c[1] as usize, c[2] as usize);
+                    rho <= 0.0 || visit(a, b, &Piece::Constant(rho))
                 });
             }
             DensityFilter::Trilinear => {
@@ -128,17 +199,15 @@ impl Extinction<'_> {
                 // + h/2]; the box clip cuts the outer ones to the half-voxel slabs. Inside dual
                 // cell c the field is the trilinear blend of the 8 voxels (c−1, c) per axis
                 // (clamped to the grid: constant along an axis in its outer slabs), so the
-                // corners are read once per cell and cells with 8 empty corners add nothing.
+                // corners are read once per cell and cells with 8 empty corners are skipped.
                 let h = g.h();
                 let lo = [0, 1, 2].map(|d| g.bbox_min[d] - 0.5 * h[d]);
                 let n = g.res.map(|v| v + 1);
                 // Voxel-centre coordinate u = (x − bbox_min)·res/extent − ½ (as `sample`).
                 let scale = [0, 1, 2].map(|d| g.res[d] as f64 / (g.bbox_max[d] - g.bbox_min[d]));
-                // 2-point Gauss–Legendre nodes on [0, 1]: ½ ∓ 1/(2√3), weights ½.
-                let off = 0.5 / 3f64.sqrt();
                 let [rx, ry, _] = g.res;
                 let data = &g.data;
-                self.traverse_lattice(origin, dir, tmax, lo, n, |a, b, cell| {
+                walk_lattice(origin, dir, t0, t1, lo, h, n, |a, b, cell| {
                     let pair = |d: usize| {
                         let top = g.res[d] as i64 - 1;
                         (
@@ -151,26 +220,18 @@ impl Extinction<'_> {
                     // c[z][y][x] with 0 = the lower voxel of the pair.
                     let c = [z0, z1].map(|k| [y0, y1].map(|j| [at(x0, j, k), at(x1, j, k)]));
                     if c.iter().flatten().flatten().all(|v| *v == 0.0) {
-                        return;
+                        return true;
                     }
-                    let len = b - a;
-                    let mid = 0.5 * (a + b);
-                    let blend = |t: f64| {
-                        // Fractions inside the cell (the lower voxel's centre is at u = c − 1).
-                        let f = [0, 1, 2].map(|d| {
-                            let u = (origin[d] + t * dir[d] - g.bbox_min[d]) * scale[d] - 0.5;
-                            u - (cell[d] - 1) as f64
-                        });
-                        let lerp = |p: f64, q: f64, w: f64| p + w * (q - p);
-                        let row = |r: [f64; 2]| lerp(r[0], r[1], f[0]);
-                        let plane = |pl: [[f64; 2]; 2]| lerp(row(pl[0]), row(pl[1]), f[1]);
-                        lerp(plane(c[0]), plane(c[1]), f[2])
-                    };
-                    tau += 0.5 * len * (blend(mid - off * len) + blend(mid + off * len));
+                    // Fraction inside the cell at t: base + t·slope (the lower voxel's centre
+                    // is at u = c − 1).
+                    let base = [0, 1, 2].map(|d| {
+                        (origin[d] - g.bbox_min[d]) * scale[d] - 0.5 - (cell[d] - 1) as f64
+                    });
+                    let slope = [0, 1, 2].map(|d| dir[d] * scale[d]);
+                    visit(a, b, &Piece::Trilinear { c, base, slope })
                 });
             }
         }
-        self.scale * tau
     }
 
     /// Transmittance from `x` to `light` (T = exp(−τ)); 1 for a point light at `x`.
@@ -181,6 +242,43 @@ impl Extinction<'_> {
         }
         let back = inc.travel.map(|c| -c);
         (-self.optical_depth(x, back, inc.distance)).exp()
+    }
+}
+
+/// The filtered density on one piece of a ray ([`Extinction::walk_pieces`]).
+enum Piece {
+    /// Constant (the nearest filter's voxel).
+    Constant(f64),
+    /// The trilinear blend of the corners `c[z][y][x]` of a dual-lattice cell at the
+    /// in-cell fractions `base + t·slope`.
+    Trilinear {
+        c: [[[f64; 2]; 2]; 2],
+        base: [f64; 3],
+        slope: [f64; 3],
+    },
+}
+
+impl Piece {
+    /// ∫ρ dt over `[a, b]` (same units as the ray parameter): exact, the trilinear blend
+    /// being a cubic in t on the piece and 2-point Gauss–Legendre exact for cubics.
+    #[inline]
+    fn integral(&self, a: f64, b: f64) -> f64 {
+        match self {
+            Piece::Constant(rho) => rho * (b - a),
+            Piece::Trilinear { c, base, slope } => {
+                // Nodes ½ ∓ 1/(2√3) on [0, 1], weights ½.
+                let off = 0.5 / 3f64.sqrt();
+                let (len, mid) = (b - a, 0.5 * (a + b));
+                let blend = |t: f64| {
+                    let f = [0, 1, 2].map(|d| base[d] + t * slope[d]);
+                    let lerp = |p: f64, q: f64, w: f64| p + w * (q - p);
+                    let row = |r: [f64; 2]| lerp(r[0], r[1], f[0]);
+                    let plane = |pl: [[f64; 2]; 2]| lerp(row(pl[0]), row(pl[1]), f[1]);
+                    lerp(plane(c[0]), plane(c[1]), f[2])
+                };
+                0.5 * len * (blend(mid - off * len) + blend(mid + off * len))
+            }
+        }
     }
 }
 
@@ -511,6 +609,50 @@ mod tests {
                     "{filter:?} {o:?}: {tau} vs {brute}"
                 );
             }
+        }
+    }
+
+    /// The depths at marks from one traversal equal the sums of separate traversals of
+    /// the intervals between them (both filters, marks inside and outside the box), and the
+    /// marks after the first depth above the cutoff are +∞.
+    #[test]
+    fn optical_depth_at_marks_equals_interval_sums() {
+        let data: Vec<f32> = (0..60).map(|v| ((v * 37) % 11) as f32 * 0.3).collect();
+        let base = DensityGrid::new([5, 4, 3], [-1.0, -0.5, 0.0], [1.5, 1.5, 0.9], data).unwrap();
+        let o = [-1.6, -0.2, 0.1];
+        let l = (3.0f64 * 3.0 + 1.2 * 1.2 + 0.5 * 0.5).sqrt();
+        let d = [3.0 / l, 1.2 / l, 0.5 / l];
+        let marks: Vec<f64> = (1..=16).map(|k| 0.27 * k as f64).collect();
+        for filter in [DensityFilter::Trilinear, DensityFilter::Nearest] {
+            let g = base.clone().with_filter(filter);
+            let ext = Extinction {
+                grid: &g,
+                scale: 1.3,
+            };
+            let mut at_marks = vec![0.0; marks.len()];
+            ext.optical_depth_at_marks(o, d, &marks, f64::INFINITY, &mut at_marks);
+            let mut sum = 0.0;
+            let mut from = 0.0;
+            for (m, got) in marks.iter().zip(&at_marks) {
+                let start = [0, 1, 2].map(|q| o[q] + from * d[q]);
+                sum += ext.optical_depth(start, d, m - from);
+                from = *m;
+                assert!(
+                    (got - sum).abs() <= 1e-12 * sum.max(1.0),
+                    "{filter:?} {m}: {got} vs {sum}"
+                );
+            }
+            assert!(
+                sum > 1.0 && at_marks[0] == 0.0,
+                "the ray starts outside the box"
+            );
+            // Cut off at half the total: the first mark beyond it is kept, the rest +∞.
+            let cut = 0.5 * sum;
+            let mut cutoff = vec![0.0; marks.len()];
+            ext.optical_depth_at_marks(o, d, &marks, cut, &mut cutoff);
+            let first = at_marks.iter().position(|t| *t > cut).unwrap();
+            assert_eq!(cutoff[..=first], at_marks[..=first]);
+            assert!(cutoff[first + 1..].iter().all(|t| t.is_infinite()));
         }
     }
 
