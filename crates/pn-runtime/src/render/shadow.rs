@@ -3,15 +3,17 @@
 //! The optical depth along a segment is **exact** (to rounding) for both voxel filters of
 //! [`super::medium`]:
 //!
-//! * nearest: a 3D DDA (Amanatides & Woo, [`Extinction::traverse`]) visits every voxel the
-//!   segment crosses and sums σ_t·(length inside the voxel);
+//! * nearest: a 3D DDA (Amanatides & Woo, `walk_lattice`) visits every voxel the segment
+//!   crosses and sums σ_t·(length inside the voxel);
 //! * trilinear: the field ρ = Σ ρ_ijk φ_i(x) φ_j(y) φ_k(z) is, inside each cell of the
 //!   lattice of voxel **centres** (and in the clamped outer half-voxel slabs, where it is
 //!   constant along the clamped axes), a product of three functions linear in x, y, z, so
 //!   along a line it is a polynomial of degree ≤ 3 in t. The same DDA on that dual lattice
 //!   (planes at the voxel centres, the box faces as the ends) cuts the segment where the
 //!   polynomial changes, and 2-point Gauss–Legendre per piece (exact for degree 3)
-//!   integrates it exactly.
+//!   integrates it exactly. Each dual cell's 8 voxels are read once, and cells whose 8
+//!   voxels are empty are skipped ([`Extinction::optical_depth`]); a column of depths at
+//!   many points along one ray is one traversal ([`Extinction::optical_depth_at_marks`]).
 //!
 //! Transmittance T = exp(−optical depth).
 //!
@@ -68,45 +70,6 @@ impl Extinction<'_> {
             t1 = t1.min(b);
         }
         (t0 < t1).then_some((t0, t1))
-    }
-
-    /// Calls `visit(t_enter, t_exit, voxel)` for every voxel crossed by the segment
-    /// `origin + t·dir`, `t ∈ [0, tmax]` (`dir` need not be unit; `t` is in its units), in
-    /// order. `tmax` may be infinite. These are the pieces on which the **nearest** field is
-    /// constant; [`Self::optical_depth`] uses the lattice of the grid's filter.
-    pub fn traverse(
-        &self,
-        origin: [f64; 3],
-        dir: [f64; 3],
-        tmax: f64,
-        mut visit: impl FnMut(f64, f64, [usize; 3]),
-    ) {
-        let g = self.grid;
-        self.traverse_lattice(origin, dir, tmax, g.bbox_min, g.res, |a, b, c| {
-            visit(a, b, c.map(|v| v as usize))
-        });
-    }
-
-    /// Calls `visit(t_enter, t_exit, cell)` for every cell of the lattice with lower corner
-    /// `lo`, the grid's voxel size and `n` cells per axis, crossed by the part of the
-    /// segment inside the medium box (which must lie inside the lattice).
-    fn traverse_lattice(
-        &self,
-        origin: [f64; 3],
-        dir: [f64; 3],
-        tmax: f64,
-        lo: [f64; 3],
-        n: [usize; 3],
-        mut visit: impl FnMut(f64, f64, [i64; 3]),
-    ) {
-        let g = self.grid;
-        let Some((t0, t1)) = self.clip(origin, dir, tmax) else {
-            return;
-        };
-        walk_lattice(origin, dir, t0, t1, lo, g.h(), n, |ta, tb, cell| {
-            visit(ta, tb, cell);
-            true
-        });
     }
 
     /// Optical depth ∫σ_t along `origin + t·dir`, `t ∈ [0, tmax]`, `dir` a unit vector
@@ -717,22 +680,13 @@ mod tests {
                 }
             }
             assert!(skipped > 1000, "{skipped}");
-            let a = LightDepth::from_shadow_maps(
-                &ext,
-                &lights[..1],
-                &DeepShadowMaps {
-                    maps: vec![full.maps[0].clone()],
-                },
-            )
-            .unwrap();
-            let b = LightDepth::from_shadow_maps(
-                &ext,
-                &lights[..1],
-                &DeepShadowMaps {
-                    maps: vec![near.maps[0].clone()],
-                },
-            )
-            .unwrap();
+            let point_light_depth = |m: &DeepShadowMaps| {
+                let maps = DeepShadowMaps {
+                    maps: vec![m.maps[0].clone()],
+                };
+                LightDepth::from_shadow_maps(&ext, &lights[..1], &maps).unwrap()
+            };
+            let (a, b) = (point_light_depth(&full), point_light_depth(&near));
             let mut read = 0;
             // A lattice three times finer than the voxels, off the voxel planes.
             for s in 0..27 * 27 * 27 {
