@@ -45,6 +45,7 @@ use super::solve_setup::{add_absorbing_layer, cell_average, resample};
 use crate::field::{Field, VoxelGrid};
 use crate::problem::{Boundary, Grid, Phase, Problem, Scattering, SourceTerm};
 use pn_stencil::quadrature::real_sh;
+use rayon::prelude::*;
 use std::sync::Arc;
 
 /// The source moments `Q_l^m`, l ≤ `max_band`, at the cell centres of `grid`
@@ -99,7 +100,7 @@ pub struct FirstScatterProblem {
     /// σ_t threshold from the scene or automatic where vacuum is present.
     pub problem: Problem,
     /// Transmittance from each density-voxel centre to each light (on [`density_as_grid`]),
-    /// at the voxels near the medium ([`DeepShadowMaps::compute_near_medium`]; 0 elsewhere).
+    /// at the voxels near the medium ([`shadow_maps_near_medium`]; 0 elsewhere).
     pub shadows: DeepShadowMaps,
     /// Whether the σ_t threshold was chosen automatically.
     pub auto_sigma_t_min: bool,
@@ -117,6 +118,42 @@ pub fn density_as_grid(density: &DensityGrid) -> Grid {
         max: density.bbox_max,
         res: density.res,
     }
+}
+
+/// Deep shadow maps at the voxel centres of `ext`'s density grid (the cells of
+/// [`density_as_grid`]), computed only where they can be read: at voxels within one voxel
+/// (the 26-neighbourhood) of a voxel with non-zero density; elsewhere they hold 0. The
+/// first-scatter source reads T only at voxels with σ_s > 0, and a trilinear read of τ at a
+/// point of non-zero density (either filter; [`super::light_depth::LightDepth`] for point
+/// lights) only reads the 8 voxel centres around it, which all lie within one voxel of a
+/// non-empty voxel; so every value that is used equals [`DeepShadowMaps::compute`]'s, and
+/// the rays from the empty space around the medium are not traced.
+pub fn shadow_maps_near_medium(ext: &Extinction, lights: &[Light]) -> DeepShadowMaps {
+    let g = ext.grid;
+    let [nx, ny, nz] = g.res;
+    let grid = density_as_grid(g);
+    let occupied = |i: usize, j: usize, k: usize| g.data[g.index(i, j, k)] != 0.0;
+    let near = |i: usize, j: usize, k: usize| {
+        let span = |c: usize, n: usize| c.saturating_sub(1)..=(c + 1).min(n - 1);
+        span(i, nx).any(|a| span(j, ny).any(|b| span(k, nz).any(|c| occupied(a, b, c))))
+    };
+    let maps = lights
+        .iter()
+        .map(|light| {
+            (0..nx * ny * nz)
+                .into_par_iter()
+                .map(|c| {
+                    let (i, j, k) = (c / (ny * nz), (c / nz) % ny, c % nz);
+                    if near(i, j, k) {
+                        ext.transmittance_to(cell_centre(&grid, [i, j, k]), light)
+                    } else {
+                        0.0
+                    }
+                })
+                .collect()
+        })
+        .collect();
+    DeepShadowMaps { maps }
 }
 
 /// Builds the problem on the solve grid `grid`: σ_t and σ_s are cell averages of the
@@ -162,7 +199,7 @@ pub fn first_scatter_problem_with_shadows(
             );
             s
         }
-        None => DeepShadowMaps::compute_near_medium(&ext, &scene.lights),
+        None => shadow_maps_near_medium(&ext, &scene.lights),
     };
     let seconds_shadow_maps = t0.elapsed().as_secs_f64();
     let t1 = std::time::Instant::now();

@@ -395,6 +395,85 @@ impl LightDepth {
 mod tests {
     use super::*;
 
+    /// The maps near the medium equal the full maps at every voxel within one voxel of a
+    /// non-empty one, hold 0 elsewhere, and give the same τ at any point of non-zero density
+    /// through the voxel-centre interpolation of `LightDepth` (both filters, a point light so
+    /// that the voxel-centre grid is what the renderer reads).
+    #[test]
+    fn shadow_maps_near_the_medium_agree_where_they_are_read() {
+        use crate::render::first_scatter::{density_as_grid, shadow_maps_near_medium};
+        use crate::render::medium::DensityFilter;
+        // A 9³ grid with two blobs of density and empty space between them and the faces.
+        let n = 9;
+        let mut data = vec![0.0f32; n * n * n];
+        for (i, j, k, v) in [
+            (2, 2, 2, 1.0),
+            (3, 2, 2, 0.5),
+            (6, 6, 5, 2.0),
+            (6, 5, 5, 0.3),
+        ] {
+            data[(k * n + j) * n + i] = v;
+        }
+        let base = DensityGrid::new([n; 3], [-1.0; 3], [1.0; 3], data).unwrap();
+        let lights = [
+            Light::Point {
+                position: [1.7, 2.1, -1.3],
+                power: 1.0,
+            },
+            Light::Directional {
+                direction: [0.3, -0.9, 0.3],
+                irradiance: 1.0,
+            },
+        ];
+        for filter in [DensityFilter::Trilinear, DensityFilter::Nearest] {
+            let g = base.clone().with_filter(filter);
+            let ext = Extinction {
+                grid: &g,
+                scale: 3.0,
+            };
+            let full = DeepShadowMaps::compute(&ext, &density_as_grid(&g), &lights);
+            let near = shadow_maps_near_medium(&ext, &lights);
+            let mut skipped = 0;
+            for (f, m) in full.maps.iter().zip(&near.maps) {
+                for c in 0..f.len() {
+                    let (i, j, k) = (c / (n * n), (c / n) % n, c % n);
+                    let close = (0..n * n * n).any(|o| {
+                        let (a, b, d) = (o % n, (o / n) % n, o / (n * n));
+                        g.at(a, b, d) > 0.0
+                            && a.abs_diff(i) <= 1
+                            && b.abs_diff(j) <= 1
+                            && d.abs_diff(k) <= 1
+                    });
+                    if close {
+                        assert_eq!(m[c], f[c], "{filter:?} voxel ({i}, {j}, {k})");
+                    } else {
+                        assert_eq!(m[c], 0.0);
+                        skipped += 1;
+                    }
+                }
+            }
+            assert!(skipped > 1000, "{skipped}");
+            let point_light_depth = |m: &DeepShadowMaps| {
+                let maps = DeepShadowMaps {
+                    maps: vec![m.maps[0].clone()],
+                };
+                LightDepth::from_shadow_maps(&ext, &lights[..1], &maps).unwrap()
+            };
+            let (a, b) = (point_light_depth(&full), point_light_depth(&near));
+            let mut read = 0;
+            // A lattice three times finer than the voxels, off the voxel planes.
+            for s in 0..27 * 27 * 27 {
+                let x =
+                    [s % 27, (s / 27) % 27, s / 729].map(|a| -1.0 + 2.0 * (a as f64 + 0.37) / 27.0);
+                if ext.sigma_t(x) > 0.0 {
+                    read += 1;
+                    assert_eq!(a.tau(&ext, 0, x), b.tau(&ext, 0, x), "{filter:?} {x:?}");
+                }
+            }
+            assert!(read > 20, "{read}");
+        }
+    }
+
     #[test]
     fn linear_depth_is_interpolated_exactly_and_matches_the_traversal() {
         // Homogeneous box [0,2]×[0,1]×[0,1], light straight down (−y): τ = σ_t (1 − y),

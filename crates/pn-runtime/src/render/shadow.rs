@@ -339,42 +339,6 @@ impl DeepShadowMaps {
             .collect();
         Self { maps }
     }
-
-    /// The maps at the voxel centres of the extinction's own density grid (the cells of
-    /// [`super::first_scatter::density_as_grid`]), computed only where they can be read: at
-    /// voxels within one voxel (the 26-neighbourhood) of a voxel with non-zero density.
-    /// Elsewhere they hold 0. The first-scatter source reads T only at voxels with σ_s > 0,
-    /// and a trilinear read of τ at a point of non-zero density (either filter) only reads
-    /// the 8 voxel centres around it, which all lie within one voxel of a non-empty voxel;
-    /// so every value that is used equals [`Self::compute`]'s, and rays from the empty space
-    /// around the medium are not traced.
-    pub fn compute_near_medium(ext: &Extinction, lights: &[Light]) -> Self {
-        let g = ext.grid;
-        let [nx, ny, nz] = g.res;
-        let grid = super::first_scatter::density_as_grid(g);
-        let occupied = |i: usize, j: usize, k: usize| g.data[g.index(i, j, k)] != 0.0;
-        let near = |i: usize, j: usize, k: usize| {
-            let span = |c: usize, n: usize| c.saturating_sub(1)..=(c + 1).min(n - 1);
-            span(i, nx).any(|a| span(j, ny).any(|b| span(k, nz).any(|c| occupied(a, b, c))))
-        };
-        let maps = lights
-            .iter()
-            .map(|light| {
-                (0..nx * ny * nz)
-                    .into_par_iter()
-                    .map(|c| {
-                        let (i, j, k) = (c / (ny * nz), (c / nz) % ny, c % nz);
-                        if near(i, j, k) {
-                            ext.transmittance_to(cell_centre(&grid, [i, j, k]), light)
-                        } else {
-                            0.0
-                        }
-                    })
-                    .collect()
-            })
-            .collect();
-        Self { maps }
-    }
 }
 
 /// World position of the centre of cell (i, j, k) of `grid`.
@@ -616,88 +580,6 @@ mod tests {
             let first = at_marks.iter().position(|t| *t > cut).unwrap();
             assert_eq!(cutoff[..=first], at_marks[..=first]);
             assert!(cutoff[first + 1..].iter().all(|t| t.is_infinite()));
-        }
-    }
-
-    /// The maps near the medium equal the full maps at every voxel within one voxel of a
-    /// non-empty one, hold 0 elsewhere, and give the same τ at any point of non-zero density
-    /// through the voxel-centre interpolation of `LightDepth` (both filters, a point light so
-    /// that the voxel-centre grid is what the renderer reads).
-    #[test]
-    fn shadow_maps_near_the_medium_agree_where_they_are_read() {
-        use crate::render::light_depth::LightDepth;
-        // A 9³ grid with two blobs of density and empty space between them and the faces.
-        let n = 9;
-        let mut data = vec![0.0f32; n * n * n];
-        for (i, j, k, v) in [
-            (2, 2, 2, 1.0),
-            (3, 2, 2, 0.5),
-            (6, 6, 5, 2.0),
-            (6, 5, 5, 0.3),
-        ] {
-            data[(k * n + j) * n + i] = v;
-        }
-        let base = DensityGrid::new([n; 3], [-1.0; 3], [1.0; 3], data).unwrap();
-        let lights = [
-            Light::Point {
-                position: [1.7, 2.1, -1.3],
-                power: 1.0,
-            },
-            Light::Directional {
-                direction: [0.3, -0.9, 0.3],
-                irradiance: 1.0,
-            },
-        ];
-        for filter in [DensityFilter::Trilinear, DensityFilter::Nearest] {
-            let g = base.clone().with_filter(filter);
-            let ext = Extinction {
-                grid: &g,
-                scale: 3.0,
-            };
-            let full = DeepShadowMaps::compute(
-                &ext,
-                &super::super::first_scatter::density_as_grid(&g),
-                &lights,
-            );
-            let near = DeepShadowMaps::compute_near_medium(&ext, &lights);
-            let mut skipped = 0;
-            for (f, m) in full.maps.iter().zip(&near.maps) {
-                for c in 0..f.len() {
-                    let (i, j, k) = (c / (n * n), (c / n) % n, c % n);
-                    let close = (0..n * n * n).any(|o| {
-                        let (a, b, d) = (o % n, (o / n) % n, o / (n * n));
-                        g.at(a, b, d) > 0.0
-                            && a.abs_diff(i) <= 1
-                            && b.abs_diff(j) <= 1
-                            && d.abs_diff(k) <= 1
-                    });
-                    if close {
-                        assert_eq!(m[c], f[c], "{filter:?} voxel ({i}, {j}, {k})");
-                    } else {
-                        assert_eq!(m[c], 0.0);
-                        skipped += 1;
-                    }
-                }
-            }
-            assert!(skipped > 1000, "{skipped}");
-            let point_light_depth = |m: &DeepShadowMaps| {
-                let maps = DeepShadowMaps {
-                    maps: vec![m.maps[0].clone()],
-                };
-                LightDepth::from_shadow_maps(&ext, &lights[..1], &maps).unwrap()
-            };
-            let (a, b) = (point_light_depth(&full), point_light_depth(&near));
-            let mut read = 0;
-            // A lattice three times finer than the voxels, off the voxel planes.
-            for s in 0..27 * 27 * 27 {
-                let x =
-                    [s % 27, (s / 27) % 27, s / 729].map(|a| -1.0 + 2.0 * (a as f64 + 0.37) / 27.0);
-                if ext.sigma_t(x) > 0.0 {
-                    read += 1;
-                    assert_eq!(a.tau(&ext, 0, x), b.tau(&ext, 0, x), "{filter:?} {x:?}");
-                }
-            }
-            assert!(read > 20, "{read}");
         }
     }
 
