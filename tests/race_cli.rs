@@ -88,12 +88,14 @@ fn quick_race_writes_tables_plot_and_markdown_and_caches_the_reference() {
     let study = d.join("study.toml");
     std::fs::write(&study, STUDY).unwrap();
     let (out, cache) = (d.join("race"), d.join("cache"));
+    // P_1 and SP_1 written as text (pdes/sp1.pde, docs/pde-text.md).
+    let points = format!("p1@8,{}/pdes/sp1.pde@8", env!("CARGO_MANIFEST_DIR"));
     let args = [
         "race",
         scene.to_str().unwrap(),
         "--quick",
         "--pn-points",
-        "p1@8",
+        &points,
         "--ablation-study",
         study.to_str().unwrap(),
         "--out",
@@ -119,11 +121,18 @@ fn quick_race_writes_tables_plot_and_markdown_and_caches_the_reference() {
     // The exports and images are gone: the folder holds tables, plots and text only.
     assert!(!dir.join("work").exists());
     let rows = csv(&dir.join("points.csv"));
-    // Mitsuba at 1 and 4 spp, plain and denoised, and the one pn point.
+    // Mitsuba at 1 and 4 spp, plain and denoised, and the two pn points.
     let fams: Vec<&str> = rows.iter().map(|r| r["family"].as_str()).collect();
     assert_eq!(
         fams,
-        ["mitsuba", "mitsuba+oidn", "mitsuba", "mitsuba+oidn", "p1"]
+        [
+            "mitsuba",
+            "mitsuba+oidn",
+            "mitsuba",
+            "mitsuba+oidn",
+            "p1",
+            "pde:sp1"
+        ]
     );
     for r in &rows {
         let e: f64 = r["rel_rmse"].parse().unwrap();
@@ -137,6 +146,7 @@ fn quick_race_writes_tables_plot_and_markdown_and_caches_the_reference() {
     assert!(e4 < 0.8 * e1, "1 spp {e1}, 4 spp {e4}");
     let md = std::fs::read_to_string(out.join("results.md")).unwrap();
     assert!(md.contains("## tiny") && md.contains("tiny/error_time.png"));
+    assert!(md.contains("pn PDE sp1"), "{md}");
     assert!(out.join("summary.csv").is_file());
     // The ablation: three arms, two renders (the order arm is the base's render).
     let ab = csv(&dir.join("ablation.csv"));

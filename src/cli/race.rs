@@ -38,7 +38,8 @@ pub struct RaceArgs {
     #[arg(long)]
     pub no_denoise: bool,
     /// pn points METHOD@RES[:rays=K][:step=S], comma separated: cda@24, p5@32:rays=1, …
-    /// (pop@20: POP with a 20-cell grid, 20 iterations and a 20-cell solve grid)
+    /// (pop@20: POP with a 20-cell grid, 20 iterations and a 20-cell solve grid; a text PDE
+    /// as FILE.pde@RES[:NAME=VALUE…], e.g. pdes/sp3.pde@16, pdes/fpn.pde@16:N=5)
     /// (default cda, P_1, P_3 at
     /// 16,24,32,48 and P_5 at 16,24,32; p1@16 with --quick).
     #[arg(long)]

@@ -489,7 +489,7 @@ fn race_scene(
             if r.converged { "" } else { " (solver NOT converged)" }
         )?;
         table.push(&pn_row(&name, p, &ctx.req.render_args, &r, &e, noise))?;
-        pn_errors.push((*p, r, e));
+        pn_errors.push((p.clone(), r, e));
     }
     analysis::derive(&mut table, noise);
     table.write(&dir.join("points.csv"))?;
@@ -532,7 +532,7 @@ fn race_scene(
         row.extend(single_scatter(ctx, &name, &dir, &runner, log)?);
     }
     if plan.turntable > 0 {
-        let point = ctx.req.turntable_point.or_else(|| {
+        let point = ctx.req.turntable_point.clone().or_else(|| {
             // The fastest point that reaches the target error, else the most accurate.
             let reach = target.map(|t| t.0).unwrap_or(0.0);
             pn_errors
@@ -540,7 +540,7 @@ fn race_scene(
                 .filter(|(_, _, e)| e.rel_rmse <= reach)
                 .min_by(|a, b| a.1.wall.total_cmp(&b.1.wall))
                 .or(best_pn)
-                .map(|x| x.0)
+                .map(|x| x.0.clone())
         });
         if let Some(point) = point {
             let single = pn_errors

@@ -156,6 +156,7 @@ pub fn family_name(fam: &str) -> String {
         "none" => "pn single scattering".into(),
         "fld" => "pn FLD".into(),
         "pop" => "pn POP".into(),
+        f if f.starts_with("pde:") => format!("pn PDE {}", &f[4..]),
         f => match f.strip_prefix('p') {
             Some(n) => format!("pn P_{n}"),
             None => f.into(),
@@ -298,7 +299,7 @@ mod tests {
 
     #[test]
     fn family_names_are_readable() {
-        let names: Vec<String> = ["p5", "cda", "fld", "pop", "none"]
+        let names: Vec<String> = ["p5", "cda", "fld", "pop", "none", "pde:fpn N=5"]
             .into_iter()
             .map(family_name)
             .collect();
@@ -309,7 +310,8 @@ mod tests {
                 "pn CDA",
                 "pn FLD",
                 "pn POP",
-                "pn single scattering"
+                "pn single scattering",
+                "pn PDE fpn N=5"
             ]
         );
     }

@@ -22,6 +22,9 @@ pub enum Family {
     /// Principal-Ordinates Propagation (`--method pop`, directional lights; docs/pop-design.md)
     /// with a grid of the point's resolution and as many iterations (the paper's §7 rule).
     Pop,
+    /// A linear PDE system written as text (`pn render --pde FILE`, docs/pde-text.md); the
+    /// file and its parameters are the point's [`PnPoint::pde`].
+    Pde,
 }
 
 impl Family {
@@ -38,6 +41,7 @@ impl Family {
                 n.to_string(),
             ],
             Family::Pop => vec!["--method".into(), "pop".into()],
+            Family::Pde => vec![],
         }
     }
 
@@ -49,6 +53,7 @@ impl Family {
             Family::Fld => "fld",
             Family::Pn(_) => "pn",
             Family::Pop => "pop",
+            Family::Pde => "pde",
         }
     }
 
@@ -69,13 +74,14 @@ impl fmt::Display for Family {
             Family::Fld => write!(f, "FLD"),
             Family::Pn(n) => write!(f, "P_{n}"),
             Family::Pop => write!(f, "POP"),
+            Family::Pde => write!(f, "PDE"),
         }
     }
 }
 
 /// One pn setting of the race: method, solve resolution (cells across the medium box) and,
 /// optionally, the deterministic renderer's rays per pixel and step.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct PnPoint {
     /// The method.
     pub family: Family,
@@ -85,18 +91,57 @@ pub struct PnPoint {
     pub rays: Option<usize>,
     /// `pn render --step` (None: the renderer's default).
     pub step: Option<f64>,
+    /// The PDE file and parameters of a [`Family::Pde`] point.
+    pub pde: Option<PdePoint>,
+}
+
+/// The PDE of a race point: `pn render --pde FILE [--pde-param NAME=VALUE …]`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PdePoint {
+    /// The file as given (its label).
+    pub file: String,
+    /// The file, absolute (the renders run in other folders).
+    pub path: PathBuf,
+    /// `NAME=VALUE` overrides of the file's `param`s, in the order given.
+    pub params: Vec<(String, String)>,
+}
+
+impl PdePoint {
+    /// The curve's name: the file's stem and its parameters (`sp3`, `fpn N=5`).
+    fn name(&self) -> String {
+        let stem = Path::new(&self.file)
+            .file_stem()
+            .map_or_else(|| self.file.clone(), |s| s.to_string_lossy().into_owned());
+        std::iter::once(stem)
+            .chain(self.params.iter().map(|(k, v)| format!("{k}={v}")))
+            .collect::<Vec<_>>()
+            .join(" ")
+    }
 }
 
 impl PnPoint {
     /// Parses `cda@24`, `fld@24`, `p5@32` (`P5@32`), `pop@20`, `none`, each optionally followed by
     /// `:rays=K` and/or `:step=S` (`p5@32:rays=1:step=1`).
+    ///
+    /// A text PDE is `FILE.pde@RES` (the file relative to the working folder), its `param`s
+    /// overridden by further `:NAME=VALUE` options: `pdes/sp3.pde@16`,
+    /// `pdes/fpn.pde@16:N=5:rays=1`.
     pub fn parse(s: &str) -> Result<Self> {
-        let lower = s.trim().to_ascii_lowercase();
-        let mut parts = lower.split(':');
-        let t = parts.next().unwrap_or("");
+        let trimmed = s.trim();
+        let mut parts = trimmed.split(':');
+        let head = parts.next().unwrap_or("");
+        let is_pde = head
+            .rsplit_once('@')
+            .is_some_and(|(f, _)| f.to_ascii_lowercase().ends_with(".pde"));
+        let lower = head.to_ascii_lowercase();
+        let t = lower.as_str();
         let (mut rays, mut step) = (None, None);
+        let mut params = Vec::new();
         for opt in parts {
-            match opt.split_once('=') {
+            let key = opt
+                .split_once('=')
+                .map(|(k, v)| (k.to_ascii_lowercase(), v));
+            match key.as_ref().map(|(k, v)| (k.as_str(), *v)) {
                 Some(("rays", v)) => {
                     let n: usize = v
                         .parse()
@@ -114,7 +159,18 @@ impl PnPoint {
                     );
                     step = Some(x);
                 }
-                _ => bail!("pn point {s:?}: options are :rays=K and :step=S, got {opt:?}"),
+                Some((_, v)) if is_pde => {
+                    let (name, _) = opt.split_once('=').unwrap_or((opt, v));
+                    ensure!(
+                        !name.is_empty() && !v.is_empty(),
+                        "pn point {s:?}: a PDE parameter is NAME=VALUE, got {opt:?}"
+                    );
+                    params.push((name.to_string(), v.to_string()));
+                }
+                _ => bail!(
+                    "pn point {s:?}: options are :rays=K and :step=S (and :NAME=VALUE for a \
+                     .pde file's parameters), got {opt:?}"
+                ),
             }
         }
         if t == "none" {
@@ -123,12 +179,22 @@ impl PnPoint {
                 solve_res: 0,
                 rays,
                 step,
+                pde: None,
             });
         }
-        let Some((f, r)) = t.split_once('@') else {
-            bail!("pn point {s:?}: expected METHOD@RES, e.g. p5@24 or cda@32");
+        let Some((f, r)) = t.rsplit_once('@') else {
+            bail!("pn point {s:?}: expected METHOD@RES, e.g. p5@24, cda@32 or pdes/sp3.pde@16");
+        };
+        let pde = if is_pde {
+            let file = head.rsplit_once('@').map_or(head, |(f, _)| f).to_string();
+            let path = std::fs::canonicalize(&file)
+                .with_context(|| format!("pn point {s:?}: cannot open the PDE file {file:?}"))?;
+            Some(PdePoint { file, path, params })
+        } else {
+            None
         };
         let family = match f {
+            _ if is_pde => Family::Pde,
             "cda" => Family::Cda,
             "fld" => Family::Fld,
             "pop" => Family::Pop,
@@ -158,6 +224,7 @@ impl PnPoint {
             solve_res,
             rays,
             step,
+            pde,
         })
     }
 
@@ -169,6 +236,18 @@ impl PnPoint {
             Family::Fld => format!("fld@{}", self.solve_res),
             Family::Pn(n) => format!("p{n}@{}", self.solve_res),
             Family::Pop => format!("pop@{}", self.solve_res),
+            Family::Pde => {
+                let pde = self.pde.as_ref();
+                let mut l = format!(
+                    "{}@{}",
+                    pde.map_or("?", |p| p.file.as_str()),
+                    self.solve_res
+                );
+                for (k, v) in pde.map_or(&[][..], |p| &p.params[..]) {
+                    l += &format!(":{k}={v}");
+                }
+                l
+            }
         };
         if let Some(r) = self.rays {
             s += &format!(":rays={r}");
@@ -187,12 +266,31 @@ impl PnPoint {
             Family::Fld => "fld".into(),
             Family::Pn(n) => format!("p{n}"),
             Family::Pop => "pop".into(),
+            Family::Pde => format!(
+                "pde:{}",
+                self.pde.as_ref().map_or_else(String::new, PdePoint::name)
+            ),
         }
     }
 
     /// A folder name for the point's render.
     pub fn folder(&self) -> String {
-        self.label().replace(['@', ':'], "_").replace('=', "")
+        self.label()
+            .replace(['@', ':', '/', '\\', ' '], "_")
+            .replace('=', "")
+    }
+
+    /// The `pn render` arguments selecting the method (the PDE file and parameters of a
+    /// [`Family::Pde`] point).
+    pub fn method_args(&self) -> Vec<String> {
+        let mut v = self.family.args();
+        if let Some(p) = &self.pde {
+            v.extend(["--pde".to_string(), p.path.display().to_string()]);
+            for (k, val) in &p.params {
+                v.extend(["--pde-param".to_string(), format!("{k}={val}")]);
+            }
+        }
+        v
     }
 
     /// The `pn render` arguments of the renderer settings.
@@ -209,9 +307,10 @@ impl PnPoint {
 
     /// A readable name: `P_5 @ 24³`.
     pub fn pretty(&self) -> String {
-        match self.family {
-            Family::None => "single scattering".into(),
-            f => format!("{f} @ {}³", self.solve_res),
+        match (&self.family, &self.pde) {
+            (Family::None, _) => "single scattering".into(),
+            (Family::Pde, Some(p)) => format!("{} @ {}³", p.name(), self.solve_res),
+            (f, _) => format!("{f} @ {}³", self.solve_res),
         }
     }
 }
@@ -256,7 +355,7 @@ impl PnRunner {
     /// render arguments, so they override them), timing the whole process.
     pub fn render(&self, point: &PnPoint, out: &Path, extra: &[String]) -> Result<PnResult> {
         let mut cmd = Command::new(&self.binary);
-        cmd.arg("render").arg(&self.scene).args(point.family.args());
+        cmd.arg("render").arg(&self.scene).args(point.method_args());
         if point.family != Family::None {
             cmd.args(["--solve-res", &point.solve_res.to_string()]);
         }
@@ -320,6 +419,36 @@ impl PnRunner {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A text PDE point: the file (absolute for the render), its parameters, the curve's
+    /// family, the `pn render` arguments; a missing file and a bad parameter are errors.
+    #[test]
+    fn pde_points_parse() {
+        let dir = std::env::temp_dir().join(format!("pn-race-pde-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let file = dir.join("Fpn.pde");
+        std::fs::write(&file, "pde fpn\n").unwrap();
+        let spec = format!("{}@16:N=5:rays=1", file.display());
+        let p = PnPoint::parse(&spec).unwrap();
+        assert_eq!((p.family, p.solve_res, p.rays), (Family::Pde, 16, Some(1)));
+        assert_eq!(p.family_key(), "pde:Fpn N=5");
+        assert_eq!(p.pretty(), "Fpn N=5 @ 16³");
+        assert_eq!(p.label(), format!("{}@16:N=5:rays=1", file.display()));
+        assert_eq!(PnPoint::parse(&p.label()).unwrap(), p);
+        let args = p.method_args();
+        assert_eq!(args[0], "--pde");
+        assert!(Path::new(&args[1]).is_absolute());
+        assert_eq!(args[2..], ["--pde-param", "N=5"]);
+        assert!(!p.folder().contains(['/', ':', '@', '=']));
+        let e = PnPoint::parse(&format!("{}/missing.pde@16", dir.display())).unwrap_err();
+        assert!(
+            format!("{e:#}").contains("cannot open the PDE file"),
+            "{e:#}"
+        );
+        assert!(PnPoint::parse(&format!("{}@16:=3", file.display())).is_err());
+        assert!(PnPoint::parse("p3@16:N=5").is_err());
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 
     #[test]
     fn points_parse_and_refuse_nonsense() {
