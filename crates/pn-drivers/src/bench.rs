@@ -8,7 +8,8 @@
 //!   the normalised fluence 4πφ/σ_t² at the cells nearest τ = 1, 2, 4 along +x.
 
 use crate::bench_rows::{
-    fld_point_source, peak_memory, profile_error, reset_peak_memory, row_from, Row, CSV_HEADER,
+    fld_point_source, max_rel_diff, peak_memory, profile_error, reset_peak_memory, row_from, Row,
+    CSV_HEADER,
 };
 use anyhow::Context;
 use pn_kernels::{cda_kernel, pn_kernel, Dim, Staggering};
@@ -54,18 +55,6 @@ impl Default for BenchRequest {
 }
 
 /// `max|a − b| / max|b|`.
-fn max_rel_diff(a: &[f64], b: &[f64]) -> Option<f64> {
-    if a.len() != b.len() || b.is_empty() {
-        return None;
-    }
-    let scale = b.iter().fold(0.0f64, |m, x| m.max(x.abs()));
-    let diff = a
-        .iter()
-        .zip(b)
-        .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
-    Some(diff / scale)
-}
-
 fn run_pipeline(
     tuning: &SolverTuning,
     scene_name: &str,
@@ -497,6 +486,10 @@ pub fn run(args: &BenchRequest, stdout: &mut dyn std::io::Write) -> anyhow::Resu
     let mut rows = Vec::new();
     checkerboard_rows(args, &mut rows)?;
     pointsource_rows(args, &mut rows)?;
+    let n = args
+        .pointsource_res
+        .unwrap_or(if args.quick { 40 } else { 80 });
+    crate::bench_pde::pde_rows(args.quick, &args.reference, n, &args.tuning, &mut rows)?;
     let model_md = crate::bench_model::model_rows(args.quick, &args.tuning, &mut rows)?;
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;

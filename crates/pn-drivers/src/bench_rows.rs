@@ -124,3 +124,16 @@ pub(crate) fn fld_point_source(n: usize, params: &PointSourceParams) -> anyhow::
         source,
     })
 }
+
+/// max |a − b| / max |b| (None when the lengths differ or `b` is empty).
+pub(crate) fn max_rel_diff(a: &[f64], b: &[f64]) -> Option<f64> {
+    if a.len() != b.len() || b.is_empty() {
+        return None;
+    }
+    let scale = b.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    let diff = a
+        .iter()
+        .zip(b)
+        .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
+    Some(diff / scale)
+}

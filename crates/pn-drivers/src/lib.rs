@@ -43,6 +43,7 @@
 
 pub mod bench;
 mod bench_model;
+mod bench_pde;
 mod bench_rows;
 pub mod compare;
 pub mod converge;
