@@ -8,8 +8,8 @@
 //!   the normalised fluence 4πφ/σ_t² at the cells nearest τ = 1, 2, 4 along +x.
 
 use crate::bench_rows::{
-    fld_point_source, max_rel_diff, peak_memory, profile_error, reset_peak_memory, row_from, Row,
-    CSV_HEADER,
+    fld_point_source, grid_label, max_rel_diff, peak_memory, profile_error, reset_peak_memory,
+    row_from, Row, CSV_HEADER,
 };
 use anyhow::Context;
 use pn_kernels::{cda_kernel, pn_kernel, Dim, Staggering};
@@ -78,13 +78,7 @@ fn run_pipeline(
         ..Default::default()
     };
     let sol = solve_problem(&scene.problem, choice.kernel.as_ref(), solver, &sopts)?;
-    let g = &scene.problem.grid;
-    let res = g.res[..g.dim.axes()]
-        .iter()
-        .map(|n| n.to_string())
-        .collect::<Vec<_>>()
-        .join("x");
-    Ok((sol, res))
+    Ok((sol, grid_label(&scene.problem.grid)))
 }
 
 /// The least-squares solvers and the matrix-free baseline, run next to cgnr and parity-cg

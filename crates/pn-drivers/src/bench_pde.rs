@@ -2,7 +2,9 @@
 //! built-in methods: the checkerboard against StaRMAP's P_5 and the point source against
 //! each variant's own exact solution where one exists.
 
-use crate::bench_rows::{max_rel_diff, profile_error, reset_peak_memory, row_from, Row};
+use crate::bench_rows::{
+    grid_label, max_rel_diff, profile_error, reset_peak_memory, row_from, Row,
+};
 use pn_codegen::text::parse_pde;
 use pn_kernels::Dim;
 use pn_runtime::pipeline::solve_problem;
@@ -59,13 +61,7 @@ fn solve_variant(
         &opts,
     )
     .map_err(|e| e.context(format!("{problem} with pdes/{name}")))?;
-    let g = &scene.problem.grid;
-    let res = g.res[..g.dim.axes()]
-        .iter()
-        .map(|n| n.to_string())
-        .collect::<Vec<_>>()
-        .join("x");
-    Ok((sol, res))
+    Ok((sol, grid_label(&scene.problem.grid)))
 }
 
 /// The text-PDE rows: the checkerboard (71², tolerance 1e-10) against StaRMAP's P_5 from

@@ -137,3 +137,12 @@ pub(crate) fn max_rel_diff(a: &[f64], b: &[f64]) -> Option<f64> {
         .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
     Some(diff / scale)
 }
+
+/// The resolution column: the grid's cells per axis joined by `x` (`71x71`, `40x40x40`).
+pub(crate) fn grid_label(g: &pn_runtime::problem::Grid) -> String {
+    g.res[..g.dim.axes()]
+        .iter()
+        .map(|n| n.to_string())
+        .collect::<Vec<_>>()
+        .join("x")
+}

@@ -45,7 +45,6 @@ use super::solve_setup::{add_absorbing_layer, cell_average, resample};
 use crate::field::{Field, VoxelGrid};
 use crate::problem::{Boundary, Grid, Phase, Problem, Scattering, SourceTerm};
 use pn_stencil::quadrature::real_sh;
-use rayon::prelude::*;
 use std::sync::Arc;
 
 /// The source moments `Q_l^m`, l ≤ `max_band`, at the cell centres of `grid`
@@ -131,29 +130,12 @@ pub fn density_as_grid(density: &DensityGrid) -> Grid {
 pub fn shadow_maps_near_medium(ext: &Extinction, lights: &[Light]) -> DeepShadowMaps {
     let g = ext.grid;
     let [nx, ny, nz] = g.res;
-    let grid = density_as_grid(g);
     let occupied = |i: usize, j: usize, k: usize| g.data[g.index(i, j, k)] != 0.0;
-    let near = |i: usize, j: usize, k: usize| {
+    let near = |[i, j, k]: [usize; 3]| {
         let span = |c: usize, n: usize| c.saturating_sub(1)..=(c + 1).min(n - 1);
         span(i, nx).any(|a| span(j, ny).any(|b| span(k, nz).any(|c| occupied(a, b, c))))
     };
-    let maps = lights
-        .iter()
-        .map(|light| {
-            (0..nx * ny * nz)
-                .into_par_iter()
-                .map(|c| {
-                    let (i, j, k) = (c / (ny * nz), (c / nz) % ny, c % nz);
-                    if near(i, j, k) {
-                        ext.transmittance_to(cell_centre(&grid, [i, j, k]), light)
-                    } else {
-                        0.0
-                    }
-                })
-                .collect()
-        })
-        .collect();
-    DeepShadowMaps { maps }
+    DeepShadowMaps::compute_where(ext, &density_as_grid(g), lights, near)
 }
 
 /// Builds the problem on the solve grid `grid`: σ_t and σ_s are cell averages of the

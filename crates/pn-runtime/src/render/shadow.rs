@@ -323,6 +323,16 @@ pub struct DeepShadowMaps {
 impl DeepShadowMaps {
     /// Computes the maps in parallel (one ray per cell centre and light).
     pub fn compute(ext: &Extinction, grid: &Grid, lights: &[Light]) -> Self {
+        Self::compute_where(ext, grid, lights, |_| true)
+    }
+
+    /// [`Self::compute`] at the cells `(i, j, k)` where `wanted` holds; the others hold 0.
+    pub fn compute_where(
+        ext: &Extinction,
+        grid: &Grid,
+        lights: &[Light],
+        wanted: impl Fn([usize; 3]) -> bool + Sync,
+    ) -> Self {
         let [nx, ny, nz] = grid.res;
         let maps = lights
             .iter()
@@ -330,9 +340,12 @@ impl DeepShadowMaps {
                 (0..nx * ny * nz)
                     .into_par_iter()
                     .map(|c| {
-                        let (i, j, k) = (c / (ny * nz), (c / nz) % ny, c % nz);
-                        let x = cell_centre(grid, [i, j, k]);
-                        ext.transmittance_to(x, light)
+                        let cell = [c / (ny * nz), (c / nz) % ny, c % nz];
+                        if wanted(cell) {
+                            ext.transmittance_to(cell_centre(grid, cell), light)
+                        } else {
+                            0.0
+                        }
                     })
                     .collect()
             })
