@@ -100,7 +100,7 @@ pub struct RenderArgs {
     )]
     pub set: Vec<SceneOverride>,
     /// Solve the linear PDE system in this text file for the multiple scattering instead of
-    /// --method (docs/pde-text.md; e.g. pdes/sp3.pde); isotropic first-scatter source, the
+    /// --method (docs/pde-text.md; e.g. pdes/sp3.pde); first-scatter source up to the highest band Q_l^m the PDE reads, the
     /// PDE's radiance moments handed to the renderer.
     #[arg(long, value_name = "FILE", conflicts_with_all = ["method", "order"])]
     pub pde: Option<std::path::PathBuf>,

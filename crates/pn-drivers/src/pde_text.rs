@@ -59,14 +59,18 @@ pub struct PdeKernel {
     pub choice: pn_kernels::KernelChoice,
     /// Storage slots `l(l+1)+m` of the auxiliary unknowns.
     pub auxiliary_slots: Vec<usize>,
+    /// The highest band of the source moments Q_l^m the system reads (0 when it reads
+    /// Q_0^0 only, or none): `pn render` computes the first-scatter source up to it.
+    pub source_band: u32,
 }
 
 impl PartialEq for PdeKernel {
-    /// Same PDE name, same stencil name, same auxiliary slots.
+    /// Same PDE name, same stencil name, same auxiliary slots and source band.
     fn eq(&self, other: &Self) -> bool {
         self.name == other.name
             && self.choice.kernel.name() == other.choice.kernel.name()
             && self.auxiliary_slots == other.auxiliary_slots
+            && self.source_band == other.source_band
     }
 }
 
@@ -76,7 +80,13 @@ impl PdeKernel {
         let pde = load(path, params)?;
         let choice = pn_kernels::pde_kernel(&pde, pn_kernels::Dim::Three)
             .with_context(|| format!("{}", path.display()))?;
+        let source_band = pde
+            .ir(pn_kernels::Dim::Three)
+            .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?
+            .max_source_band()
+            .unwrap_or(0);
         Ok(PdeKernel {
+            source_band,
             name: pde.system.name.clone(),
             choice,
             auxiliary_slots: pde
@@ -98,5 +108,30 @@ impl PdeKernel {
                 }
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The first-scatter bands a render computes for each shipped PDE: filtered P_N reads
+    /// Q_l^m up to l = N (the P_N equations it includes), SP_3 and CDA Q_0^0 only.
+    #[test]
+    fn shipped_pdes_read_the_source_bands_they_reference() {
+        let pdes = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../pdes");
+        let band = |file: &str, params: &[(&str, &str)]| {
+            let params: Vec<(String, String)> = params
+                .iter()
+                .map(|(k, v)| (k.to_string(), v.to_string()))
+                .collect();
+            PdeKernel::load(&pdes.join(file), &params)
+                .unwrap()
+                .source_band
+        };
+        assert_eq!(band("fpn.pde", &[]), 3);
+        assert_eq!(band("fpn.pde", &[("N", "5")]), 5);
+        assert_eq!(band("sp3.pde", &[]), 0);
+        assert_eq!(band("cda.pde", &[]), 0);
     }
 }

@@ -135,8 +135,8 @@ pub struct RenderOptions {
     /// Expert solver settings (the `pn` binary reads them from the environment).
     pub tuning: SolverTuning,
     /// A text PDE solved for the multiple scattering instead of the scene's method
-    /// ([`RenderRequest::pde`]; the scene's method is then `cda`'s route: isotropic first-
-    /// scatter source, the radiance moments of the solution handed to the renderer).
+    /// ([`RenderRequest::pde`]; the first-scatter source up to the highest band Q_l^m the PDE
+    /// reads, the radiance moments of the solution handed to the renderer).
     pub pde: Option<std::sync::Arc<crate::pde_text::PdeKernel>>,
 }
 
@@ -569,10 +569,12 @@ fn render_grey_views(
                     max_memory.unwrap_or_else(memory_estimate::default_limit_bytes),
                 )?;
             }
-            let max_band = if s.method == RenderMethod::Pn {
-                s.order as u32
-            } else {
-                0
+            // The first-scatter source's bands: P_N reads Q_l^m up to l = N, a text PDE up
+            // to the highest band it references (filtered P_N: N; SP_N and CDA: 0).
+            let max_band = match pde {
+                Some(p) => p.source_band,
+                None if s.method == RenderMethod::Pn => s.order as u32,
+                None => 0,
             };
             let fs = pn_runtime::threads::with_threads(threads, || {
                 first_scatter_problem_with_shadows(scene, &density, &grid, max_band, shadows)

@@ -96,6 +96,16 @@ pub enum Weight {
 }
 
 impl Weight {
+    /// Calls `visit` on every field this weight reads.
+    pub fn for_each_field(&self, visit: &mut impl FnMut(&FieldRef)) {
+        match self {
+            Weight::Const(_) | Weight::InvH(_) => {}
+            Weight::Field { field, .. } => visit(field),
+            Weight::Add(ws) | Weight::Mul(ws) => ws.iter().for_each(|w| w.for_each_field(visit)),
+            Weight::Recip(w) => w.for_each_field(visit),
+        }
+    }
+
     /// Evaluate with the given field context.
     pub fn eval(&self, ctx: &dyn FieldContext) -> f64 {
         match self {
@@ -145,6 +155,24 @@ pub struct StencilIr {
 }
 
 impl StencilIr {
+    /// The highest band l of the source moments Q_l^m the system reads (`None` without a
+    /// source term).
+    pub fn max_source_band(&self) -> Option<u32> {
+        let mut band = None;
+        let mut visit = |f: &FieldRef| {
+            if let FieldRef::Source { l, .. } = f {
+                band = band.max(Some(*l));
+            }
+        };
+        for row in &self.rows {
+            row.rhs.iter().for_each(|w| w.for_each_field(&mut visit));
+            for t in &row.terms {
+                t.weight.for_each_field(&mut visit);
+            }
+        }
+        band
+    }
+
     /// A 64-bit FNV-1a hash of the whole IR (name, placement, every term and weight, in
     /// `Debug` form, where floats print exactly). Compiled stencils carry the fingerprint
     /// of the IR they were generated from, so a text PDE edited after the build is not
