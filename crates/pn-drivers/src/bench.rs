@@ -8,15 +8,15 @@
 //!   the normalised fluence 4πφ/σ_t² at the cells nearest τ = 1, 2, 4 along +x.
 
 use crate::bench_rows::{
-    fld_point_source, grid_label, max_rel_diff, peak_memory, profile_error, reset_peak_memory,
-    row_from, Row, CSV_HEADER,
+    fld_point_source, grid_label, max_rel_diff, peak_memory, pointsource_options, profile_error,
+    reset_peak_memory, row_from, Row, CSV_HEADER,
 };
 use anyhow::Context;
-use pn_kernels::{cda_kernel, pn_kernel, Dim, Staggering};
+use pn_kernels::{cda_kernel, pn_kernel, Staggering};
 use pn_runtime::fld::{solve_fld, FldParams, Limiter};
 use pn_runtime::pipeline::{solve_problem, Solution};
 use pn_runtime::reference::{cda_point_source, grosjean, pn_point_source};
-use pn_runtime::scenes::{builtin, BuiltinOptions, PointSourceParams};
+use pn_runtime::scenes::{builtin, BuiltinOptions};
 use pn_runtime::solver::{SolverKind, SolverOptions, SolverTuning};
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -138,13 +138,7 @@ fn pointsource_rows(args: &BenchRequest, rows: &mut Vec<Row>) -> anyhow::Result<
         .pointsource_res
         .unwrap_or(if args.quick { 40 } else { 80 });
     anyhow::ensure!(n >= 8, "--pointsource-res must be at least 8");
-    let params = PointSourceParams::default();
-    let opts = BuiltinOptions {
-        dim: Some(Dim::Three),
-        res: Some(vec![n]),
-        pointsource: params,
-        ..Default::default()
-    };
+    let (params, opts) = pointsource_options(n);
     let h = 2.0 * params.half_width / n as f64;
     let tau_per_cell = params.sigma_t * h;
     let c = n / 2;

@@ -3,13 +3,12 @@
 //! each variant's own exact solution where one exists.
 
 use crate::bench_rows::{
-    grid_label, max_rel_diff, profile_error, reset_peak_memory, row_from, Row,
+    grid_label, max_rel_diff, pointsource_options, profile_error, reset_peak_memory, row_from, Row,
 };
 use pn_codegen::text::parse_pde;
-use pn_kernels::Dim;
 use pn_runtime::pipeline::solve_problem;
 use pn_runtime::reference::{cda_point_source, pn_point_source, PointSourceModes};
-use pn_runtime::scenes::{builtin, BuiltinOptions, PointSourceParams};
+use pn_runtime::scenes::{builtin, BuiltinOptions};
 use pn_runtime::solver::{SolverKind, SolverOptions, SolverTuning};
 use std::path::Path;
 
@@ -64,6 +63,21 @@ fn solve_variant(
     Ok((sol, grid_label(&scene.problem.grid)))
 }
 
+/// Appends (and prints) the row of variant `name` on `problem`.
+fn push_row(
+    rows: &mut Vec<Row>,
+    problem: &str,
+    name: &str,
+    res: String,
+    sol: &pn_runtime::pipeline::Solution,
+    err: Option<f64>,
+    reference: &'static str,
+) {
+    let row = row_from(problem, &format!("pde:{name}"), 0, res, sol, err, reference);
+    eprintln!("bench: {}", row.csv());
+    rows.push(row);
+}
+
 /// The text-PDE rows: the checkerboard (71², tolerance 1e-10) against StaRMAP's P_5 from
 /// `reference` (`checkerboard/starmap_p5_n71.csv`), and the point source on `n³` cells
 /// (tolerance 1e-6) against the variant's exact solution (CDA and SP_1: the CDA solution;
@@ -94,26 +108,10 @@ pub(crate) fn pde_rows(
         let (sol, res) = solve_variant("checkerboard", &scene, v, 1e-10, tuning)?;
         let err = starmap.as_ref().and_then(|r| max_rel_diff(&sol.l00(), r));
         let reference = if err.is_some() { "starmap_p5" } else { "none" };
-        let row = row_from(
-            "checkerboard",
-            &format!("pde:{}", v.0),
-            0,
-            res,
-            &sol,
-            err,
-            reference,
-        );
-        eprintln!("bench: {}", row.csv());
-        rows.push(row);
+        push_row(rows, "checkerboard", v.0, res, &sol, err, reference);
     }
 
-    let params = PointSourceParams::default();
-    let opts = BuiltinOptions {
-        dim: Some(Dim::Three),
-        res: Some(vec![n]),
-        pointsource: params,
-        ..Default::default()
-    };
+    let (params, opts) = pointsource_options(n);
     let scene = builtin("pointsource", &opts)?;
     let tau_per_cell = params.sigma_t * 2.0 * params.half_width / n as f64;
     let c = n / 2;
@@ -141,17 +139,7 @@ pub(crate) fn pde_rows(
                 Exact::P3 => p3.fluence(t),
             },
         );
-        let row = row_from(
-            "pointsource",
-            &format!("pde:{}", v.0),
-            0,
-            res,
-            &sol,
-            err,
-            reference,
-        );
-        eprintln!("bench: {}", row.csv());
-        rows.push(row);
+        push_row(rows, "pointsource", v.0, res, &sol, err, reference);
     }
     Ok(())
 }

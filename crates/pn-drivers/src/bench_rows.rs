@@ -146,3 +146,20 @@ pub(crate) fn grid_label(g: &pn_runtime::problem::Grid) -> String {
         .collect::<Vec<_>>()
         .join("x")
 }
+
+/// The bench's point source on `n³` cells: the default parameters and the scene options.
+pub(crate) fn pointsource_options(
+    n: usize,
+) -> (
+    pn_runtime::scenes::PointSourceParams,
+    pn_runtime::scenes::BuiltinOptions,
+) {
+    let params = pn_runtime::scenes::PointSourceParams::default();
+    let opts = pn_runtime::scenes::BuiltinOptions {
+        dim: Some(pn_kernels::Dim::Three),
+        res: Some(vec![n]),
+        pointsource: params,
+        ..Default::default()
+    };
+    (params, opts)
+}
