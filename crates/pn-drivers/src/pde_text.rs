@@ -78,13 +78,12 @@ impl PdeKernel {
     /// Loads `path` ([`load`]) and builds its 3D stencil.
     pub fn load(path: &Path, params: &[(String, String)]) -> anyhow::Result<PdeKernel> {
         let pde = load(path, params)?;
-        let choice = pn_kernels::pde_kernel(&pde, pn_kernels::Dim::Three)
-            .with_context(|| format!("{}", path.display()))?;
-        let source_band = pde
+        let ir = pde
             .ir(pn_kernels::Dim::Three)
-            .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?
-            .max_source_band()
-            .unwrap_or(0);
+            .map_err(|e| anyhow::anyhow!("PDE {}: {e}", pde.system.name))
+            .with_context(|| format!("{}", path.display()))?;
+        let source_band = ir.max_source_band().unwrap_or(0);
+        let choice = pn_kernels::pde_ir_kernel(ir);
         Ok(PdeKernel {
             source_band,
             name: pde.system.name.clone(),

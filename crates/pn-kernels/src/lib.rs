@@ -128,12 +128,17 @@ pub fn pde_kernel(pde: &pn_codegen::text::TextPde, dim: Dim) -> anyhow::Result<K
     let ir = pde
         .ir(dim)
         .map_err(|e| anyhow::anyhow!("PDE {}: {e}", pde.system.name))?;
+    Ok(pde_ir_kernel(ir))
+}
+
+/// [`pde_kernel`] for a text PDE's IR already built ([`pn_codegen::text::TextPde::ir`]).
+pub fn pde_ir_kernel(ir: StencilIr) -> KernelChoice {
     if let (Some(k), Some(print)) = (compiled::find(&ir.name), compiled::fingerprint(&ir.name)) {
         if print == ir.fingerprint() {
-            return Ok(KernelChoice {
+            return KernelChoice {
                 kernel: Arc::new(Compiled(k)),
                 compiled: true,
-            });
+            };
         }
         eprintln!(
             "note: the compiled stencil {} was built from a different text or other parameters; \
@@ -141,8 +146,8 @@ pub fn pde_kernel(pde: &pn_codegen::text::TextPde, dim: Dim) -> anyhow::Result<K
             ir.name
         );
     }
-    Ok(KernelChoice {
+    KernelChoice {
         kernel: Arc::new(InterpretedKernel::new(ir)),
         compiled: false,
-    })
+    }
 }

@@ -96,16 +96,6 @@ pub enum Weight {
 }
 
 impl Weight {
-    /// Calls `visit` on every field this weight reads.
-    pub fn for_each_field(&self, visit: &mut impl FnMut(&FieldRef)) {
-        match self {
-            Weight::Const(_) | Weight::InvH(_) => {}
-            Weight::Field { field, .. } => visit(field),
-            Weight::Add(ws) | Weight::Mul(ws) => ws.iter().for_each(|w| w.for_each_field(visit)),
-            Weight::Recip(w) => w.for_each_field(visit),
-        }
-    }
-
     /// Evaluate with the given field context.
     pub fn eval(&self, ctx: &dyn FieldContext) -> f64 {
         match self {
@@ -158,19 +148,18 @@ impl StencilIr {
     /// The highest band l of the source moments Q_l^m the system reads (`None` without a
     /// source term).
     pub fn max_source_band(&self) -> Option<u32> {
-        let mut band = None;
-        let mut visit = |f: &FieldRef| {
-            if let FieldRef::Source { l, .. } = f {
-                band = band.max(Some(*l));
-            }
-        };
+        let mut fields = Vec::new();
         for row in &self.rows {
-            row.rhs.iter().for_each(|w| w.for_each_field(&mut visit));
-            for t in &row.terms {
-                t.weight.for_each_field(&mut visit);
-            }
+            row.rhs.iter().for_each(|w| w.fields(&mut fields));
+            row.terms.iter().for_each(|t| t.weight.fields(&mut fields));
         }
-        band
+        fields
+            .iter()
+            .filter_map(|(f, _)| match f {
+                FieldRef::Source { l, .. } => Some(*l),
+                _ => None,
+            })
+            .max()
     }
 
     /// A 64-bit FNV-1a hash of the whole IR (name, placement, every term and weight, in

@@ -130,26 +130,32 @@ impl PnPoint {
         let trimmed = s.trim();
         let mut parts = trimmed.split(':');
         let head = parts.next().unwrap_or("");
-        let is_pde = head
+        // A text PDE's file (original case: a path), if the head is FILE.pde@RES.
+        let pde_file = head
             .rsplit_once('@')
-            .is_some_and(|(f, _)| f.to_ascii_lowercase().ends_with(".pde"));
+            .map(|(f, _)| f)
+            .filter(|f| f.to_ascii_lowercase().ends_with(".pde"));
         let lower = head.to_ascii_lowercase();
         let t = lower.as_str();
         let (mut rays, mut step) = (None, None);
         let mut params = Vec::new();
+        let bad_option = |opt: &str| {
+            anyhow::anyhow!(
+                "pn point {s:?}: options are :rays=K and :step=S (and :NAME=VALUE for a \
+                 .pde file's parameters), got {opt:?}"
+            )
+        };
         for opt in parts {
-            let key = opt
-                .split_once('=')
-                .map(|(k, v)| (k.to_ascii_lowercase(), v));
-            match key.as_ref().map(|(k, v)| (k.as_str(), *v)) {
-                Some(("rays", v)) => {
+            let (key, v) = opt.split_once('=').ok_or_else(|| bad_option(opt))?;
+            match key.to_ascii_lowercase().as_str() {
+                "rays" => {
                     let n: usize = v
                         .parse()
                         .with_context(|| format!("pn point {s:?}: rays must be an integer"))?;
                     ensure!(n >= 1, "pn point {s:?}: rays must be at least 1");
                     rays = Some(n);
                 }
-                Some(("step", v)) => {
+                "step" => {
                     let x: f64 = v
                         .parse()
                         .with_context(|| format!("pn point {s:?}: step must be a number"))?;
@@ -159,18 +165,14 @@ impl PnPoint {
                     );
                     step = Some(x);
                 }
-                Some((_, v)) if is_pde => {
-                    let (name, _) = opt.split_once('=').unwrap_or((opt, v));
+                _ if pde_file.is_some() => {
                     ensure!(
-                        !name.is_empty() && !v.is_empty(),
+                        !key.is_empty() && !v.is_empty(),
                         "pn point {s:?}: a PDE parameter is NAME=VALUE, got {opt:?}"
                     );
-                    params.push((name.to_string(), v.to_string()));
+                    params.push((key.to_string(), v.to_string()));
                 }
-                _ => bail!(
-                    "pn point {s:?}: options are :rays=K and :step=S (and :NAME=VALUE for a \
-                     .pde file's parameters), got {opt:?}"
-                ),
+                _ => return Err(bad_option(opt)),
             }
         }
         if t == "none" {
@@ -185,16 +187,21 @@ impl PnPoint {
         let Some((f, r)) = t.rsplit_once('@') else {
             bail!("pn point {s:?}: expected METHOD@RES, e.g. p5@24, cda@32 or pdes/sp3.pde@16");
         };
-        let pde = if is_pde {
-            let file = head.rsplit_once('@').map_or(head, |(f, _)| f).to_string();
-            let path = std::fs::canonicalize(&file)
-                .with_context(|| format!("pn point {s:?}: cannot open the PDE file {file:?}"))?;
-            Some(PdePoint { file, path, params })
-        } else {
-            None
+        let pde = match pde_file {
+            Some(file) => {
+                let path = std::fs::canonicalize(file).with_context(|| {
+                    format!("pn point {s:?}: cannot open the PDE file {file:?}")
+                })?;
+                Some(PdePoint {
+                    file: file.to_string(),
+                    path,
+                    params,
+                })
+            }
+            None => None,
         };
         let family = match f {
-            _ if is_pde => Family::Pde,
+            _ if pde.is_some() => Family::Pde,
             "cda" => Family::Cda,
             "fld" => Family::Fld,
             "pop" => Family::Pop,

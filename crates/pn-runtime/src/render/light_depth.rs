@@ -126,14 +126,15 @@ impl PlaneDepth {
         let count = |q: usize, step: f64| ((ext_max[q] - ext_min[q]) / step).ceil() as usize + 1;
         let (nu, nv, ns) = (count(0, hu), count(1, hu), count(2, ds));
         let (u0, v0, s0) = (ext_min[0], ext_min[1], ext_min[2]);
-        // Columns in parallel: column (i, j) walks the planes k = 0, 1, … downstream.
+        // Columns in parallel: column (i, j) walks the planes k = 0, 1, … downstream; the
+        // planes k ≥ 1 lie at k·ds from plane 0.
+        let marks: Vec<f64> = (1..ns).map(|k| k as f64 * ds).collect();
         let columns: Vec<Vec<f32>> = (0..nu * nv)
             .into_par_iter()
             .map(|c| {
                 let (u, v) = (u0 + (c / nv) as f64 * hu, v0 + (c % nv) as f64 * hu);
                 let at = |s: f64| [0, 1, 2].map(|q| u * e1[q] + v * e2[q] + s * d[q]);
                 // τ at the planes k = 1, 2, … from plane 0, in one exact traversal.
-                let marks: Vec<f64> = (1..ns).map(|k| k as f64 * ds).collect();
                 let mut depth = vec![0.0; ns - 1];
                 ext.optical_depth_at_marks(at(s0), d, &marks, TAU_CUTOFF, &mut depth);
                 std::iter::once(0.0f32)
