@@ -266,30 +266,25 @@ fn a_text_pde_renders_with_the_anisotropic_first_scatter_source() {
         "1",
     ];
     let (a, b) = (d.join("p1"), d.join("fp1"));
-    let mut args = vec![
-        "render",
-        scene.to_str().unwrap(),
-        "--method",
-        "pn",
-        "--order",
-        "1",
-    ];
-    args.extend(common);
-    args.extend(["--out", a.to_str().unwrap()]);
-    ok(&pn(&args));
-    let mut args = vec![
-        "render",
-        scene.to_str().unwrap(),
-        "--pde",
-        fpn.to_str().unwrap(),
-        "--pde-param",
-        "N=1",
-        "--pde-param",
-        "f_eff=0",
-    ];
-    args.extend(common);
-    args.extend(["--out", b.to_str().unwrap()]);
-    ok(&pn(&args));
+    let render = |method: &[&str], out: &Path| {
+        let mut args = vec!["render", scene.to_str().unwrap()];
+        args.extend(method);
+        args.extend(common);
+        args.extend(["--out", out.to_str().unwrap()]);
+        ok(&pn(&args));
+    };
+    render(&["--method", "pn", "--order", "1"], &a);
+    render(
+        &[
+            "--pde",
+            fpn.to_str().unwrap(),
+            "--pde-param",
+            "N=1",
+            "--pde-param",
+            "f_eff=0",
+        ],
+        &b,
+    );
     let read = |p: &Path| read_exr_rgb(&p.join("image.exr")).unwrap().2;
     let (ia, ib) = (read(&a), read(&b));
     assert!(ia[0].iter().any(|v| *v > 0.0));
