@@ -25,10 +25,17 @@ with `image` (linear radiance; (height, width, 3) for a coloured scene), the sol
 radiance at the solve-cell centres, last axis l(l+1)+m), `fluence` (sqrt(4 pi) times moment 0),
 `grid_min`, `grid_max`, `grid_res`, and `report` (the report.json of `pn render`). Both release
 the interpreter lock while they run; `threads=` and `progress=` are the `--threads` and
-progress-bar options. Ctrl-C raises KeyboardInterrupt at once; the interrupted solve finishes
-in the background and its result is dropped. Bad input raises ValueError with the message `pn render` prints.
+progress-bar options; `callback=f` calls f(iteration, relative_residual) for every iteration of
+the P_N/CDA solve, on the calling thread while the solve runs (an exception in f ends the
+call). Ctrl-C raises KeyboardInterrupt at once; the interrupted solve finishes in the
+background and its result is dropped. Bad input raises ValueError with the message `pn render`
+prints. `real_sh(lmax, directions)` gives the real spherical harmonics of the moments'
+convention, shape (n, (lmax+1)**2).
+
+`pnsolver.mitsuba` (needs Mitsuba 3: `pip install ".[mitsuba]"`) is the Mitsuba integrator
+`pn`: `pnsolver.mitsuba.register()`, then `{"type": "pn", "order": 3, ...}` in a scene.
 """
 
-from ._pnsolver import Scene, __version__, builtin_scenes, render, solve
+from ._pnsolver import Scene, __version__, builtin_scenes, real_sh, render, solve
 
-__all__ = ["Scene", "render", "solve", "builtin_scenes", "__version__"]
+__all__ = ["Scene", "render", "solve", "builtin_scenes", "real_sh", "__version__"]

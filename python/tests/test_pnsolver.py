@@ -216,3 +216,25 @@ def _interrupt_a_solve(_thread):
     timer.join()
     assert interrupted < 0.5 * full, (interrupted, full)
     assert pnsolver.solve(pnsolver.Scene(SETTINGS, density=density()))["moments"] is not None
+
+
+def test_a_progress_callback_sees_every_iteration():
+    """callback(iteration, relative_residual) for each solver iteration: 1, 2, …, the
+    report's count, ending at the residual the report states."""
+    seen = []
+    sol = pnsolver.solve(pnsolver.Scene.load("sphere"), threads=2,
+                         callback=lambda it, rel: seen.append((it, rel)))
+    s = sol["report"]["solver"]
+    assert [it for it, _ in seen] == list(range(1, s["iterations"] + 1))
+    assert seen[-1][1] <= s["tolerance"] and seen[0][1] > 10 * s["tolerance"]
+
+
+def test_an_exception_in_the_callback_ends_the_call_and_the_interpreter_goes_on():
+    def stop(it, rel):
+        if it == 3:
+            raise RuntimeError("enough at iteration 3")
+
+    with pytest.raises(RuntimeError, match="enough at iteration 3"):
+        pnsolver.solve(pnsolver.Scene.load("sphere"), threads=1, callback=stop)
+    sol = pnsolver.solve(pnsolver.Scene.load("sphere"), threads=1)
+    assert sol["report"]["solver"]["converged"]

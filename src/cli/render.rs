@@ -138,7 +138,7 @@ impl RenderArgs {
                 max_memory: self.max_memory,
                 progress: true,
                 tuning: env.tuning.clone(),
-                pde: None,
+                ..Default::default()
             },
             pde: self.pde.clone(),
             pde_params: self.pde_param.clone(),

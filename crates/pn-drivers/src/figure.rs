@@ -177,7 +177,7 @@ pub fn run(a: &FigureRequest, stdout: &mut dyn std::io::Write) -> Result<()> {
             max_memory: None,
             progress: true,
             tuning: a.tuning.clone(),
-            pde: None,
+            ..Default::default()
         };
         let run = render_scene(&s, &options)?;
         let dir = out.join(key);

@@ -138,6 +138,9 @@ pub struct RenderOptions {
     /// ([`RenderRequest::pde`]; the first-scatter source up to the highest band Q_l^m the PDE
     /// reads, the radiance moments of the solution handed to the renderer).
     pub pde: Option<std::sync::Arc<crate::pde_text::PdeKernel>>,
+    /// Called after every iteration of the P_N / CDA / text-PDE solves (per channel of a
+    /// coloured scene, counting from 1 each time); FLD's Gauss–Seidel solve is not observed.
+    pub observer: Option<pn_runtime::solver::IterationObserver>,
 }
 
 impl Default for RenderOptions {
@@ -149,6 +152,7 @@ impl Default for RenderOptions {
             progress: true,
             tuning: SolverTuning::default(),
             pde: None,
+            observer: None,
         }
     }
 }
@@ -503,6 +507,7 @@ fn render_grey_views(
         progress,
         ref tuning,
         ref pde,
+        ref observer,
     } = *options;
     let pde = pde.as_deref();
     let t_all = Instant::now();
@@ -588,6 +593,7 @@ fn render_grey_views(
                     &fs.problem,
                     kernel.as_ref(),
                     progress,
+                    observer.as_ref(),
                     tuning,
                     &guesses,
                 )
@@ -820,6 +826,7 @@ fn solve_ms(
     problem: &pn_runtime::problem::Problem,
     kernel: Option<&KernelChoice>,
     progress: bool,
+    observer: Option<&pn_runtime::solver::IterationObserver>,
     tuning: &SolverTuning,
     guesses: &[&[f64]],
 ) -> Result<(CellMoments, Option<Vec<f64>>, SolverReport)> {
@@ -880,6 +887,7 @@ fn solve_ms(
     let opts = SolverOptions {
         tol,
         progress,
+        observer: observer.cloned(),
         tuning: render_tuning(tuning),
         ..Default::default()
     };

@@ -206,18 +206,42 @@ impl Scene {
 /// Runs `render_views` on its own thread while this one waits with the interpreter lock
 /// released, looking at Python's signals every 50 ms: Ctrl-C (KeyboardInterrupt) returns at
 /// once. The interrupted solve cannot be stopped from outside; it finishes in the background
-/// and its result is dropped.
+/// and its result is dropped. With `callback`, the solver's iterations travel back over a
+/// channel and `callback(iteration, relative_residual)` is called for each on this thread,
+/// with the lock held, at each 50 ms look; an exception it raises ends the wait like Ctrl-C.
 fn run_interruptible(
     py: Python<'_>,
     scene: RenderScene,
-    opts: RenderOptions,
+    mut opts: RenderOptions,
+    callback: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<RenderRun> {
     use std::sync::mpsc::{channel, RecvTimeoutError};
+    use std::sync::Mutex;
+    let (events_tx, events) = channel::<(usize, f64)>();
+    if callback.is_some() {
+        let tx = Mutex::new(events_tx);
+        opts.observer = Some(pn_runtime::solver::IterationObserver::new(
+            move |it, rel| {
+                // A receiver gone (the wait ended) or a poisoned lock only drop the report.
+                if let Ok(tx) = tx.lock() {
+                    let _ = tx.send((it, rel));
+                }
+            },
+        ));
+    }
     let (tx, rx) = channel();
     std::thread::spawn(move || {
         // The receiver may be gone (interrupted); then the result is dropped.
         let _ = tx.send(render_views(&scene, &opts, 1));
     });
+    let report = || -> PyResult<()> {
+        if let Some(cb) = callback {
+            for (it, rel) in events.try_iter() {
+                cb.call1((it, rel))?;
+            }
+        }
+        Ok(())
+    };
     let mut rx = rx;
     loop {
         // The receiver moves into the lock-free section and back (it is Send, not Sync).
@@ -226,6 +250,7 @@ fn run_interruptible(
             (r, rx)
         });
         rx = back;
+        report()?;
         match received {
             Ok(result) => return result.map_err(value_error),
             Err(RecvTimeoutError::Timeout) => py.check_signals()?,
@@ -298,15 +323,23 @@ fn result_dict<'py>(py: Python<'py>, run: &RenderRun, image: bool) -> PyResult<B
 /// (`moments`, `fluence`, `grid_*`; see `solve`) and `report` (the `report.json` of
 /// `pn render`). The interpreter lock is released while it runs; Ctrl-C raises
 /// KeyboardInterrupt at once (the solve finishes in the background, its result dropped).
+/// `callback(iteration, relative_residual)`, if given, is called for every iteration of the
+/// solve (see `run_interruptible`).
 #[pyfunction]
-#[pyo3(signature = (scene, threads = None, progress = false))]
+#[pyo3(signature = (scene, threads = None, progress = false, callback = None))]
 fn render<'py>(
     py: Python<'py>,
     scene: &Scene,
     threads: Option<usize>,
     progress: bool,
+    callback: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let run = run_interruptible(py, scene.inner.clone(), options(threads, progress))?;
+    let run = run_interruptible(
+        py,
+        scene.inner.clone(),
+        options(threads, progress),
+        callback,
+    )?;
     result_dict(py, &run, true)
 }
 
@@ -315,14 +348,15 @@ fn render<'py>(
 /// last axis l(l+1)+m: the real-SH moments of the scattered radiance at the solve-cell
 /// centres, the uncollided light excluded), `fluence` (√(4π)·moment 0, shape (nx, ny, nz)),
 /// the solve grid's box `grid_min`, `grid_max` and `grid_res`, and `report`. With method
-/// "none" the solution entries are None.
+/// "none" the solution entries are None. `callback` as for `render`.
 #[pyfunction]
-#[pyo3(signature = (scene, threads = None, progress = false))]
+#[pyo3(signature = (scene, threads = None, progress = false, callback = None))]
 fn solve<'py>(
     py: Python<'py>,
     scene: &Scene,
     threads: Option<usize>,
     progress: bool,
+    callback: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     if scene.inner.colours.is_some() {
         return Err(PyValueError::new_err(
@@ -333,8 +367,52 @@ fn solve<'py>(
     // One pixel: the render step costs nothing.
     s.camera.width = 1;
     s.camera.height = 1;
-    let run = run_interruptible(py, s, options(threads, progress))?;
+    let run = run_interruptible(py, s, options(threads, progress), callback)?;
     result_dict(py, &run, false)
+}
+
+/// The real spherical harmonics Y_l^m (docs/design.md §2; `pn_stencil::quadrature::real_sh`)
+/// of `directions` (float64, shape (n, 3), unit vectors) for l ≤ `lmax`: float64, shape
+/// (n, (lmax+1)²), column l(l+1)+m. The reference the Mitsuba integrator's own evaluation is
+/// tested against.
+#[pyfunction]
+fn real_sh<'py>(
+    py: Python<'py>,
+    lmax: usize,
+    directions: PyReadonlyArrayDyn<'py, f64>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let shape = directions.shape().to_vec();
+    if shape.len() != 2 || shape[1] != 3 {
+        return Err(PyValueError::new_err(format!(
+            "directions must have shape (n, 3), got {shape:?}"
+        )));
+    }
+    if lmax > 64 {
+        return Err(PyValueError::new_err(format!(
+            "lmax must be at most 64, got {lmax}"
+        )));
+    }
+    let d = directions.as_array();
+    let per = (lmax + 1) * (lmax + 1);
+    let mut out = Vec::with_capacity(shape[0] * per);
+    for row in d.outer_iter() {
+        let (x, y, z) = (row[0], row[1], row[2]);
+        let norm = (x * x + y * y + z * z).sqrt();
+        if !(norm.is_finite() && (norm - 1.0).abs() <= 1e-6) {
+            return Err(PyValueError::new_err(format!(
+                "directions must be unit vectors, got ({x}, {y}, {z})"
+            )));
+        }
+        let (mu, phi) = (z.clamp(-1.0, 1.0), y.atan2(x));
+        for l in 0..=lmax {
+            for m in -(l as i64)..=(l as i64) {
+                out.push(pn_stencil::quadrature::real_sh(l, m, mu, phi));
+            }
+        }
+    }
+    Ok(PyArray1::from_vec(py, out)
+        .reshape([shape[0], per])?
+        .into_any())
 }
 
 /// The names of the built-in render scenes.
@@ -350,6 +428,7 @@ fn _pnsolver(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(render, m)?)?;
     m.add_function(wrap_pyfunction!(solve, m)?)?;
     m.add_function(wrap_pyfunction!(builtin_scenes, m)?)?;
+    m.add_function(wrap_pyfunction!(real_sh, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

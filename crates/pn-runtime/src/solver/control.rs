@@ -11,7 +11,7 @@
 //! * divergence: a relative residual above `divergence_limit`, or not finite,
 //!
 //! and keeps the history and the progress display (a progress bar every 16 iterations,
-//! and an optional callback after every iteration).
+//! and an optional callback and [`super::IterationObserver`] after every iteration).
 
 use super::{SolveStats, SolveStatus, SolverOptions};
 use crate::linalg::norm;
@@ -69,6 +69,7 @@ pub struct Control<'a> {
     /// Restarts (or re-checks) taken so far ([`Control::may_restart`]).
     pub restarts: usize,
     callback: Option<&'a dyn Fn(usize, f64)>,
+    observer: Option<super::IterationObserver>,
     bar: indicatif::ProgressBar,
     best: f64,
     best_at: usize,
@@ -90,6 +91,7 @@ impl<'a> Control<'a> {
             opts.divergence_limit,
         );
         c.bar = progress_bar(opts.max_iter, opts.progress);
+        c.observer = opts.observer.clone();
         c
     }
 
@@ -114,6 +116,7 @@ impl<'a> Control<'a> {
             history: Vec::new(),
             restarts: 0,
             callback: None,
+            observer: None,
             bar: indicatif::ProgressBar::hidden(),
             best: f64::INFINITY,
             best_at: 0,
@@ -150,6 +153,9 @@ impl<'a> Control<'a> {
         }
         if let Some(cb) = self.callback {
             cb(self.iterations, rel);
+        }
+        if let Some(o) = &self.observer {
+            o.notify(self.iterations, rel);
         }
         if !rel.is_finite() || rel > self.divergence_limit {
             return Some(Outcome::Diverged);

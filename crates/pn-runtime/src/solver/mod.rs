@@ -132,6 +132,37 @@ impl SolverKind {
     }
 }
 
+/// A function called after every iteration of a solve with (iteration, relative residual),
+/// from the thread that runs the solve: how a caller that is not a terminal (the Python
+/// package's progress callback) watches a long solve. Two observers are equal when they are
+/// the same function object.
+#[derive(Clone)]
+pub struct IterationObserver(pub std::sync::Arc<dyn Fn(usize, f64) + Send + Sync>);
+
+impl IterationObserver {
+    /// Wraps `f`.
+    pub fn new(f: impl Fn(usize, f64) + Send + Sync + 'static) -> Self {
+        Self(std::sync::Arc::new(f))
+    }
+
+    /// Reports one iteration.
+    pub fn notify(&self, iteration: usize, relative_residual: f64) {
+        (self.0)(iteration, relative_residual)
+    }
+}
+
+impl std::fmt::Debug for IterationObserver {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("IterationObserver(..)")
+    }
+}
+
+impl PartialEq for IterationObserver {
+    fn eq(&self, other: &Self) -> bool {
+        std::sync::Arc::ptr_eq(&self.0, &other.0)
+    }
+}
+
 /// Stopping and reporting options.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SolverOptions {
@@ -148,6 +179,8 @@ pub struct SolverOptions {
     pub divergence_limit: f64,
     /// Show a progress bar (only drawn when stderr is a terminal).
     pub progress: bool,
+    /// Called after every iteration (None: nobody watches).
+    pub observer: Option<IterationObserver>,
     /// Expert settings for experiments (multigrid parameters, a forced Krylov method,
     /// per-phase timing); the defaults are the tuned choices.
     pub tuning: SolverTuning,
@@ -201,6 +234,7 @@ impl Default for SolverOptions {
             stagnation_drop: 1e-4,
             divergence_limit: 1e8,
             progress: true,
+            observer: None,
             tuning: SolverTuning::default(),
         }
     }

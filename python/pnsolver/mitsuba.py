@@ -1,0 +1,594 @@
+"""pnsolver inside Mitsuba 3: the `pn` integrator.
+
+    import mitsuba as mi
+    mi.set_variant("llvm_ad_rgb")          # or "scalar_rgb" (correct, but slow: Python per ray)
+    import pnsolver.mitsuba
+    pnsolver.mitsuba.register()             # registers the integrator type "pn"
+    scene = mi.load_dict({..., "integrator": {"type": "pn", "order": 3, "resolution": 32}})
+    image = mi.render(scene, spp=64)
+
+The scene's participating medium must be one `heterogeneous` medium whose `sigma_t` is a
+single-channel `gridvolume` (albedo a constant, grey or RGB, or a single-channel gridvolume of
+the same resolution; phase `hg` or `isotropic`), inside a `cube` shape with a `null` BSDF that
+contains the grid's box; the lights are `directional` and `point` emitters. Anything else is
+refused with a `ValueError` that says what is not supported.
+
+Before the first render of a scene the integrator hands the medium and the lights to
+pnsolver, which solves the multiple scattering (the moments L_l^m of the radiance scattered
+at least once, docs/design.md §6). Then it renders with Mitsuba's own sampling, as
+pnsolver's Monte Carlo renderer does (pn-runtime render/renderer.rs):
+
+- the camera ray is delta-tracked through the medium (`Medium.sample_interaction`, Mitsuba's
+  majorant) to its first real collision x, sampled with density T(cam, x) σ_t(x);
+- there the estimate is `albedo(x) · [ E T p  +  Σ_{l,m} λ_l p_l L_l^m(x) Y_l^m(ω_o) ]`:
+  single scattering by next-event estimation as `volpath` does it (one emitter sampled by
+  `Scene.sample_emitter_direction`, transmittance by ratio tracking, the phase function's
+  `eval_pdf`), plus the in-scattered multiple scattering read from a Dr.Jit 3D texture of
+  the solution's SH coefficients (trilinear between solve-cell centres, clamped at the
+  outermost centres, 0 outside the solve grid), with ω_o = −ray direction;
+- and the path stops: the solution carries every higher order.
+
+Many views from one solve: the solution is kept per scene (`prepare(scene)` runs it
+explicitly; `solution(scene)` returns it), so rendering other sensors of the same scene does
+not solve again.
+
+Integrator properties: `method` ("pn", "cda", "fld"; default "pn"; "none": single scattering
+only), `order` (3),
+`resolution` (solve cells per axis: an integer or "nx,ny,nz"; default 32), `tolerance`
+(1e-6), `margin`, `absorbing_layer` (the `[solve]` keys of a pn render scene; defaults as
+there), `threads` (default: all cores).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+try:
+    import drjit as dr
+    import mitsuba as mi
+except ImportError as e:  # pragma: no cover - the message is the point
+    raise ImportError(
+        "pnsolver.mitsuba needs Mitsuba 3 (pip install mitsuba==3.9.1): " + str(e)
+    ) from e
+
+from . import Scene, solve
+
+__all__ = ["register", "integrator_class", "PnIntegrator", "Solution", "scene_settings", "camera_settings", "real_sh"]
+
+
+def register(name: str = "pn") -> None:
+    """Registers the integrator under `name` for the current Mitsuba variant (call it again
+    after `mi.set_variant` switches variants)."""
+    cls = integrator_class()
+    mi.register_integrator(name, lambda props: cls(props))
+
+
+_CLASSES = {}
+
+
+def integrator_class():
+    """The integrator class of the current Mitsuba variant: [`PnIntegrator`] on that
+    variant's `mi.SamplingIntegrator` (each variant has its own base class)."""
+    variant = mi.variant()
+    if not variant or not variant.endswith("rgb"):
+        raise ValueError(
+            f"the pn integrator needs an RGB variant (scalar_rgb, llvm_ad_rgb, ...), "
+            f"the current one is {variant!r}"
+        )
+    if variant not in _CLASSES:
+        # nanobind classes take one base: the methods are copied onto a subclass of it.
+        methods = {k: v for k, v in vars(PnIntegrator).items()
+                   if k not in ("__dict__", "__weakref__")}
+        _CLASSES[variant] = type("PnIntegrator", (mi.SamplingIntegrator,), methods)
+    return _CLASSES[variant]
+
+
+# --------------------------------------------------------------------------------------
+# Real spherical harmonics (docs/design.md §2, pn_stencil::quadrature::real_sh)
+
+
+def real_sh(lmax: int, d):
+    """The real spherical harmonics Y_l^m(d), l ≤ lmax, of a unit direction `d` (a Mitsuba
+    Vector3f, scalar or wide), as a list indexed l(l+1)+m: the convention of
+    `pn_stencil::quadrature::real_sh` (associated Legendre functions without the
+    Condon–Shortley phase; cos(mφ) for m > 0, sin(|m|φ) for m < 0; orthonormal).
+
+    Written as polynomials in (x, y, z): with s = sin θ, P_l^m(z) = s^m Q_l^m(z), and
+    s^m cos(mφ), s^m sin(mφ) are the real and imaginary parts of (x + i y)^m, so no angle
+    is computed."""
+    x, y, z = d[0], d[1], d[2]
+    out = [None] * ((lmax + 1) ** 2)
+    # (x + i y)^m
+    re, im = [1.0], [0.0]
+    for m in range(1, lmax + 1):
+        re.append(re[-1] * x - im[-1] * y)
+        im.append(re[-2] * y + im[-1] * x)
+    for m in range(lmax + 1):
+        # Q_m^m = (2m−1)!!, Q_{m+1}^m = z (2m+1) Q_m^m, then the three-term recurrence.
+        q_mm = float(np.prod(np.arange(1, 2 * m, 2))) if m > 0 else 1.0
+        q_prev, q = None, q_mm
+        for l in range(m, lmax + 1):
+            if l == m + 1:
+                q_prev, q = q, z * (2 * m + 1) * q_mm
+            elif l > m + 1:
+                q_prev, q = q, ((2 * l - 1) * z * q - (l + m - 1) * q_prev) / (l - m)
+            ratio = 1.0
+            for k in range(l - m + 1, l + m + 1):
+                ratio /= k
+            k_lm = math.sqrt((2 * l + 1) / (4 * math.pi) * ratio)
+            if m == 0:
+                out[l * (l + 1)] = k_lm * q
+            else:
+                c = math.sqrt(2.0) * k_lm
+                out[l * (l + 1) + m] = c * q * re[m]
+                out[l * (l + 1) - m] = c * q * im[m]
+    return out
+
+
+# --------------------------------------------------------------------------------------
+# The Mitsuba scene as a pnsolver scene
+
+
+def _scalar(v) -> float:
+    """A Mitsuba scalar (a Python number, or a width-1 array in the wide variants)."""
+    return float(np.asarray(v, dtype=np.float64).ravel()[0])
+
+
+def _value(v):
+    """A Mitsuba parameter value as a float or an [r, g, b] list (equal channels: a float)."""
+    a = np.array(v, dtype=np.float64).ravel()
+    if a.size == 1 or np.all(a == a[0]):
+        return float(a[0])
+    if a.size == 3:
+        return [float(c) for c in a]
+    raise ValueError(f"expected a number or an RGB value, got {a.size} values")
+
+
+def _the_medium(scene):
+    """The one heterogeneous medium and its bounding cube."""
+    shapes = list(scene.shapes())
+    media = [(s, s.interior_medium()) for s in shapes if s.interior_medium() is not None]
+    if len(media) != 1:
+        raise ValueError(
+            f"the pn integrator needs exactly one shape with an interior medium, the scene has "
+            f"{len(media)}"
+        )
+    shape, medium = media[0]
+    if len(shapes) != 1:
+        raise ValueError(
+            f"the pn integrator renders a medium alone (no surfaces): the scene has "
+            f"{len(shapes)} shapes"
+        )
+    if medium.class_name() != "HeterogeneousMedium":
+        raise ValueError(
+            f"the medium must be 'heterogeneous' (a gridvolume), got {medium.class_name()}"
+        )
+    bsdf = shape.bsdf()
+    if bsdf is None or bsdf.class_name() != "Null":
+        raise ValueError("the shape around the medium must have a 'null' BSDF")
+    if shape.class_name() not in ("Cube", "Mesh", "PLYMesh", "OBJMesh"):
+        raise ValueError(
+            f"the shape around the medium must be a 'cube', got {shape.class_name()}"
+        )
+    return shape, medium
+
+
+def _box_of_cube(shape):
+    """The cube's box; refuses a rotated or non-box mesh (every vertex on a corner of its
+    bounding box)."""
+    bb = shape.bbox()
+    lo = np.array(bb.min, dtype=np.float64)
+    hi = np.array(bb.max, dtype=np.float64)
+    verts = np.array(mi.traverse(shape)["vertex_positions"], dtype=np.float64).reshape(-1, 3)
+    tol = 1e-5 * max(1.0, float(np.max(hi - lo)))
+    on_corner = np.minimum(np.abs(verts - lo), np.abs(verts - hi)) <= tol
+    if not np.all(on_corner):
+        raise ValueError("the shape around the medium must be an axis-aligned box (a 'cube')")
+    return lo, hi
+
+
+def _grid_box(medium, hint_lo, hint_hi):
+    """The world box of the medium's grid, read with `Medium.intersect_aabb` along the three
+    axes through the centre of the shape's box."""
+    c = (hint_lo + hint_hi) / 2
+    far = 4.0 * float(np.max(hint_hi - hint_lo)) + 1.0
+    lo, hi = np.zeros(3), np.zeros(3)
+    for a in range(3):
+        o = c.copy()
+        o[a] -= far
+        d = np.zeros(3)
+        d[a] = 1.0
+        ray = mi.Ray3f(mi.Point3f(*map(float, o)), mi.Vector3f(*map(float, d)))
+        hit, t0, t1 = medium.intersect_aabb(ray)
+        if _scalar(hit) == 0.0:
+            raise ValueError("the medium's grid does not reach the centre of its cube")
+        lo[a] = o[a] + _scalar(t0)
+        hi[a] = o[a] + _scalar(t1)
+    return lo, hi
+
+
+def _grid_values(density, lo, hi, p, filt):
+    """Mitsuba's gridvolume reading of `density` (x first) at points p (n, 3): values at the
+    voxel centres, trilinear (clamped to the edge voxels in the outer half voxel) or nearest,
+    0 outside the box."""
+    res = np.array(density.shape)
+    u = (p - lo) / (hi - lo) * res
+    inside = np.all((p >= lo) & (p <= hi), axis=1)
+    if filt == "nearest":
+        i = np.clip(np.floor(u).astype(int), 0, res - 1)
+        v = density[i[:, 0], i[:, 1], i[:, 2]]
+    else:
+        f = np.clip(u - 0.5, 0.0, res - 1.0)
+        i0 = np.minimum(np.floor(f).astype(int), res - 1)
+        i1 = np.minimum(i0 + 1, res - 1)
+        w = f - i0
+        v = np.zeros(len(p))
+        for cx in (0, 1):
+            for cy in (0, 1):
+                for cz in (0, 1):
+                    ix = i1[:, 0] if cx else i0[:, 0]
+                    iy = i1[:, 1] if cy else i0[:, 1]
+                    iz = i1[:, 2] if cz else i0[:, 2]
+                    wx = w[:, 0] if cx else 1 - w[:, 0]
+                    wy = w[:, 1] if cy else 1 - w[:, 1]
+                    wz = w[:, 2] if cz else 1 - w[:, 2]
+                    v += wx * wy * wz * density[ix, iy, iz]
+    return np.where(inside, v, 0.0)
+
+
+def _mitsuba_sigma_t(medium, points):
+    """σ_t of the medium at `points` (n, 3), channel 0, as Mitsuba computes it."""
+    out = np.zeros(len(points))
+    wide = not mi.variant().startswith("scalar")
+    if wide:
+        mei = dr.zeros(mi.MediumInteraction3f, len(points))
+        mei.p = mi.Point3f(*[mi.Float(points[:, a].astype(np.float32)) for a in range(3)])
+        _, _, sigma_t = medium.get_scattering_coefficients(mei, True)
+        out[:] = np.array(sigma_t[0], dtype=np.float64)
+    else:
+        for i, q in enumerate(points):
+            mei = dr.zeros(mi.MediumInteraction3f)
+            mei.p = mi.Point3f(*map(float, q))
+            _, _, sigma_t = medium.get_scattering_coefficients(mei, True)
+            out[i] = float(sigma_t[0])
+    return out
+
+
+def _filter_of(medium, density, scale, lo, hi):
+    """Which filter Mitsuba's gridvolume uses, found by comparing σ_t at points inside the
+    box against both readings of the grid (this also checks the box and the axis order)."""
+    rng = np.random.default_rng(7)
+    p = lo + (hi - lo) * rng.uniform(0.02, 0.98, size=(256, 3))
+    mitsuba = _mitsuba_sigma_t(medium, p)
+    size = max(1.0, float(np.max(np.abs(mitsuba))))
+    for filt in ("trilinear", "nearest"):
+        ours = scale * _grid_values(density, lo, hi, p, filt)
+        if np.max(np.abs(ours - mitsuba)) <= 1e-4 * size:
+            return filt
+    raise ValueError(
+        "the medium's sigma_t is not its grid read over the grid's box (a rotated or sheared "
+        "gridvolume to_world is not supported)"
+    )
+
+
+def camera_settings(sensor):
+    """The `[camera]` of a pn scene for a Mitsuba `perspective` sensor (horizontal field of
+    view, the film's size; pn's pinhole camera looks along the sensor's +z with its +y up)."""
+    if sensor.class_name() != "PerspectiveCamera":
+        raise ValueError(f"the sensor must be 'perspective', got {sensor.class_name()}")
+    p = mi.traverse(sensor)
+    m = np.array(p["to_world"].matrix, dtype=np.float64).reshape(4, 4)
+    origin, forward, up = m[:3, 3], m[:3, 2], m[:3, 1]
+    for key in ("principal_point_offset_x", "principal_point_offset_y"):
+        if key in p.keys() and _scalar(p[key]) != 0.0:
+            raise ValueError(f"the sensor's {key} must be 0 for a pn camera")
+    size = np.array(p["film.size"]).ravel()
+    return {"position": [float(v) for v in origin],
+            "target": [float(v) for v in origin + forward],
+            "up": [float(v) for v in up],
+            "fov": _scalar(p["x_fov"]),
+            "width": int(size[0]), "height": int(size[1])}
+
+
+def scene_settings(scene, solve_settings: dict | None = None, sensor=None):
+    """The pnsolver scene of a Mitsuba scene: (settings dict, density array (x first),
+    albedo array or None), as `pnsolver.Scene(settings, density, albedo)` takes them. The
+    camera is `sensor`'s (a perspective sensor, see `camera_settings`), else a placeholder
+    (solves do not use it). Raises ValueError for what the integrator does not support."""
+    shape, medium = _the_medium(scene)
+    cube_lo, cube_hi = _box_of_cube(shape)
+    params = mi.traverse(medium)
+    keys = set(params.keys())
+    if "sigma_t.data" not in keys:
+        raise ValueError("the medium's sigma_t must be a gridvolume")
+    grid = np.array(params["sigma_t.data"], dtype=np.float64)
+    if grid.ndim != 4 or grid.shape[3] != 1:
+        raise ValueError(
+            f"the medium's sigma_t grid must have one channel (grey extinction), got shape "
+            f"{grid.shape}"
+        )
+    density = np.ascontiguousarray(np.transpose(grid[..., 0], (2, 1, 0)))
+    scale = _scalar(params["scale"])
+    lo, hi = _grid_box(medium, cube_lo, cube_hi)
+    tol = 1e-5 * max(1.0, float(np.max(hi - lo)))
+    if np.any(cube_lo > lo + tol) or np.any(cube_hi < hi - tol):
+        raise ValueError(
+            f"the cube [{cube_lo}, {cube_hi}] must contain the medium's grid [{lo}, {hi}]"
+        )
+    filt = _filter_of(medium, density, scale, lo, hi)
+
+    albedo_array = None
+    medium_settings = {
+        "bbox_min": [float(v) for v in lo],
+        "bbox_max": [float(v) for v in hi],
+        "sigma_t_scale": scale,
+        "filter": filt,
+    }
+    if "albedo.data" in keys:
+        a = np.array(params["albedo.data"], dtype=np.float64)
+        if a.ndim != 4 or a.shape[3] != 1:
+            raise ValueError(f"an albedo grid must have one channel, got shape {a.shape}")
+        albedo_array = np.ascontiguousarray(np.transpose(a[..., 0], (2, 1, 0)))
+        if albedo_array.shape != density.shape:
+            raise ValueError(
+                f"the albedo grid {albedo_array.shape} must have the resolution of the "
+                f"sigma_t grid {density.shape}"
+            )
+    elif "albedo.value.value" in keys:
+        medium_settings["albedo"] = _value(params["albedo.value.value"])
+    else:
+        raise ValueError("the medium's albedo must be a constant or a gridvolume")
+
+    phase = medium.phase_function()
+    if phase.class_name() == "HGPhaseFunction":
+        phase_settings = {"kind": "hg", "g": _scalar(mi.traverse(phase)["g"])}
+    elif phase.class_name() == "IsotropicPhaseFunction":
+        phase_settings = {"kind": "isotropic"}
+    else:
+        raise ValueError(f"the phase function must be 'hg' or 'isotropic', got {phase.class_name()}")
+
+    lights = []
+    for e in scene.emitters():
+        p = mi.traverse(e)
+        if e.class_name() == "DirectionalEmitter":
+            m = np.array(p["to_world"].matrix, dtype=np.float64).reshape(4, 4)
+            d = m[:3, 2]
+            lights.append({"kind": "directional", "direction": [float(v) for v in d],
+                           "irradiance": _value(p["irradiance.value"])})
+        elif e.class_name() == "PointLight":
+            power = _value(p["intensity.value"])
+            power = [4 * math.pi * v for v in power] if isinstance(power, list) else 4 * math.pi * power
+            lights.append({"kind": "point",
+                           "position": [float(v) for v in np.array(p["position"]).ravel()],
+                           "power": power})
+        else:
+            raise ValueError(
+                f"the pn integrator supports directional and point emitters, not {e.class_name()}"
+            )
+    if not lights:
+        raise ValueError("the scene has no directional or point emitter")
+
+    centre = (lo + hi) / 2
+    extent = float(np.max(hi - lo))
+    camera = {"position": [float(centre[0]), float(centre[1]), float(centre[2] + 4 * extent)],
+              "target": [float(v) for v in centre], "up": [0.0, 1.0, 0.0],
+              "fov": 40.0, "width": 1, "height": 1}
+    settings = {
+        "medium": medium_settings,
+        "phase": phase_settings,
+        "light": lights,
+        "camera": camera if sensor is None else camera_settings(sensor),
+        "solve": dict(solve_settings or {}),
+    }
+    return settings, density, albedo_array
+
+
+# --------------------------------------------------------------------------------------
+# The integrator
+
+
+def _not(b):
+    """Logical not of a mask: a Dr.Jit array (wide variants) or a Python bool (scalar)."""
+    return (not b) if isinstance(b, bool) else ~b
+
+
+class Solution:
+    """A solve of one Mitsuba scene, ready for lookups: per colour channel a Dr.Jit 3D
+    texture of the moments, the solve grid's box, the phase moments λ_l p_l and the pn
+    reports."""
+
+    def __init__(self, settings, density, albedo, threads):
+        scene = Scene(settings, density=density, albedo=albedo)
+        channels = [scene.channel(c) for c in range(3)] if scene.coloured else [scene]
+        self.reports = []
+        self.textures = []
+        self.moments = []
+        for ch in channels:
+            sol = solve(ch, threads=threads)
+            self.reports.append(sol["report"])
+            if sol["moments"] is None:
+                continue
+            m = np.asarray(sol["moments"])
+            self.moments.append(m)
+            self.grid_min = np.array(sol["grid_min"], dtype=np.float64)
+            self.grid_max = np.array(sol["grid_max"], dtype=np.float64)
+            # Texture3f reads a tensor (z, y, x, channel) at (u, v, w) = (x, y, z) in [0,1]³,
+            # texel centres at (i + ½)/n: the solve-cell centres; clamp mode: the outermost
+            # centres' values beyond them.
+            t = np.ascontiguousarray(np.transpose(m, (2, 1, 0, 3)).astype(np.float32))
+            self.textures.append(
+                mi.Texture3f(mi.TensorXf(t), filter_mode=dr.FilterMode.Linear,
+                             wrap_mode=dr.WrapMode.Clamp)
+            )
+        self.per_cell = self.moments[0].shape[3] if self.moments else 0
+        self.lmax = int(round(math.sqrt(self.per_cell))) - 1 if self.moments else -1
+        phase = settings["phase"]
+        g = float(phase.get("g", 0.0)) if phase["kind"] == "hg" else 0.0
+        # λ_l p_l: g^l for Henyey–Greenstein (Phase::moment); isotropic: only l = 0.
+        self.phase_moments = [1.0] + [g ** l for l in range(1, self.lmax + 1)]
+        if phase["kind"] == "isotropic":
+            self.phase_moments = [1.0] + [0.0] * self.lmax
+
+    def inscatter(self, p, wo):
+        """Σ_{l,m} λ_l p_l L_l^m(p) Y_l^m(wo) per colour channel (a list), 0 outside the
+        solve grid; Mitsuba types (scalar or wide)."""
+        if not self.textures:
+            return [mi.Float(0.0)]
+        lo = mi.Point3f(*[float(v) for v in self.grid_min])
+        size = mi.Vector3f(*[float(v) for v in self.grid_max - self.grid_min])
+        u = (p - lo) / size
+        inside = dr.all((u >= 0) & (u <= 1))
+        ylm = real_sh(self.lmax, wo)
+        coeffs = []
+        for l in range(self.lmax + 1):
+            for m in range(-l, l + 1):
+                coeffs.append(self.phase_moments[l] * ylm[l * (l + 1) + m])
+        out = []
+        for tex in self.textures:
+            vals = tex.eval(mi.Point3f(u), active=inside)
+            s = mi.Float(0.0)
+            for c, v in zip(coeffs, vals):
+                if c is not None:
+                    s += c * v
+            out.append(dr.select(inside, s, 0.0))
+        return out
+
+
+class PnIntegrator:
+    """Single scattering by Mitsuba's next-event estimation plus the multiple scattering of
+    a pnsolver solve, at the first collision of each camera path (module docs). The methods
+    of the integrator; `integrator_class()` puts them on the current variant's
+    `mi.SamplingIntegrator`, and `register()` registers that class."""
+
+    def __init__(self, props):
+        type(self).__mro__[1].__init__(self, props)  # the variant's SamplingIntegrator
+        solve_settings = {}
+        solve_settings["method"] = str(props.get("method", "pn"))
+        if solve_settings["method"] not in ("pn", "cda", "fld", "none"):
+            raise ValueError(
+                f"pn integrator: method must be pn, cda, fld or none, got "
+                f"{solve_settings['method']!r}"
+            )
+        solve_settings["order"] = int(props.get("order", 3))
+        res = props.get("resolution", 32)
+        if isinstance(res, str):
+            try:
+                res = [int(v) for v in res.split(",")]
+            except ValueError:
+                raise ValueError(f"pn integrator: resolution {res!r}: an integer or 'nx,ny,nz'")
+            if len(res) == 1:
+                res = res * 3
+        else:
+            res = [int(res)] * 3
+        solve_settings["resolution"] = res
+        solve_settings["tolerance"] = float(props.get("tolerance", 1e-6))
+        for key in ("margin", "absorbing_layer"):
+            if key in props:
+                solve_settings[key] = int(props[key])
+        self.solve_settings = solve_settings
+        self.threads = int(props["threads"]) if "threads" in props else None
+        self._solutions = {}
+
+    # Many views from one solve: the solution is kept per scene.
+    def prepare(self, scene) -> Solution:
+        """Solves the multiple scattering of `scene` (once; later calls return the kept
+        solution) and returns it."""
+        key = id(scene)
+        if key not in self._solutions:
+            settings, density, albedo = scene_settings(scene, self.solve_settings)
+            _, medium = _the_medium(scene)
+            self._solutions[key] = (scene, medium, Solution(settings, density, albedo, self.threads))
+        return self._solutions[key][2]
+
+    def solution(self, scene) -> Solution:
+        """The kept solution of `scene` (solving it first if needed)."""
+        return self.prepare(scene)
+
+    def render(self, scene, sensor=0, seed=0, spp=0, develop=True, evaluate=True):
+        self.prepare(scene)
+        base = type(self).__mro__[1]  # the variant's SamplingIntegrator
+        return base.render(self, scene, sensor, seed, spp, develop, evaluate)
+
+    def sample(self, scene, sampler, ray, medium=None, active=True):
+        if id(scene) not in self._solutions:
+            self.prepare(scene)
+        _, med, sol = self._solutions[id(scene)]
+        ray = mi.Ray3f(ray)
+        active = mi.Bool(active)
+
+        # Delta tracking to the first real collision (density T σ_t along the ray).
+        def track_cond(ray, active, found, p, albedo, sampler):
+            return active
+
+        def track_body(ray, active, found, p, albedo, sampler):
+            mei = med.sample_interaction(ray, sampler.next_1d(active), 0, active)
+            valid = active & mei.is_valid()
+            # (The guards only keep scalar Python from dividing by zero where the value is
+            # not used: a valid interaction has a positive majorant, a real one σ_t > 0.)
+            majorant = dr.maximum(mei.combined_extinction[0], 1e-30)
+            p_real = dr.select(valid, mei.sigma_t[0] / majorant, 0.0)
+            real = valid & (sampler.next_1d(valid) < p_real)
+            found = found | real
+            p = dr.select(real, mei.p, p)
+            albedo = dr.select(real, mei.sigma_s / dr.maximum(mei.sigma_t, 1e-30), albedo)
+            active = valid & _not(real)
+            ray.o = dr.select(active, mei.p, ray.o)
+            return ray, active, found, p, albedo, sampler
+
+        found = mi.Bool(False)
+        p = mi.Point3f(0.0)
+        albedo = mi.Spectrum(0.0)
+        ray, _, found, p, albedo, sampler = dr.while_loop(
+            state=(ray, active, found, p, albedo, sampler),
+            cond=track_cond,
+            body=track_body,
+        )
+
+        # Single scattering: next-event estimation (one emitter, as volpath), ratio tracking.
+        wo = -ray.d
+        mei = dr.zeros(mi.MediumInteraction3f)
+        mei.p = p
+        mei.wi = wo
+        mei.sh_frame = mi.Frame3f(wo)
+        mei.t = 0.0
+        mei.time = ray.time
+        mei.wavelengths = ray.wavelengths
+        ds, em = scene.sample_emitter_direction(mei, sampler.next_2d(found), False, found)
+        shadow = mi.Ray3f(p, ds.d)
+        shadow.maxt = ds.dist
+        shadow.time = ray.time
+
+        def ratio_cond(shadow, active, tr, sampler):
+            return active
+
+        def ratio_body(shadow, active, tr, sampler):
+            m = med.sample_interaction(shadow, sampler.next_1d(active), 0, active)
+            valid = active & m.is_valid()
+            majorant = dr.maximum(m.combined_extinction[0], 1e-30)
+            tr = dr.select(valid, tr * m.sigma_n[0] / majorant, tr)
+            shadow.o = dr.select(valid, m.p, shadow.o)
+            shadow.maxt = dr.select(valid, shadow.maxt - m.t, shadow.maxt)
+            return shadow, valid, tr, sampler
+
+        go = found & (ds.pdf > 0)
+        shadow, _, tr, sampler = dr.while_loop(
+            state=(shadow, go, mi.Float(1.0), sampler), cond=ratio_cond, body=ratio_body
+        )
+        ctx = mi.PhaseFunctionContext(sampler)
+        phase_val, _ = med.phase_function().eval_pdf(ctx, mei, ds.d, go)
+        single = em * tr * phase_val
+
+        # Multiple scattering from the solution.
+        ms = sol.inscatter(p, wo)
+        multiple = mi.Spectrum(ms[0]) if len(ms) == 1 else mi.Spectrum(ms[0], ms[1], ms[2])
+        result = dr.select(found, albedo * (dr.select(go, single, 0.0) + multiple), 0.0)
+        return result, mi.Bool(True), []
+
+    def aov_names(self):
+        return []
+
+    def to_string(self):
+        s = self.solve_settings
+        return f"PnIntegrator[method={s['method']}, order={s['order']}, resolution={s['resolution']}]"
