@@ -89,9 +89,10 @@ fn pointsource_fld_end_to_end() {
     assert_eq!(f.len(), 15 * 15 * 15);
     assert_eq!(rep["method"], "fld");
     let fld = &rep["fld"];
-    assert_eq!(fld["route"], "gs");
+    // Picard is the default route; ω belongs to Gauss–Seidel only.
+    assert_eq!(fld["route"], "picard");
     assert_eq!(fld["limiter"], "lp");
-    assert_eq!(fld["omega"], 1.5);
+    assert!(fld["omega"].is_null());
     assert_eq!(fld["converged"], true);
     assert!(fld["iterations"].as_u64().unwrap() > 0);
     assert!(fld["residual"].as_f64().unwrap() < 1e-6);
@@ -246,7 +247,12 @@ fn picard_and_gs_routes_agree_via_cli() {
     let d = Scratch::new("sphere");
     let scene = sphere_scene(&d.0, 16);
     let s = scene.to_str().unwrap();
-    let (f_gs, rep_gs) = solve_ok(&[s, "--method", "fld", "--tol", "1e-9"], &d.0.join("gs"));
+    let (f_gs, rep_gs) = solve_ok(
+        &[s, "--method", "fld", "--fld-solver", "gs", "--tol", "1e-9"],
+        &d.0.join("gs"),
+    );
+    assert_eq!(rep_gs["fld"]["route"], "gs");
+    assert_eq!(rep_gs["fld"]["omega"], 1.5);
     let (f_pc, rep_pc) = solve_ok(
         &[
             s,

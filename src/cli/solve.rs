@@ -116,11 +116,13 @@ pub struct SolveFlags {
     /// default lp).
     #[arg(long, value_parser = parse_limiter)]
     pub limiter: Option<Limiter>,
-    /// --method fld --fld-solver gs: SOR factor ω in (0, 2) (default 1.5).
+    /// --method fld: SOR factor ω in (0, 2) of the Gauss–Seidel route (default 1.5); selects
+    /// that route when --fld-solver is not given.
     #[arg(long, allow_hyphen_values = true)]
     pub omega: Option<f64>,
-    /// --method fld: gs (red–black Gauss–Seidel/SOR, default) or picard (linear solves
-    /// through the diffusion stencil with --solver).
+    /// --method fld: picard (Anderson-accelerated Picard steps, each a linear solve through
+    /// the diffusion stencil with --solver; default) or gs (red–black Gauss–Seidel/SOR, the
+    /// default when --omega is given).
     #[arg(long, value_enum)]
     pub fld_solver: Option<FldSolverArg>,
     /// --method fld: extinction threshold σ_ε (1/length; default 1e-3 / longest domain edge).

@@ -68,7 +68,12 @@ pub fn settings_from_request(a: &SolveRequest, grid: &FldGrid) -> Result<FldSett
          max(σ_t, σ_ε) in the diffusion coefficient)"
     );
     let limiter = a.limiter.unwrap_or(Limiter::LevermorePomraning);
-    let route = a.fld_solver.unwrap_or_default();
+    // ω is the SOR factor of the Gauss–Seidel route: giving it selects that route.
+    let route = a.fld_solver.unwrap_or(if a.omega.is_some() {
+        Route::GaussSeidel
+    } else {
+        Route::default()
+    });
     ensure!(
         !(route == Route::Picard && a.omega.is_some()),
         "--omega (the SOR factor) applies to --fld-solver gs only"

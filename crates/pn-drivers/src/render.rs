@@ -21,7 +21,7 @@ use pn_runtime::render::image_io::{write_exr_gray, write_png_tonemapped};
 use pn_runtime::render::light_depth::LightDepth;
 use pn_runtime::render::march::{MarchSettings, Marcher};
 use pn_runtime::render::renderer::{Image, MsField, Renderer};
-use pn_runtime::render::scene::{RenderMethod, RendererKind};
+use pn_runtime::render::scene::{FldSolver, RenderMethod, RendererKind};
 use pn_runtime::render::shadow::{DeepShadowMaps, Extinction};
 use pn_runtime::render::solve_setup::solve_grid;
 use pn_runtime::render::{Camera, DensityFilter, DensityGrid, RenderScene, SceneOverride};
@@ -820,7 +820,7 @@ fn render_tuning(tuning: &SolverTuning) -> SolverTuning {
 }
 
 /// Solves the multiple scattering: P_N / CDA through the stencil and parity-MG, FLD through
-/// its Gauss–Seidel solver (Levermore–Pomraning limiter). Returns the cell-centred moments.
+/// `[solve] fld_solver` (Picard steps on multigrid-CG, or Gauss–Seidel; Levermore–Pomraning limiter). Returns the cell-centred moments.
 fn solve_ms(
     scene: &RenderScene,
     problem: &pn_runtime::problem::Problem,
@@ -849,7 +849,10 @@ fn solve_ms(
         params.validate(&fp).context("FLD settings")?;
         let settings = FldSettings {
             params,
-            route: Route::GaussSeidel,
+            route: match scene.solve.fld_solver {
+                FldSolver::Picard => Route::Picard,
+                FldSolver::Gs => Route::GaussSeidel,
+            },
             linear_solver: SolverKind::ParityCg,
             tuning: tuning.clone(),
         };
@@ -872,7 +875,10 @@ fn solve_ms(
             moments,
             None,
             SolverReport {
-                solver: "fld-gs (Levermore–Pomraning)".into(),
+                solver: match &run.linear_solver {
+                    Some(linear) => format!("fld-picard({linear}) (Levermore–Pomraning)"),
+                    None => "fld-gs (Levermore–Pomraning)".into(),
+                },
                 stencil: "fld-7point".into(),
                 iterations: s.iterations,
                 relative_residual: s.final_residual(),

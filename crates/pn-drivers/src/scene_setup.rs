@@ -65,10 +65,11 @@ impl std::str::FromStr for Method {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Route {
     /// Nonlinear red–black Gauss–Seidel with SOR ([`pn_runtime::fld::solve_fld`]).
-    #[default]
     GaussSeidel,
     /// Picard iteration, each step a linear solve through the `diffusion_3d` stencil
-    /// ([`pn_runtime::fld::solve_fld_picard`]).
+    /// ([`pn_runtime::fld::solve_fld_picard`]), Anderson-accelerated. The default: on the
+    /// 63³ point source 1.7 s against 10.6 s for Gauss–Seidel (docs/fld.md).
+    #[default]
     Picard,
 }
 
