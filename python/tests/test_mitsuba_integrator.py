@@ -165,12 +165,28 @@ def test_the_lookup_is_pnsolvers_trilinear_read_of_the_solution():
     assert np.max(np.abs(got - expected)) < 1e-4 * scale
 
 
-@pytest.mark.parametrize("case", ["directional, g = 0.7, P_5", "point light, RGB albedo, P_3"])
+def albedo_grid():
+    """An albedo varying along x (0.5 … 0.98), on the density's 16³ grid, x first."""
+    a = np.linspace(0.5, 0.98, 16)[:, None, None] * np.ones((16, 16, 16))
+    return np.ascontiguousarray(a)
+
+
+@pytest.mark.parametrize("case", ["directional, g = 0.7, P_5", "point light, RGB albedo, P_3",
+                                  "albedo grid, P_3"])
 def test_the_integrator_equals_pnsolvers_monte_carlo_renderer(case):
     """The same estimator in two implementations: image means agree within noise."""
     use("llvm_ad_rgb")
+    pn_albedo = None
     if case.startswith("directional"):
         order, albedo, light, g = 5, 0.9, None, 0.7
+        pn_light = {"kind": "directional", "direction": [0.3, -1.0, -0.2], "irradiance": 1.0}
+    elif case.startswith("albedo grid"):
+        order, light, g = 3, None, 0.3
+        pn_albedo = albedo_grid()
+        albedo = {"type": "gridvolume",
+                  "grid": mi.VolumeGrid(np.ascontiguousarray(
+                      np.transpose(pn_albedo, (2, 1, 0))[..., None], dtype=np.float32)),
+                  "to_world": mi.ScalarTransform4f().translate([-1, -1, -1]).scale(2)}
         pn_light = {"kind": "directional", "direction": [0.3, -1.0, -0.2], "irradiance": 1.0}
     else:
         order, albedo, g = 3, [0.95, 0.8, 0.6], 0.3
@@ -182,7 +198,7 @@ def test_the_integrator_equals_pnsolvers_monte_carlo_renderer(case):
             for c in range(3)]
     settings = {
         "medium": {"bbox_min": [-1.0] * 3, "bbox_max": [1.0] * 3, "sigma_t_scale": 8.0,
-                   "albedo": albedo},
+                   **({"albedo": albedo} if pn_albedo is None else {})},
         "phase": {"kind": "hg", "g": g},
         "light": [pn_light],
         "camera": {"position": [0.0, 0.0, 4.0], "target": [0.0] * 3, "up": [0.0, 1.0, 0.0],
@@ -194,7 +210,8 @@ def test_the_integrator_equals_pnsolvers_monte_carlo_renderer(case):
 
     def pn_render(seed):
         settings["render"]["seed"] = seed
-        img = pnsolver.render(pnsolver.Scene(settings, density=density()), threads=2)["image"]
+        img = pnsolver.render(pnsolver.Scene(settings, density=density(), albedo=pn_albedo),
+                              threads=2)["image"]
         return img if img.ndim == 3 else np.repeat(img[..., None], 3, axis=2)
 
     theirs = [mean_and_sigma(pn_render, channel=c) for c in range(3)]
