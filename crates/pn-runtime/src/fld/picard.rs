@@ -217,9 +217,12 @@ pub fn solve_fld_picard(
     };
     let solver = opts.solver.solver();
     let mut anderson = Anderson::new(opts.anderson_depth);
+    let profile = opts.tuning.profile;
     let converged = loop {
+        let t0 = std::time::Instant::now();
         op.face_coefficients(&phi, &mut d);
         let rel = op.residual_rms(&phi, &d) / op.rms_source;
+        let t_nonlinear = t0.elapsed().as_secs_f64();
         history.push(rel);
         if rel < params.tol {
             break true;
@@ -233,8 +236,11 @@ pub fn solve_fld_picard(
             sigma_a: &sigma_a,
             source: &source,
         };
+        let t1 = std::time::Instant::now();
         let system = assemble_interior(&fields, kernel, &interior, op.phi_boundary)
             .context("assembling a Picard step")?;
+        let t_assembly = t1.elapsed().as_secs_f64();
+        let t2 = std::time::Instant::now();
         nonzeros = system.matrix.nnz();
         let x: Vec<f64> = interior.cells.iter().map(|&c| phi[c]).collect();
         let mut r = vec![0.0; x.len()];
@@ -245,6 +251,17 @@ pub fn solve_fld_picard(
         let (delta, stats) =
             multigrid.unwrap_or_else(|| solver.solve(&system.matrix, &r, &linear_opts));
         linear_iterations.push(stats.iterations);
+        if profile {
+            eprintln!(
+                "profile picard step {}: D and nonlinear residual {:.3} s, assembly {:.3} s, \
+                 linear solve {:.3} s ({} iterations)",
+                linear_iterations.len(),
+                t_nonlinear,
+                t_assembly,
+                t2.elapsed().as_secs_f64(),
+                stats.iterations
+            );
+        }
         if stats.status == SolveStatus::Diverged || delta.iter().any(|v| !v.is_finite()) {
             bail!(
                 "the {} solver diverged in Picard step {} (relative residual {:.3e})",
