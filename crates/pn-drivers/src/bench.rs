@@ -12,8 +12,8 @@ use crate::bench_rows::{
     reset_peak_memory, row_from, Row, CSV_HEADER,
 };
 use anyhow::Context;
-use pn_kernels::{cda_kernel, pn_kernel, Staggering};
-use pn_runtime::fld::{solve_fld, FldParams, Limiter};
+use pn_kernels::{cda_kernel, diffusion_kernel, pn_kernel, Dim, Staggering};
+use pn_runtime::fld::{solve_fld, solve_fld_picard, FldParams, Limiter, PicardOptions};
 use pn_runtime::pipeline::{solve_problem, Solution};
 use pn_runtime::reference::{cda_point_source, grosjean, pn_point_source};
 use pn_runtime::scenes::{builtin, BuiltinOptions};
@@ -205,39 +205,51 @@ fn pointsource_rows(args: &BenchRequest, rows: &mut Vec<Row>) -> anyhow::Result<
         eprintln!("bench: {}", row.csv());
         rows.push(row);
     }
-    // FLD (nonlinear Gauss–Seidel) on the same cells; φ is the fluence of a unit-power source.
-    reset_peak_memory();
+    // FLD on the same cells, by both routes (nonlinear Gauss–Seidel, and Picard steps on
+    // multigrid CG with Anderson acceleration); φ is the fluence of a unit-power source.
     let problem = fld_point_source(n, &params)?;
     let cells = problem.grid.len();
     let fparams = FldParams::for_grid(Limiter::LevermorePomraning, &problem.grid);
-    let t0 = Instant::now();
-    let fsol = solve_fld(&problem, &fparams)?;
-    let seconds = t0.elapsed().as_secs_f64();
-    let phi = &fsol.phi;
-    let err = profile_error(
-        tau_per_cell,
-        max_k,
-        |k| phi[problem.grid.index(c + k, c, c)] * norm,
-        |t| grosjean(t, params.albedo),
-    );
-    let row = Row {
-        problem: "pointsource".into(),
-        method: "fld-lp".into(),
-        solver: "gauss-seidel".into(),
-        order: 0,
-        resolution: format!("{n}x{n}x{n}"),
-        unknowns: cells,
-        iterations: fsol.iterations,
-        seconds_assemble: 0.0,
-        seconds_solve: seconds,
-        peak_memory_bytes: peak_memory(),
-        error: err,
-        reference: "grosjean",
-        converged: fsol.converged,
-        operator_applications: 0,
-    };
-    eprintln!("bench: {}", row.csv());
-    rows.push(row);
+    let dk = diffusion_kernel(Dim::Three)?;
+    for route in ["gauss-seidel", "picard(mg-cg)"] {
+        reset_peak_memory();
+        let t0 = Instant::now();
+        let fsol = if route == "gauss-seidel" {
+            solve_fld(&problem, &fparams)?
+        } else {
+            let opts = PicardOptions {
+                tuning: args.tuning.clone(),
+                ..Default::default()
+            };
+            solve_fld_picard(&problem, &fparams, dk.kernel.as_ref(), &opts, None)?.fld
+        };
+        let seconds = t0.elapsed().as_secs_f64();
+        let phi = &fsol.phi;
+        let err = profile_error(
+            tau_per_cell,
+            max_k,
+            |k| phi[problem.grid.index(c + k, c, c)] * norm,
+            |t| grosjean(t, params.albedo),
+        );
+        let row = Row {
+            problem: "pointsource".into(),
+            method: "fld-lp".into(),
+            solver: route.into(),
+            order: 0,
+            resolution: format!("{n}x{n}x{n}"),
+            unknowns: cells,
+            iterations: fsol.iterations,
+            seconds_assemble: 0.0,
+            seconds_solve: seconds,
+            peak_memory_bytes: peak_memory(),
+            error: err,
+            reference: "grosjean",
+            converged: fsol.converged,
+            operator_applications: 0,
+        };
+        eprintln!("bench: {}", row.csv());
+        rows.push(row);
+    }
     Ok(())
 }
 
