@@ -88,8 +88,10 @@ impl MarshakRows {
         let order = moments.iter().map(|m| m.l).max().unwrap_or(0);
         anyhow::ensure!(
             moments.len() > 1 && moments.iter().any(|m| m.l == 0 && m.m == 0),
-            "the Marshak boundary applies to the P_N equations only (this stencil has {} \
-             unknown{} per cell); use --bc neumann or dirichlet",
+            "the Marshak boundary applies to the P_N equations only, and to text PDEs that \
+             state `boundary marshak` conditions (docs/pde-text.md; diffusion with its \
+             Marshak condition: --pde pdes/cda.pde); this stencil has {} unknown{} per cell \
+             and states none; use --bc neumann or dirichlet",
             moments.len(),
             if moments.len() == 1 { "" } else { "s" }
         );
