@@ -23,8 +23,8 @@ equation phi2: -div(9/(35*sigma(3)) * grad(phi2)) + sigma(2)*phi2 - 2/5*sigma(0)
 # The odd equations above give φ_1^n = −∂_n(φ_0 + 2φ_2)/(3σ_1) and φ_3^n = −3∂_nφ_2/(7σ_3):
 #   1/2 φ_0 + 5/8 φ_2 + 1/(3σ_1) ∂_n(φ_0 + 2φ_2) = 0,
 #   −1/8 φ_0 + 5/8 φ_2 + 3/(7σ_3) ∂_nφ_2 = 0
-# (Brantley & Larsen 2000 in the Legendre moments φ_0, φ_2; the first is the zero incoming
-# partial current, J·n = φ_0/2 + 5φ_2/8). In a slab they are exactly P_3's Marshak conditions,
+# (the standard SP_3 Marshak conditions of Brantley & Larsen 2000, written in the Legendre
+# moments φ_0, φ_2; the first is the zero incoming partial current, J·n = φ_0/2 + 5φ_2/8). In a slab they are exactly P_3's Marshak conditions,
 # so SP_3 + Marshak is P_3 + Marshak there (crates/pn-runtime/tests/marshak_sp.rs).
 boundary marshak phi0: 1/2*phi0 + 5/8*phi2 + 1/(3*sigma(1))*dn(phi0 + 2*phi2) = 0
 boundary marshak phi2: -1/8*phi0 + 5/8*phi2 + 3/(7*sigma(3))*dn(phi2) = 0
