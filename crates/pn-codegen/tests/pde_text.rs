@@ -210,8 +210,8 @@ impl pn_stencil::FieldContext for Fields {
             _ => f64::NAN,
         }
     }
-    fn inv_h(&self, _axis: usize) -> f64 {
-        f64::NAN
+    fn inv_h(&self, axis: usize) -> f64 {
+        [2.0, 3.0, 5.0][axis]
     }
 }
 
@@ -303,6 +303,62 @@ fn boundary_errors_carry_line_column_and_reason() {
             (7, 1),
             "a second `boundary marshak` condition for u",
         ),
+    ];
+    let mut wrong = Vec::new();
+    for (src, (line, col), what) in &cases {
+        let e = err(src);
+        if !(e.message.contains(what) && (e.line, e.col) == (*line, *col)) {
+            wrong.push(format!("for\n{src}expected {line}:{col} '{what}', got {e}"));
+        }
+    }
+    assert!(wrong.is_empty(), "{}", wrong.join("\n\n"));
+}
+
+/// `eliminate`: solving P_1's band 1 from its own equations and substituting gives CDA's
+/// stencil — the same terms (unknown, offset) with the same weights (evaluated with fields
+/// that differ per band), 2D and 3D; the right-hand side keeps the band-1 source, which CDA
+/// drops (it gains −∇·(Q_1/(√3 σ_1))-type terms).
+#[test]
+fn eliminating_p1s_first_band_gives_cda() {
+    let pde = parse("pde d0\ninclude pn(1)\nfor m = -1..1: eliminate L(1, m)\n");
+    assert_eq!(pde.unknowns.len(), 1);
+    for dim in [Dim::Two, Dim::Three] {
+        let ir = pde.ir(dim).unwrap();
+        let cda = cda_ir(dim).unwrap();
+        assert_eq!(ir.moments, cda.moments);
+        let (a, b) = (&ir.rows[0].terms, &cda.rows[0].terms);
+        assert_eq!(a.len(), b.len(), "{dim:?}");
+        for (x, y) in a.iter().zip(b) {
+            assert_eq!((x.moment, x.offset), (y.moment, y.offset));
+            let (wx, wy) = (x.weight.eval(&Fields), y.weight.eval(&Fields));
+            assert!(
+                (wx - wy).abs() < 1e-13 * wy.abs().max(1.0),
+                "{dim:?} {wx} vs {wy}"
+            );
+        }
+    }
+}
+
+/// Bad `eliminate` statements: line, column and reason.
+#[test]
+fn eliminate_errors_carry_line_column_and_reason() {
+    let p1 = "unknown u = L(0,0)\nunknown v\nequation u: dx(v) + u = Q(0,0)\n";
+    let cases: Vec<(String, (usize, usize), &str)> = vec![
+        (format!("{p1}equation v: dx(u) + v = 0\neliminate w\n"), (5, 11), "'w' is not an unknown"),
+        (
+            format!("{p1}equation v: dx(u) + dx(v) + v = 0\neliminate v\n"),
+            (5, 11),
+            "differentiated in its own equation",
+        ),
+        (format!("{p1}equation v: dx(u) = 0\neliminate v\n"), (5, 11), "does not contain it"),
+        (format!("{p1}equation v: dx(u) + u*v = 0\neliminate v\n"), (5, 11), "coefficient contains an unknown"),
+        (format!("{p1}equation v: dx(u) + v = 0\neliminate v\neliminate v\n"), (6, 11), "eliminated twice"),
+        (
+            format!("{p1}equation v: dx(u) + v = 0\neliminate v\nboundary marshak u: u/2 + dn(u) = 0\nboundary marshak v: dn(v) = 0\n"),
+            (7, 18),
+            "v was eliminated",
+        ),
+        (format!("{p1}equation v: dx(u) + v = 0\neliminate\n"), (5, 10), "expected an unknown"),
     ];
     let mut wrong = Vec::new();
     for (src, (line, col), what) in &cases {

@@ -93,6 +93,8 @@ struct Lowerer {
     equations: Vec<PendingEquation>,
     adds: Vec<PendingAdd>,
     boundaries: Vec<PendingBoundary>,
+    /// `eliminate` statements: the target and where it was written (target position).
+    eliminations: Vec<(ResolvedTarget, Pos)>,
     /// Labels of every unknown, by name (filled after the first pass).
     labels: HashMap<String, (i64, i64)>,
 }
@@ -320,6 +322,13 @@ impl Lowerer {
                     scope,
                     pos: *pos,
                 });
+            }
+            Stmt::Eliminate(target, _) => {
+                let pos = match target {
+                    Target::Name(_, p) | Target::Moment(_, _, p) => *p,
+                };
+                let target = self.resolve(target, scope)?;
+                self.eliminations.push((target, pos));
             }
             Stmt::IncludePn(n, pos) => {
                 if self.pn.is_some() {
@@ -825,6 +834,44 @@ impl Lowerer {
             };
             eq.lhs = Expr::add(vec![eq.lhs.clone(), term]);
         }
+        // Eliminations: each unknown solved from its own equation and substituted.
+        for (target, pos) in &self.eliminations {
+            let lm = label_of(target, *pos)?;
+            let name = self.name_of(lm);
+            let Some(k) = eqs.iter().position(|(e, _)| (e.l, e.m) == lm) else {
+                return Err(PdeTextError::at(
+                    *pos,
+                    format!(
+                        "eliminate: {name} has no equation to solve for it (eliminated twice?)"
+                    ),
+                ));
+            };
+            let (eq, eq_pos) = eqs.remove(k);
+            let value = solve_for(&Expr::add(vec![eq.lhs, eq.rhs.neg()]), lm).map_err(|m| {
+                PdeTextError::at(
+                    *pos,
+                    format!(
+                        "eliminate {name}: {m} (its equation, line {}, must read c*{name} + \
+                         terms without {name} = 0, c free of unknowns)",
+                        eq_pos.line
+                    ),
+                )
+            })?;
+            let subst = |e: &Expr| {
+                e.rewrite_bottom_up(&mut |x| {
+                    if crate::pde::as_unknown(&x) == Some(lm) {
+                        value.clone()
+                    } else {
+                        x
+                    }
+                })
+            };
+            for (e, _) in eqs.iter_mut() {
+                e.lhs = subst(&e.lhs);
+                e.rhs = subst(&e.rhs);
+            }
+            unknowns.retain(|u| u.label != lm);
+        }
         let boundaries = self.lower_boundaries(&unknowns, &label_of)?;
         // Systems order equations like their unknowns.
         let mut ordered = Vec::with_capacity(eqs.len());
@@ -862,6 +909,15 @@ impl Lowerer {
         let mut out: Vec<TextBoundary> = Vec::new();
         for pb in &self.boundaries {
             let target = label_of(&pb.target, pb.target_pos)?;
+            if !unknowns.iter().any(|u| u.label == target) {
+                return Err(PdeTextError::at(
+                    pb.target_pos,
+                    format!(
+                        "{} was eliminated: it has no boundary condition",
+                        self.name_of(target)
+                    ),
+                ));
+            }
             if let Some(b) = out.iter().find(|b| b.kind == pb.kind && b.target == target) {
                 return Err(PdeTextError::at(
                     pb.pos,
@@ -1105,4 +1161,69 @@ fn derivative_message() -> String {
     "derivatives in a boundary condition are written dn(…), the outward normal derivative \
      (dx, dy, dz, grad, div and lap are not allowed there)"
         .into()
+}
+
+/// Solves the expression `e = 0` for the unknown `lm`: `e` must be `c·lm + rest` with `c`
+/// and `rest` free of `lm` and `lm` not under a derivative; returns `−rest / c`.
+fn solve_for(e: &Expr, lm: (i64, i64)) -> Result<Expr, String> {
+    /// The terms of `e` with `lm` (their coefficients) and without it.
+    fn split(e: &Expr, lm: (i64, i64)) -> Result<(Vec<Expr>, Vec<Expr>), String> {
+        let has = |x: &Expr| x.any(&|y| crate::pde::as_unknown(y) == Some(lm));
+        if crate::pde::as_unknown(e) == Some(lm) {
+            return Ok((vec![Expr::int(1)], Vec::new()));
+        }
+        if !has(e) {
+            return Ok((Vec::new(), vec![e.clone()]));
+        }
+        match e {
+            Expr::Add(ts) => {
+                let (mut c, mut r) = (Vec::new(), Vec::new());
+                for t in ts {
+                    let (ct, rt) = split(t, lm)?;
+                    c.extend(ct);
+                    r.extend(rt);
+                }
+                Ok((c, r))
+            }
+            Expr::Mul(fs) => {
+                let mut inner = None;
+                let mut others = Vec::new();
+                for f in fs {
+                    if has(f) {
+                        if inner.is_some() {
+                            return Err("it appears in a product with itself".into());
+                        }
+                        inner = Some(split(f, lm)?);
+                    } else {
+                        others.push(f.clone());
+                    }
+                }
+                let (c, r) = inner.unwrap_or_default();
+                let scale = |v: Vec<Expr>| -> Vec<Expr> {
+                    v.into_iter()
+                        .map(|x| {
+                            let mut fs = others.clone();
+                            fs.push(x);
+                            Expr::mul(fs)
+                        })
+                        .collect()
+                };
+                Ok((scale(c), scale(r)))
+            }
+            Expr::Deriv(..) => Err("it is differentiated in its own equation".into()),
+            _ => Err("it appears inside a power or function".into()),
+        }
+    }
+    let (c, rest) = split(e, lm)?;
+    if c.is_empty() {
+        return Err("its own equation does not contain it".into());
+    }
+    let c = Expr::add(c);
+    if c.any(&|y| crate::pde::as_unknown(y).is_some()) {
+        return Err("its coefficient contains an unknown".into());
+    }
+    if const_value(&c) == Some(0.0) {
+        return Err("its coefficient is zero".into());
+    }
+    Ok(Expr::mul(vec![Expr::add(rest).neg(), c.recip()]))
 }

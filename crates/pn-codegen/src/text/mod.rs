@@ -21,9 +21,14 @@
 //!                                       `--bc marshak` applies) stated for the unknown
 //!                                       TARGET, linear in the unknowns' face values and
 //!                                       their outward normal derivatives `dn(e)`
+//! eliminate TARGET                      solves TARGET's equation (c·TARGET + terms without
+//!                                       it = 0, TARGET not differentiated, c free of
+//!                                       unknowns) for TARGET and substitutes it into every
+//!                                       other equation; TARGET leaves the system
 //! include pn(N)                         the derived real P_N unknowns L(l, m), l ≤ N, and
 //!                                       their equations
-//! for v = LO..HI [, w = LO..HI]: STMT   repeats STMT (unknown, equation, add, boundary or for)
+//! for v = LO..HI [, w = LO..HI]: STMT   repeats STMT (unknown, equation, add, boundary,
+//!                                       eliminate or for)
 //! ```
 //!
 //! Expressions: numbers (decimals are exact rationals), `+ - * / ^`, parentheses;

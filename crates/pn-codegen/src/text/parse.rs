@@ -91,6 +91,9 @@ pub enum Stmt {
     Equation(Target, Ast, Ast, Pos),
     /// `add TARGET: expr` (adds to the left-hand side of TARGET's equation).
     AddTerm(Target, Ast, Pos),
+    /// `eliminate TARGET`: TARGET's equation, algebraic in TARGET, solved for it and
+    /// substituted into the other equations; the unknown and its equation leave the system.
+    Eliminate(Target, Pos),
     /// `include pn(N)`: the derived P_N unknowns and equations.
     IncludePn(Ast, Pos),
     /// `boundary KIND TARGET: lhs = rhs`: a boundary condition of the kind KIND (`marshak`)
@@ -132,8 +135,17 @@ struct Parser<'a> {
     i: usize,
 }
 
-const KEYWORDS: [&str; 9] = [
-    "pde", "param", "let", "unknown", "equation", "add", "boundary", "include", "for",
+const KEYWORDS: [&str; 10] = [
+    "pde",
+    "param",
+    "let",
+    "unknown",
+    "equation",
+    "add",
+    "boundary",
+    "eliminate",
+    "include",
+    "for",
 ];
 
 impl Parser<'_> {
@@ -212,7 +224,7 @@ impl Parser<'_> {
 
     fn statement(&mut self) -> Result<Stmt, PdeTextError> {
         let (kw, pos) = self.ident(
-            "a statement (pde, param, let, unknown, equation, add, boundary, include, for)",
+            "a statement (pde, param, let, unknown, equation, add, boundary, eliminate, include, for)",
         )?;
         match kw.as_str() {
             "pde" => {
@@ -307,6 +319,7 @@ impl Parser<'_> {
                     pos,
                 })
             }
+            "eliminate" => Ok(Stmt::Eliminate(self.target()?, pos)),
             "include" => {
                 let (what, wpos) = self.ident("pn(N) after 'include'")?;
                 if what != "pn" {
@@ -338,7 +351,7 @@ impl Parser<'_> {
                 if matches!(body, Stmt::Pde(..) | Stmt::Param(..) | Stmt::Let(..)) {
                     return Err(PdeTextError::at(
                         pos,
-                        "a loop body must be unknown, equation, add, boundary or for",
+                        "a loop body must be unknown, equation, add, boundary, eliminate or for",
                     ));
                 }
                 Ok(Stmt::For(ranges, Box::new(body), pos))
