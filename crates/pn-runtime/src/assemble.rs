@@ -121,6 +121,9 @@ pub(crate) fn face_closures<'a>(
     } else {
         MarshakRows::new(problem, layout, DEFAULT_FACE_VALUE)?
     };
+    if marshak.is_some() {
+        crate::marshak::check_pn_structure(kernel)?;
+    }
     Ok((robin, marshak))
 }
 

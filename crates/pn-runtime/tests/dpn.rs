@@ -157,3 +157,39 @@ fn dpn_solution_is_p_n_plus_1_up_to_the_boundary_closure() {
     assert!(e_dp < 1e-4, "{e_dp}");
     assert!(25.0 * e_dp < e_p3, "DP_3 {e_dp} vs P_3 {e_p3}");
 }
+
+/// The derived Marshak rows close P_N-shaped stencils only: DP_3 (equal-parity couplings
+/// in its band-3 rows, no `boundary marshak` statements) is refused on Marshak faces with the
+/// reason — before the check it was solved, unclosed across the face, and did not converge
+/// at 200 cells — while filtered P_3 (diagonal filter term) still takes them.
+#[test]
+fn derived_marshak_rows_refuse_dpn() {
+    let p = builtin(
+        "slab",
+        &BuiltinOptions {
+            res: Some(vec![50]),
+            ..Default::default()
+        },
+    )
+    .unwrap()
+    .problem;
+    let opts = SolverOptions::default();
+    let e = solve_problem(
+        &p,
+        dpn_kernel(3, Dim::Two).kernel.as_ref(),
+        SolverKind::ParityCg,
+        &opts,
+    )
+    .err()
+    .map(|e| format!("{e:#}"))
+    .expect("DP_3 with Marshak faces must be refused");
+    assert!(
+        e.contains("equal parity") && e.contains("boundary marshak"),
+        "{e}"
+    );
+    let fpn = std::fs::read_to_string(format!("{}/../../pdes/fpn.pde", env!("CARGO_MANIFEST_DIR")))
+        .unwrap();
+    let k = pde_kernel(&parse_pde(&fpn, &[]).unwrap(), Dim::Two).unwrap();
+    let s = solve_problem(&p, k.kernel.as_ref(), SolverKind::ParityCg, &opts).unwrap();
+    assert!(s.stats.converged(), "{:?}", s.stats);
+}
