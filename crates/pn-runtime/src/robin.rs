@@ -67,6 +67,10 @@ impl<'a> RobinFaces<'a> {
         let Some(boundary) = kernel.boundary_conditions().filter(|b| b.kind == MARSHAK) else {
             return Ok(None);
         };
+        ensure!(
+            !boundary.conditions.is_empty(),
+            "the stencil's `{MARSHAK}` boundary conditions are empty"
+        );
         let moments = &layout.moments;
         let label = |q: usize| {
             moments
