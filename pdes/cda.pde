@@ -6,3 +6,6 @@ pde cda
 unknown phi = L(0, 0)
 let D = 1/(3*(sigma_t - sigma_s*phase(1)))
 equation phi: -div(D*grad(phi)) + sigma_a*phi = Q(0, 0)
+# Marshak vacuum boundary (`--bc marshak`), the Robin condition of diffusion: zero incoming
+# partial current, φ/4 − J·n/2 = 0 with J = −D∇φ, i.e. φ/2 + D ∂_nφ = 0 (∂_n outward).
+boundary marshak phi: 1/2*phi + D*dn(phi) = 0

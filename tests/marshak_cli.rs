@@ -202,3 +202,70 @@ fn stencil_prints_the_conditions() {
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("odd order"));
 }
+
+/// `pn solve slab --pde pdes/sp3.pde`: the PDE closes the Marshak faces with its own
+/// `boundary marshak` conditions (docs/pde-text.md), and the report's R and T (the flux of
+/// its L_0^0 equation through the faces) are P_3's at the same 200 cells to 1e-8 — in a slab
+/// SP_3 with Marshak conditions is P_3 with Marshak conditions; `pdes/sp1.pde` gives P_1's.
+/// `--bc marshak` on the 2D checkerboard runs with SP_3 and balances energy.
+#[test]
+fn text_pdes_close_marshak_faces_with_their_own_conditions() {
+    let pdes = concat!(env!("CARGO_MANIFEST_DIR"), "/pdes");
+    for (file, order) in [("sp3.pde", "3"), ("sp1.pde", "1")] {
+        let pde = format!("{pdes}/{file}");
+        let t = report(&format!("slab-{file}"), &["slab", "--pde", &pde]);
+        let p = report(&format!("slab-p{order}"), &["slab", "--order", order]);
+        for key in ["reflection", "transmission"] {
+            let (a, b) = (t[key].as_f64().unwrap(), p[key].as_f64().unwrap());
+            assert!((a - b).abs() < 1e-8, "{file} {key}: {a} vs P_{order} {b}");
+        }
+        assert!(t.get("reference_reflection").is_none(), "{t}");
+        let e = &t["energy_balance"];
+        assert!(e["relative_imbalance"].as_f64().unwrap() < 1e-8, "{e}");
+    }
+    let r = report(
+        "cb-sp3",
+        &[
+            "checkerboard",
+            "--pde",
+            &format!("{pdes}/sp3.pde"),
+            "--bc",
+            "marshak",
+            "--res",
+            "31",
+        ],
+    );
+    assert_eq!(r["boundary"], "marshak");
+    let e = &r["energy_balance"];
+    assert!(e["relative_imbalance"].as_f64().unwrap() < 1e-8, "{e}");
+    assert!(e["boundary_outflow"].as_f64().unwrap() > 0.0, "{e}");
+}
+
+/// A text PDE without `boundary marshak` statements is refused on Marshak faces, and a bad
+/// statement is reported as FILE:LINE:COLUMN.
+#[test]
+fn text_pde_marshak_errors() {
+    let dir = out_dir("pde-files");
+    std::fs::create_dir_all(&dir).unwrap();
+    let plain = dir.join("plain.pde");
+    std::fs::write(
+        &plain,
+        "unknown u = L(0,0)\nequation u: -div(1/(3*sigma_t)*grad(u)) + sigma_a*u = Q(0,0)\n",
+    )
+    .unwrap();
+    let bad = dir.join("bad.pde");
+    std::fs::write(
+        &bad,
+        "unknown u = L(0,0)\nequation u: -div(1/(3*sigma_t)*grad(u)) + sigma_a*u = Q(0,0)\n\
+         boundary marshak w: w/2 + dn(w) = 0\n",
+    )
+    .unwrap();
+    let e = error("plain", &["slab", "--pde", plain.to_str().unwrap()]);
+    assert!(e.contains("boundary marshak"), "{e}");
+    let e = error("bad", &["slab", "--pde", bad.to_str().unwrap()]);
+    assert!(
+        e.contains("bad.pde:3:18:") && e.contains("'w' is not an unknown"),
+        "{e}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

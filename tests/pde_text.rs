@@ -238,11 +238,21 @@ fn pn_stencil_prints_a_pde_file() {
         s.contains("stencil pde_sp3_2d (2D, unknowns per cell: 2)"),
         "{s}"
     );
+    // The PDE's own Marshak conditions: 1/2 φ_0 + 5/8 φ_2 + … and −1/8 φ_0 + 5/8 φ_2 + ….
+    assert!(s.contains("boundary marshak conditions"), "{s}");
+    assert!(
+        s.contains("at L_0^0: (0.5)*L_0^0 + (0.625)*") && s.contains(": (-0.125)*L_0^0 + (0.625)*"),
+        "{s}"
+    );
     let o = pn(&["stencil", "--pde", sp3.to_str().unwrap(), "--json"]);
     ok(&o);
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(v["name"], "pde_sp3_3d");
     assert_eq!(v["rows"].as_array().unwrap().len(), 2);
+    let b = &v["boundary"];
+    assert_eq!(b["kind"], "marshak");
+    assert_eq!(b["conditions"].as_array().unwrap().len(), 2);
+    assert_eq!(b["conditions"][0]["value"][1]["weight"], "0.625");
 }
 
 /// `pn render --pde` hands the PDE every first-scatter band it reads: filtered P_1 with a zero

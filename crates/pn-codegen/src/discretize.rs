@@ -440,6 +440,32 @@ fn field_ref(name: &FieldName) -> Result<FieldRef, StencilError> {
     })
 }
 
+/// The [`Weight`] of an unknown-free coefficient expression (fields, constants) with its
+/// fields read at offset 0: the coefficients of a text PDE's boundary conditions
+/// ([`pn_stencil::robin`]), evaluated at the face point. Derivatives are refused (a
+/// coefficient is a pointwise quantity); a zero coefficient gives `None`.
+pub(crate) fn coefficient_weight(e: &Expr, dim: Dim) -> Result<Option<Weight>, StencilError> {
+    if e.any(&|x| matches!(x, Expr::Deriv(..))) {
+        return Err(StencilError::Unsupported(
+            "a coefficient of a boundary condition contains a derivative".into(),
+        ));
+    }
+    let index = HashMap::new();
+    let mut w = Walker {
+        moments: &[],
+        index: &index,
+        dim,
+        row_shift: [0; 3],
+        stack: vec![[0; 3]],
+    };
+    let poly = w.lin(e)?.as_poly().ok_or_else(|| {
+        StencilError::Unsupported(
+            "a coefficient of a boundary condition contains an unknown".into(),
+        )
+    })?;
+    Ok((!poly.is_zero()).then(|| poly.to_weight()))
+}
+
 /// Discretizes `sys` with the unknowns placed as in `moments` (same order as
 /// `sys.unknowns`) into a stencil IR named `name`.
 pub fn discretize(

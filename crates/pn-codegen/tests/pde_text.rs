@@ -195,3 +195,177 @@ fn unknown_parameter_overrides_are_refused() {
     let e = parse_pde("param a = 1\n", &[("a".into(), "x".into())]).unwrap_err();
     assert!(e.message.contains("not a decimal"), "{e}");
 }
+
+/// Field values for evaluating boundary coefficients.
+struct Fields;
+
+impl pn_stencil::FieldContext for Fields {
+    fn field(&self, f: &pn_stencil::FieldRef, _offset: pn_stencil::HalfOffset) -> f64 {
+        use pn_stencil::FieldRef as F;
+        match f {
+            F::SigmaT => 2.0,
+            F::SigmaS => 1.5,
+            F::SigmaA => 0.5,
+            F::PhaseMoment(l) => 0.3f64.powi(*l as i32),
+            _ => f64::NAN,
+        }
+    }
+    fn inv_h(&self, axis: usize) -> f64 {
+        [2.0, 3.0, 5.0][axis]
+    }
+}
+
+/// The shipped SP_3 Marshak conditions (pdes/sp3.pde) lower to the coefficients derived in
+/// the file: `1/2 φ_0 + 5/8 φ_2 + 1/(3σ_1) ∂_n(φ_0 + 2φ_2) = 0` and
+/// `−1/8 φ_0 + 5/8 φ_2 + 3/(7σ_3) ∂_nφ_2 = 0` with σ_n = σ_t − σ_s g^n (HG g = 0.3 here),
+/// in 2D and 3D; SP_1's and CDA's are `1/2 φ + 1/(3σ_1) ∂_nφ = 0`.
+#[test]
+fn boundary_statements_lower_to_the_derived_coefficients() {
+    let sigma = |n: i32| 2.0 - 1.5 * 0.3f64.powi(n);
+    let pde = parse(&pde_file("sp3.pde"));
+    for dim in [Dim::Two, Dim::Three] {
+        let b = pde.boundary(dim, "marshak").unwrap().unwrap();
+        assert_eq!(b.kind, "marshak");
+        let get = |terms: &[(usize, pn_stencil::Weight)], q: usize| {
+            terms
+                .iter()
+                .find(|t| t.0 == q)
+                .map_or(0.0, |t| t.1.eval(&Fields))
+        };
+        let c0 = &b.conditions[b.condition_of(0).unwrap()];
+        let c2 = &b.conditions[b.condition_of(1).unwrap()];
+        let close = |a: f64, b: f64| (a - b).abs() < 1e-15;
+        assert!(close(get(&c0.value, 0), 0.5) && close(get(&c0.value, 1), 0.625));
+        assert!(close(get(&c0.normal, 0), 1.0 / (3.0 * sigma(1))));
+        assert!(close(get(&c0.normal, 1), 2.0 / (3.0 * sigma(1))));
+        assert!(close(get(&c2.value, 0), -0.125) && close(get(&c2.value, 1), 0.625));
+        assert!(close(get(&c2.normal, 0), 0.0));
+        assert!(close(get(&c2.normal, 1), 3.0 / (7.0 * sigma(3))));
+    }
+    for file in ["sp1.pde", "cda.pde"] {
+        let b = parse(&pde_file(file))
+            .boundary(Dim::Three, "marshak")
+            .unwrap()
+            .unwrap();
+        assert_eq!(b.conditions.len(), 1, "{file}");
+        let c = &b.conditions[0];
+        assert!((c.value[0].1.eval(&Fields) - 0.5).abs() < 1e-15, "{file}");
+        assert!(
+            (c.normal[0].1.eval(&Fields) - 1.0 / (3.0 * sigma(1))).abs() < 1e-15,
+            "{file}"
+        );
+    }
+    // A PDE without boundary statements states none.
+    assert!(parse(&pde_file("fpn.pde"))
+        .boundary(Dim::Three, "marshak")
+        .unwrap()
+        .is_none());
+}
+
+/// Bad `boundary` statements: errors with line, column and reason, never a panic.
+#[test]
+fn boundary_errors_carry_line_column_and_reason() {
+    let sp = "unknown u = L(0,0)\nunknown w\nequation u: -lap(u + 2*w) + u = Q(0,0)\nequation w: -lap(w) + w - u = 0\n";
+    let cases: Vec<(String, (usize, usize), &str)> = vec![
+        // A condition on an unknown that does not exist (column of its name).
+        (
+            format!("{sp}boundary marshak u: u/2 + dn(u) = 0\nboundary marshak v: w + dn(w) = 0\n"),
+            (6, 18),
+            "'v' is not an unknown",
+        ),
+        (
+            format!("{sp}boundary marshak L(1, 0): u/2 + dn(u) = 0\n"),
+            (5, 18),
+            "L(1, 0) is not an unknown",
+        ),
+        // Malformed statements.
+        (format!("{sp}boundary marshak u u/2 + dn(u) = 0\n"), (5, 20), "expected ':'"),
+        (format!("{sp}boundary marshak u: u/2 + dn(u)\n"), (5, 32), "expected '='"),
+        (format!("{sp}boundary\n"), (5, 9), "expected the boundary kind"),
+        (format!("{sp}boundary robin u: u + dn(u) = 0\n"), (5, 10), "unknown boundary kind 'robin'"),
+        (format!("{sp}boundary marshak u: u/2 + dn(u = 0\n"), (5, 34), "unclosed"),
+        (format!("{sp}boundary marshak u: u/2 + dn(u, w) = 0\n"), (5, 27), "dn takes 1 argument"),
+        // What a condition may contain.
+        (format!("{sp}boundary marshak u: u/2 + dn(u) = 1\nboundary marshak w: dn(w) = 0\n"), (5, 1), "homogeneous"),
+        (format!("{sp}boundary marshak u: u/2 = 0\nboundary marshak w: dn(w) = 0\n"), (5, 1), "needs a normal derivative"),
+        (format!("{sp}boundary marshak u: u/2 + dx(u) = 0\nboundary marshak w: dn(w) = 0\n"), (5, 1), "written dn(…)"),
+        (format!("{sp}boundary marshak u: u*dn(u) = 0\nboundary marshak w: dn(w) = 0\n"), (5, 1), "product of unknowns"),
+        (format!("{sp}boundary marshak u: dn(dn(u)) = 0\nboundary marshak w: dn(w) = 0\n"), (5, 1), "first normal derivatives"),
+        (format!("{sp}boundary marshak u: dn(sigma_t*u) = 0\nboundary marshak w: dn(w) = 0\n"), (5, 1), "constant coefficients"),
+        (format!("{sp}boundary marshak u: dn(sigma_t) + dn(u) = 0\nboundary marshak w: dn(w) = 0\n"), (5, 1), "applies to unknowns"),
+        (format!("{sp}boundary marshak u: exp(u) + dn(u) = 0\nboundary marshak w: dn(w) = 0\n"), (5, 21), "constants only"),
+        // dn outside a boundary statement.
+        ("unknown u = L(0,0)\nequation u: dn(u) + u = Q(0,0)\n".to_string(), (2, 13), "boundary statements only"),
+        // Square: one condition per unknown, no second one.
+        (format!("{sp}boundary marshak u: u/2 + dn(u) = 0\n"), (2, 1), "unknown w has no `boundary marshak` condition"),
+        (
+            format!("{sp}boundary marshak u: u/2 + dn(u) = 0\nboundary marshak w: dn(w) = 0\nboundary marshak u: dn(u) = 0\n"),
+            (7, 1),
+            "a second `boundary marshak` condition for u",
+        ),
+    ];
+    let mut wrong = Vec::new();
+    for (src, (line, col), what) in &cases {
+        let e = err(src);
+        if !(e.message.contains(what) && (e.line, e.col) == (*line, *col)) {
+            wrong.push(format!("for\n{src}expected {line}:{col} '{what}', got {e}"));
+        }
+    }
+    assert!(wrong.is_empty(), "{}", wrong.join("\n\n"));
+}
+
+/// `eliminate`: solving P_1's band 1 from its own equations and substituting gives CDA's
+/// stencil — the same terms (unknown, offset) with the same weights (evaluated with fields
+/// that differ per band), 2D and 3D; the right-hand side keeps the band-1 source, which CDA
+/// drops (it gains −∇·(Q_1/(√3 σ_1))-type terms).
+#[test]
+fn eliminating_p1s_first_band_gives_cda() {
+    let pde = parse("pde d0\ninclude pn(1)\nfor m = -1..1: eliminate L(1, m)\n");
+    assert_eq!(pde.unknowns.len(), 1);
+    for dim in [Dim::Two, Dim::Three] {
+        let ir = pde.ir(dim).unwrap();
+        let cda = cda_ir(dim).unwrap();
+        assert_eq!(ir.moments, cda.moments);
+        let (a, b) = (&ir.rows[0].terms, &cda.rows[0].terms);
+        assert_eq!(a.len(), b.len(), "{dim:?}");
+        for (x, y) in a.iter().zip(b) {
+            assert_eq!((x.moment, x.offset), (y.moment, y.offset));
+            let (wx, wy) = (x.weight.eval(&Fields), y.weight.eval(&Fields));
+            assert!(
+                (wx - wy).abs() < 1e-13 * wy.abs().max(1.0),
+                "{dim:?} {wx} vs {wy}"
+            );
+        }
+    }
+}
+
+/// Bad `eliminate` statements: line, column and reason.
+#[test]
+fn eliminate_errors_carry_line_column_and_reason() {
+    let p1 = "unknown u = L(0,0)\nunknown v\nequation u: dx(v) + u = Q(0,0)\n";
+    let cases: Vec<(String, (usize, usize), &str)> = vec![
+        (format!("{p1}equation v: dx(u) + v = 0\neliminate w\n"), (5, 11), "'w' is not an unknown"),
+        (
+            format!("{p1}equation v: dx(u) + dx(v) + v = 0\neliminate v\n"),
+            (5, 11),
+            "differentiated in its own equation",
+        ),
+        (format!("{p1}equation v: dx(u) = 0\neliminate v\n"), (5, 11), "does not contain it"),
+        (format!("{p1}equation v: dx(u) + u*v = 0\neliminate v\n"), (5, 11), "coefficient contains an unknown"),
+        (format!("{p1}equation v: dx(u) + v = 0\neliminate v\neliminate v\n"), (6, 11), "eliminated twice"),
+        (
+            format!("{p1}equation v: dx(u) + v = 0\neliminate v\nboundary marshak u: u/2 + dn(u) = 0\nboundary marshak v: dn(v) = 0\n"),
+            (7, 18),
+            "v was eliminated",
+        ),
+        (format!("{p1}equation v: dx(u) + v = 0\neliminate\n"), (5, 10), "expected an unknown"),
+    ];
+    let mut wrong = Vec::new();
+    for (src, (line, col), what) in &cases {
+        let e = err(src);
+        if !(e.message.contains(what) && (e.line, e.col) == (*line, *col)) {
+            wrong.push(format!("for\n{src}expected {line}:{col} '{what}', got {e}"));
+        }
+    }
+    assert!(wrong.is_empty(), "{}", wrong.join("\n\n"));
+}

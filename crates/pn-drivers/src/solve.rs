@@ -78,12 +78,16 @@ pub fn run(req: &SolveRequest, stdout: &mut dyn Write) -> anyhow::Result<()> {
     write_outputs(&out, &problem.grid, &sol, &report)
         .with_context(|| format!("writing results to {}", out.display()))?;
     crate::error_estimate::after_solve(req, problem, &sol, &out)?;
-    // The extras compare with the P_N/CDA references; a text PDE has its own.
-    if a.pde.is_none() && crate::vacuum_extras::applies(&scene.name) {
+    // The extras compare with the P_N/CDA references (order 0: none, as for a text PDE,
+    // which gets the measurements only, and only when it closes the faces itself).
+    if crate::vacuum_extras::applies(&scene.name)
+        && (a.pde.is_none() || kernel.boundary_conditions().is_some())
+    {
         crate::vacuum_extras::write_extras(
             &out,
             &scene.name,
             problem,
+            kernel,
             a.albedo,
             &sol,
             order,

@@ -261,10 +261,66 @@ fn marshak_text(ir: &StencilIr, closures: &[MarshakClosure]) -> String {
     s
 }
 
+/// A text PDE's `boundary marshak` conditions, readable: one line per condition, the
+/// coefficients as weight expressions at the face point.
+fn boundary_text(ir: &StencilIr, b: &pn_stencil::RobinBoundary) -> String {
+    use std::fmt::Write;
+    let mut s = format!(
+        "\nboundary {} conditions (the PDE's own; dn = outward normal derivative, fields at \
+         the face point, face values extrapolated from the two nearest centres):\n",
+        b.kind
+    );
+    for c in &b.conditions {
+        let terms: Vec<String> = c
+            .value
+            .iter()
+            .map(|(q, w)| format!("({w})*{}", moment_name(ir, *q)))
+            .chain(
+                c.normal
+                    .iter()
+                    .map(|(q, w)| format!("({w})*dn({})", moment_name(ir, *q))),
+            )
+            .collect();
+        let _ = writeln!(
+            s,
+            "  at {}: {} = 0",
+            moment_name(ir, c.target),
+            terms.join(" + ")
+        );
+    }
+    s
+}
+
+/// The JSON form of a text PDE's boundary conditions.
+fn boundary_json(ir: &StencilIr, b: &pn_stencil::RobinBoundary) -> serde_json::Value {
+    let terms = |ts: &[(usize, pn_stencil::Weight)]| -> Vec<serde_json::Value> {
+        ts.iter()
+            .map(
+                |(q, w)| json!({"moment": q, "name": moment_name(ir, *q), "weight": w.to_string()}),
+            )
+            .collect()
+    };
+    json!({
+        "kind": b.kind,
+        "conditions": b.conditions.iter().map(|c| json!({
+            "target": c.target,
+            "value": terms(&c.value),
+            "normal_derivative": terms(&c.normal),
+        })).collect::<Vec<_>>(),
+    })
+}
+
 /// Runs `pn stencil`, printing to `stdout`.
 pub fn run(args: &StencilRequest, stdout: &mut dyn Write) -> anyhow::Result<()> {
     let ir = build_ir(args)?;
-    let closures = if args.marshak {
+    let boundary = match &args.pde {
+        Some(path) => crate::pde_text::load(path, &args.pde_params)?
+            .boundary(args.dim, "marshak")
+            .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?,
+        None => None,
+    };
+    // A PDE that states its Marshak conditions prints those; P_N prints the derived ones.
+    let closures = if args.marshak && boundary.is_none() {
         Some(marshak_closures(&ir)?)
     } else {
         None
@@ -273,6 +329,9 @@ pub fn run(args: &StencilRequest, stdout: &mut dyn Write) -> anyhow::Result<()> 
         let mut v = to_json(&ir);
         if let (Some(c), Some(obj)) = (&closures, v.as_object_mut()) {
             obj.insert("marshak".into(), marshak_json(&ir, c));
+        }
+        if let (Some(b), Some(obj)) = (&boundary, v.as_object_mut()) {
+            obj.insert("boundary".into(), boundary_json(&ir, b));
         }
         writeln!(stdout, "{}", serde_json::to_string_pretty(&v)?)?;
     } else {
@@ -289,6 +348,9 @@ pub fn run(args: &StencilRequest, stdout: &mut dyn Write) -> anyhow::Result<()> 
         write!(stdout, "{}", to_text(&ir))?;
         if let Some(c) = &closures {
             write!(stdout, "{}", marshak_text(&ir, c))?;
+        }
+        if let Some(b) = &boundary {
+            write!(stdout, "{}", boundary_text(&ir, b))?;
         }
     }
     Ok(())

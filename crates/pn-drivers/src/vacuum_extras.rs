@@ -4,7 +4,9 @@
 //! ([`pn_runtime::reference::slab`]) when one exists.
 //!
 //! * `slab`: `reflection` and `transmission`, the collided outgoing flux per unit incident
-//!   flux through x = 0 and x = τ ([`slab_fluxes`]); `reference_reflection` and
+//!   flux through x = 0 and x = τ ([`slab_fluxes`]; for a text PDE that closes the faces
+//!   with its own `boundary marshak` conditions, the flux of its L_0^0 equation through the
+//!   faces, [`pn_runtime::robin::RobinFaces::face_outflow`]); `reference_reflection` and
 //!   `reference_transmission` (P_N–Marshak, exact in 1D) for odd N and albedo < 1, when the
 //!   boundary is Marshak on both x faces.
 //! * `milne`: `extrapolation_length` ([`milne_extrapolation_length`]) and
@@ -14,7 +16,9 @@ use anyhow::{Context, Result};
 use pn_runtime::pipeline::Solution;
 use pn_runtime::problem::{BoundaryKind, Problem};
 use pn_runtime::reference::{pn_marshak_milne, pn_marshak_slab};
+use pn_runtime::robin::RobinFaces;
 use pn_runtime::scenes::vacuum::{milne_extrapolation_length, slab_fluxes, SLAB_ALBEDO};
+use pn_stencil::StencilKernel;
 use std::io::Write;
 use std::path::Path;
 
@@ -24,11 +28,17 @@ pub fn applies(scene: &str) -> bool {
 }
 
 /// Adds the measurements of the `slab` or `milne` scene to `out/report.json` and prints
-/// them. `order` is the P_N order (0 for CDA: no reference).
+/// them. `order` is the P_N order (0 for CDA and text PDEs: no reference); `kernel` is the
+/// solved stencil (a text PDE closing the faces itself gives R and T through its conditions).
+#[expect(
+    clippy::too_many_arguments,
+    reason = "the solve's pieces, passed through from the driver"
+)]
 pub fn write_extras(
     out: &Path,
     scene: &str,
     problem: &Problem,
+    kernel: &dyn StencilKernel,
     albedo: Option<f64>,
     sol: &Solution,
     order: usize,
@@ -43,7 +53,14 @@ pub fn write_extras(
     let odd = order % 2 == 1;
     let mut extra = serde_json::Map::new();
     if scene == "slab" {
-        let (r, t) = slab_fluxes(&sol.layout, &sol.u)?;
+        let robin = RobinFaces::new(problem, &sol.layout, kernel)?;
+        let (r, t) = match &robin {
+            Some(f) if f.closes((0, 0)) && f.closes((0, 1)) => (
+                f.face_outflow(problem, kernel, &sol.layout, &sol.u, (0, 0))?,
+                f.face_outflow(problem, kernel, &sol.layout, &sol.u, (0, 1))?,
+            ),
+            _ => slab_fluxes(&sol.layout, &sol.u)?,
+        };
         extra.insert("reflection".into(), r.into());
         extra.insert("transmission".into(), t.into());
         let tau = problem.grid.max[0] - problem.grid.min[0];

@@ -123,12 +123,27 @@ pub fn diffusion_kernel(dim: Dim) -> anyhow::Result<KernelChoice> {
 }
 
 /// The stencil of a text PDE (docs/pde-text.md) in `dim`: the compiled one when `build.rs`
-/// compiled the same IR (same name and [`StencilIr::fingerprint`]), else the IR interpreted.
+/// compiled the same IR (same name and [`StencilIr::fingerprint`]), else the IR interpreted;
+/// with the PDE's `boundary marshak` conditions attached ([`pn_stencil::robin::WithBoundary`])
+/// when it states them, which the runtime applies on the faces with `--bc marshak`.
 pub fn pde_kernel(pde: &pn_codegen::text::TextPde, dim: Dim) -> anyhow::Result<KernelChoice> {
     let ir = pde
         .ir(dim)
         .map_err(|e| anyhow::anyhow!("PDE {}: {e}", pde.system.name))?;
-    Ok(pde_ir_kernel(ir))
+    let choice = pde_ir_kernel(ir);
+    let boundary = pde
+        .boundary(dim, "marshak")
+        .map_err(|e| anyhow::anyhow!("PDE {}: {e}", pde.system.name))?;
+    Ok(match boundary {
+        Some(boundary) => KernelChoice {
+            kernel: Arc::new(pn_stencil::robin::WithBoundary {
+                inner: choice.kernel,
+                boundary,
+            }),
+            compiled: choice.compiled,
+        },
+        None => choice,
+    })
 }
 
 /// [`pde_kernel`] for a text PDE's IR already built ([`pn_codegen::text::TextPde::ir`]).

@@ -9,6 +9,7 @@ use crate::context::RowContext;
 use crate::layout::Layout;
 use crate::marshak::{MarshakRows, DEFAULT_FACE_VALUE};
 use crate::problem::Problem;
+use crate::robin::RobinFaces;
 use anyhow::Context;
 use pn_stencil::StencilKernel;
 use rayon::prelude::*;
@@ -67,14 +68,21 @@ pub fn assemble(
     layout: &Layout,
 ) -> anyhow::Result<System> {
     check_kernel(problem, kernel, layout)?;
-    let marshak = MarshakRows::new(problem, layout, DEFAULT_FACE_VALUE)?;
+    let (robin, marshak) = face_closures(problem, kernel, layout)?;
     let n = layout.len();
     let n_chunks = n.div_ceil(CHUNK);
     let chunks: Vec<Chunk> = (0..n_chunks)
         .into_par_iter()
         .map(|c| {
             let rows = c * CHUNK..((c + 1) * CHUNK).min(n);
-            assemble_chunk(problem, kernel, layout, marshak.as_ref(), rows)
+            assemble_chunk(
+                problem,
+                kernel,
+                layout,
+                marshak.as_ref(),
+                robin.as_ref(),
+                rows,
+            )
         })
         .collect::<anyhow::Result<_>>()?;
 
@@ -99,13 +107,35 @@ pub fn assemble(
     Ok(System { matrix, rhs })
 }
 
+/// The closures of the Marshak faces: the PDE's own conditions when the kernel states them
+/// ([`RobinFaces`], ghost elimination), else P_N's face rows ([`MarshakRows`]); at most one
+/// of the two is `Some`.
+pub(crate) fn face_closures<'a>(
+    problem: &Problem,
+    kernel: &'a dyn StencilKernel,
+    layout: &Layout,
+) -> anyhow::Result<(Option<RobinFaces<'a>>, Option<MarshakRows>)> {
+    let robin = RobinFaces::new(problem, layout, kernel)?;
+    let marshak = if robin.is_some() {
+        None
+    } else {
+        MarshakRows::new(problem, layout, DEFAULT_FACE_VALUE)?
+    };
+    if marshak.is_some() {
+        crate::marshak::check_pn_structure(kernel)?;
+    }
+    Ok((robin, marshak))
+}
+
 /// Assembles the rows `rows` (storage indices) into a [`Chunk`]; the rows on Marshak faces
-/// (when `marshak` is given) are the Marshak conditions.
+/// (when `marshak` is given) are the Marshak conditions, and references across a Marshak
+/// face closed by the PDE's own conditions (when `robin` is given) are their ghost values.
 pub(crate) fn assemble_chunk(
     problem: &Problem,
     kernel: &dyn StencilKernel,
     layout: &Layout,
     marshak: Option<&MarshakRows>,
+    robin: Option<&RobinFaces<'_>>,
     rows: std::ops::Range<usize>,
 ) -> anyhow::Result<Chunk> {
     let len = rows.len();
@@ -149,6 +179,12 @@ pub(crate) fn assemble_chunk(
         entries.clear();
         for (t, &w) in pattern.iter().zip(&weights) {
             let half = [0, 1, 2].map(|d| pos[d] + t.offset[d] as i64);
+            if let Some(r) = robin {
+                if let Some(face) = r.crossing(layout, t.moment, half) {
+                    r.ghost(problem, layout, t.moment, half, face, w, &mut entries)?;
+                    continue;
+                }
+            }
             if let Some(col) = layout.resolve(t.moment, half, problem.boundary) {
                 entries.push((col, w));
             }

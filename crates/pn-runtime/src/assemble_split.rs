@@ -11,9 +11,8 @@
 //! removes entries, and a Marshak face row counts with its own length), so they are never reallocated; each block of rows is copied into them in
 //! parallel.
 
-use crate::assemble::{assemble_chunk, check_kernel, Chunk, CHUNK};
+use crate::assemble::{assemble_chunk, check_kernel, face_closures, Chunk, CHUNK};
 use crate::layout::Layout;
-use crate::marshak::{MarshakRows, DEFAULT_FACE_VALUE};
 use crate::problem::Problem;
 use crate::solver::parity::split::{classes, BlockMat, Classes, ParityError, Split};
 use crate::solver::pn_layout::even_mask;
@@ -43,14 +42,16 @@ pub struct SplitSystem {
 /// (one moment) and collocated or user stencils may not have it.
 pub fn has_parity_structure(kernel: &dyn StencilKernel) -> bool {
     let moments = kernel.moments();
-    (0..moments.len()).all(|q| {
-        kernel.pattern(q).iter().all(|t| {
-            (t.moment == q && t.offset == [0, 0, 0])
-                || moments
-                    .get(t.moment)
-                    .is_some_and(|p| p.l % 2 != moments[q].l % 2)
+    // A PDE's own boundary conditions (crate::robin) may couple equal parities at a face.
+    kernel.boundary_conditions().is_none()
+        && (0..moments.len()).all(|q| {
+            kernel.pattern(q).iter().all(|t| {
+                (t.moment == q && t.offset == [0, 0, 0])
+                    || moments
+                        .get(t.moment)
+                        .is_some_and(|p| p.l % 2 != moments[q].l % 2)
+            })
         })
-    })
 }
 
 /// One assembled chunk of rows, split.
@@ -79,7 +80,13 @@ pub fn assemble_split(
     layout: &Layout,
 ) -> anyhow::Result<Result<SplitSystem, ParityError>> {
     check_kernel(problem, kernel, layout)?;
-    let marshak = MarshakRows::new(problem, layout, DEFAULT_FACE_VALUE)?;
+    let (robin, marshak) = face_closures(problem, kernel, layout)?;
+    // Ghost eliminations add entries the pattern's bounds do not count, and such kernels
+    // never have the parity structure ([`has_parity_structure`]).
+    anyhow::ensure!(
+        robin.is_none(),
+        "the split assembly does not take a PDE's own boundary conditions; assemble A instead"
+    );
     let n = layout.len();
     let even = even_mask(layout);
     let Classes {
@@ -130,8 +137,14 @@ pub fn assemble_split(
             .into_par_iter()
             .map(|r0| {
                 let rows = r0..(r0 + CHUNK).min(end);
-                let chunk =
-                    assemble_chunk(problem, kernel, layout, marshak.as_ref(), rows.clone())?;
+                let chunk = assemble_chunk(
+                    problem,
+                    kernel,
+                    layout,
+                    marshak.as_ref(),
+                    None,
+                    rows.clone(),
+                )?;
                 Ok(split_chunk(&chunk, rows.start, &even, &local))
             })
             .collect::<anyhow::Result<_>>()?;

@@ -8,7 +8,8 @@
 //!   [`scenes`] (built-in; [`scenes::vacuum`]: `slab` and `milne`), [`scene_file`] (TOML), [`vol`], [`npy`] and [`vdb`] (voxel data, array
 //!   and OpenVDB files); [`scene_registry`] lists every built-in scene of `pn solve` and `pn render`.
 //! * Discrete system: [`layout`] (unknowns and boundary closure), [`marshak`] (the Marshak
-//!   vacuum faces' rows), [`context`] (fields at
+//!   vacuum faces' rows), [`robin`] (a PDE's own boundary conditions on those faces, by
+//!   ghost elimination), [`context`] (fields at
 //!   staggered positions), [`assemble`] (sprs CSR), [`assemble_split`] (straight into the
 //!   parity blocks), [`matfree`] (the matrix-free operator).
 //! * Solving: [`operator`] (operator and preconditioner traits), [`linalg`], [`solver`] (one
@@ -66,6 +67,7 @@ pub mod plot;
 pub mod pop;
 pub mod problem;
 pub mod render;
+pub mod robin;
 pub mod scene_file;
 pub mod scene_registry;
 pub mod scenes;

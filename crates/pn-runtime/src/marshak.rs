@@ -39,6 +39,37 @@
 use crate::layout::Layout;
 use crate::problem::{BoundaryKind, Problem};
 use pn_stencil::marshak::{marshak_closure, MarshakClosure};
+use pn_stencil::StencilKernel;
+
+/// Refuses a stencil the derived Marshak rows cannot close: they replace the rows of the
+/// face unknowns of the P_N equations, whose transport terms couple opposite l-parities only
+/// (apart from a row's own centred term), so a row that couples equal parities elsewhere
+/// (DP_N's substituted band, `pdes/dpn.pde`) would reach across the face unclosed. Such a
+/// text PDE needs its own `boundary marshak` conditions (docs/pde-text.md).
+pub fn check_pn_structure(kernel: &dyn StencilKernel) -> anyhow::Result<()> {
+    let moments = kernel.moments();
+    for (q, row) in moments.iter().enumerate() {
+        for t in kernel.pattern(q) {
+            let same = moments.get(t.moment).is_some_and(|p| p.l % 2 == row.l % 2);
+            if same && !(t.moment == q && t.offset == [0, 0, 0]) {
+                let p = &moments[t.moment];
+                anyhow::bail!(
+                    "the derived Marshak rows close the P_N equations, whose transport couples \
+                     opposite l-parities; stencil {} couples moment ({},{}) to ({},{}) at offset \
+                     {:?} (equal parity) and states no `boundary marshak` conditions \
+                     (docs/pde-text.md); use --bc neumann or dirichlet",
+                    kernel.name(),
+                    row.l,
+                    row.m,
+                    p.l,
+                    p.m,
+                    t.offset
+                );
+            }
+        }
+    }
+    Ok(())
+}
 
 /// How a Marshak condition evaluates the even moments on the face.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -88,8 +119,10 @@ impl MarshakRows {
         let order = moments.iter().map(|m| m.l).max().unwrap_or(0);
         anyhow::ensure!(
             moments.len() > 1 && moments.iter().any(|m| m.l == 0 && m.m == 0),
-            "the Marshak boundary applies to the P_N equations only (this stencil has {} \
-             unknown{} per cell); use --bc neumann or dirichlet",
+            "the Marshak boundary applies to the P_N equations only, and to text PDEs that \
+             state `boundary marshak` conditions (docs/pde-text.md; diffusion with its \
+             Marshak condition: --pde pdes/cda.pde); this stencil has {} unknown{} per cell \
+             and states none; use --bc neumann or dirichlet",
             moments.len(),
             if moments.len() == 1 { "" } else { "s" }
         );

@@ -175,6 +175,36 @@ impl StencilIr {
     }
 }
 
+/// A boundary condition a PDE states for itself (module `robin`):
+/// `Σ_j value_j u_j + Σ_k normal_k ∂_n u_k = 0` on a face, `∂_n` the outward normal
+/// derivative, the coefficients read at the face point.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RobinCondition {
+    /// The unknown (index into the stencil's moments) the condition is stated for: the
+    /// conditions are square, one per target.
+    pub target: usize,
+    /// `(moment index, coefficient)` of the face values.
+    pub value: Vec<(usize, Weight)>,
+    /// `(moment index, coefficient)` of the outward normal derivatives.
+    pub normal: Vec<(usize, Weight)>,
+}
+
+/// A set of boundary conditions, applied on the faces whose kind it is stated for.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RobinBoundary {
+    /// The boundary kind the conditions implement (`marshak`: `--bc marshak`).
+    pub kind: String,
+    /// One condition per target unknown.
+    pub conditions: Vec<RobinCondition>,
+}
+
+impl RobinBoundary {
+    /// The index of the condition stated for moment `q`, if any.
+    pub fn condition_of(&self, q: usize) -> Option<usize> {
+        self.conditions.iter().position(|c| c.target == q)
+    }
+}
+
 /// Field values and grid spacing for the row being evaluated.
 ///
 /// The runtime implements this for one row location at a time; `offset` is relative to
@@ -209,6 +239,12 @@ pub trait StencilKernel: Send + Sync {
     /// Evaluates the weights of row `row` (in the order of [`StencilKernel::pattern`])
     /// into `weights` and returns the right-hand side.
     fn eval_row(&self, row: usize, ctx: &dyn FieldContext, weights: &mut [f64]) -> f64;
+    /// Boundary conditions the PDE states for itself (a text PDE's `boundary` statements,
+    /// module `robin`); `None` (the default) for the derived stencils, whose boundary is the
+    /// runtime's.
+    fn boundary_conditions(&self) -> Option<&RobinBoundary> {
+        None
+    }
 }
 
 /// Errors of placement, discretization and code generation.

@@ -14,6 +14,8 @@
 //!   transport matrices and phase-function moments (docs/design.md §2.3).
 //! * [`marshak`]: the half-range Gram matrices and the Marshak vacuum closure derived from
 //!   them (docs/design.md §3, "Domain and boundary").
+//! * [`robin`]: boundary conditions a PDE states for itself (Robin/Marshak-type relations
+//!   of face values and normal derivatives, docs/pde-text.md) and [`robin::WithBoundary`].
 //!
 //! ```
 //! use pn_stencil::{quadrature, Dim, Staggering};
@@ -31,11 +33,12 @@ mod interpret;
 mod ir;
 pub mod marshak;
 pub mod quadrature;
+pub mod robin;
 
 pub use interpret::InterpretedKernel;
 pub use ir::{
-    Dim, FieldContext, FieldRef, HalfOffset, MomentPlacement, StencilError, StencilIr,
-    StencilKernel, StencilRow, StencilTerm, TermPattern, Weight,
+    Dim, FieldContext, FieldRef, HalfOffset, MomentPlacement, RobinBoundary, RobinCondition,
+    StencilError, StencilIr, StencilKernel, StencilRow, StencilTerm, TermPattern, Weight,
 };
 
 /// Highest P_N order the derivation accepts and the runtime runs (keeps exact arithmetic

@@ -9,7 +9,7 @@ use num_rational::Rational64;
 
 use super::lex::Pos;
 use super::parse::{Ast, BinOp, Stmt, Target};
-use super::{PdeTextError, TextPde, TextUnknown};
+use super::{PdeTextError, TextBoundary, TextPde, TextUnknown};
 use crate::discretize::math;
 use crate::pde::{PdeEquation, PdeSystem};
 use pn_stencil::Dim;
@@ -30,6 +30,8 @@ enum Val {
 #[derive(Clone, Debug, Default)]
 struct Scope {
     vars: HashMap<String, Val>,
+    /// Inside a `boundary` statement: `dn(…)` is allowed.
+    boundary: bool,
 }
 
 /// A target resolved at statement time (loop variables known).
@@ -54,6 +56,22 @@ struct PendingAdd {
     pos: Pos,
 }
 
+struct PendingBoundary {
+    kind: String,
+    target: ResolvedTarget,
+    target_pos: Pos,
+    lhs: Ast,
+    rhs: Ast,
+    scope: Scope,
+    pos: Pos,
+}
+
+/// Resolves a statement's target to its unknown's label (errors at the given position).
+type LabelOf<'a> = dyn Fn(&ResolvedTarget, Pos) -> Result<(i64, i64), PdeTextError> + 'a;
+
+/// The boundary kinds a `boundary` statement can state conditions for.
+pub(super) const BOUNDARY_KINDS: [&str; 1] = ["marshak"];
+
 /// A declared unknown before labelling.
 struct Decl {
     name: String,
@@ -74,14 +92,17 @@ struct Lowerer {
     pn_at: usize,
     equations: Vec<PendingEquation>,
     adds: Vec<PendingAdd>,
+    boundaries: Vec<PendingBoundary>,
+    /// `eliminate` statements: the target and where it was written (target position).
+    eliminations: Vec<(ResolvedTarget, Pos)>,
     /// Labels of every unknown, by name (filled after the first pass).
     labels: HashMap<String, (i64, i64)>,
 }
 
 /// Names the syntax gives a meaning to.
-const RESERVED: [&str; 20] = [
+const RESERVED: [&str; 21] = [
     "sigma_t", "sigma_s", "sigma_a", "phase", "Q", "L", "pi", "dx", "dy", "dz", "grad", "div",
-    "lap", "sum", "exp", "ln", "sqrt", "sin", "cos", "abs",
+    "lap", "sum", "exp", "ln", "sqrt", "sin", "cos", "abs", "dn",
 ];
 
 /// Lowers the statements; `overrides` replace `param` values.
@@ -267,6 +288,47 @@ impl Lowerer {
                     scope: scope.clone(),
                     pos: *pos,
                 });
+            }
+            Stmt::Boundary {
+                kind: (kind, kind_pos),
+                target,
+                lhs,
+                rhs,
+                pos,
+            } => {
+                if !BOUNDARY_KINDS.contains(&kind.as_str()) {
+                    return Err(PdeTextError::at(
+                        *kind_pos,
+                        format!(
+                            "unknown boundary kind '{kind}' (expected {}: the conditions that \
+                             `--bc {}` applies)",
+                            BOUNDARY_KINDS.join(", "),
+                            BOUNDARY_KINDS[0]
+                        ),
+                    ));
+                }
+                let target_pos = match target {
+                    Target::Name(_, p) | Target::Moment(_, _, p) => *p,
+                };
+                let target = self.resolve(target, scope)?;
+                let mut scope = scope.clone();
+                scope.boundary = true;
+                self.boundaries.push(PendingBoundary {
+                    kind: kind.clone(),
+                    target,
+                    target_pos,
+                    lhs: lhs.clone(),
+                    rhs: rhs.clone(),
+                    scope,
+                    pos: *pos,
+                });
+            }
+            Stmt::Eliminate(target, _) => {
+                let pos = match target {
+                    Target::Name(_, p) | Target::Moment(_, _, p) => *p,
+                };
+                let target = self.resolve(target, scope)?;
+                self.eliminations.push((target, pos));
             }
             Stmt::IncludePn(n, pos) => {
                 if self.pn.is_some() {
@@ -469,7 +531,7 @@ impl Lowerer {
             "sigma_a" => Expr::field(FieldName::SigmaA),
             "pi" => Expr::sym("pi"),
             "L" | "Q" | "phase" | "dx" | "dy" | "dz" | "grad" | "div" | "lap" | "exp" | "ln"
-            | "sqrt" | "sin" | "cos" | "abs" => {
+            | "sqrt" | "sin" | "cos" | "abs" | "dn" => {
                 return Err(PdeTextError::at(
                     pos,
                     format!("{name} needs arguments: {name}(…)"),
@@ -568,6 +630,17 @@ impl Lowerer {
                 }
                 Val::S(Expr::field(FieldName::PhaseMoment(Box::new(Expr::Int(l)))))
             }
+            "dn" => {
+                arity(1)?;
+                if !scope.boundary {
+                    return Err(PdeTextError::at(
+                        pos,
+                        "dn(…), the outward normal derivative, is allowed in boundary statements only",
+                    ));
+                }
+                let x = self.scalar(&args[0], scope, depth)?;
+                Val::S(Expr::Func("dn".into(), vec![x]))
+            }
             "dx" => deriv(Axis::X)?,
             "dy" => deriv(Axis::Y)?,
             "dz" => deriv(Axis::Z)?,
@@ -614,7 +687,7 @@ impl Lowerer {
             _ => {
                 return Err(PdeTextError::at(
                     pos,
-                    format!("unknown function '{name}' (built-in: L, Q, phase, dx, dy, dz, grad, div, lap, sum, exp, ln, sqrt, sin, cos, abs)"),
+                    format!("unknown function '{name}' (built-in: L, Q, phase, dx, dy, dz, grad, div, lap, dn, sum, exp, ln, sqrt, sin, cos, abs)"),
                 ))
             }
         })
@@ -761,6 +834,45 @@ impl Lowerer {
             };
             eq.lhs = Expr::add(vec![eq.lhs.clone(), term]);
         }
+        // Eliminations: each unknown solved from its own equation and substituted.
+        for (target, pos) in &self.eliminations {
+            let lm = label_of(target, *pos)?;
+            let name = self.name_of(lm);
+            let Some(k) = eqs.iter().position(|(e, _)| (e.l, e.m) == lm) else {
+                return Err(PdeTextError::at(
+                    *pos,
+                    format!(
+                        "eliminate: {name} has no equation to solve for it (eliminated twice?)"
+                    ),
+                ));
+            };
+            let (eq, eq_pos) = eqs.remove(k);
+            let value = solve_for(&Expr::add(vec![eq.lhs, eq.rhs.neg()]), lm).map_err(|m| {
+                PdeTextError::at(
+                    *pos,
+                    format!(
+                        "eliminate {name}: {m} (its equation, line {}, must read c*{name} + \
+                         terms without {name} = 0, c free of unknowns)",
+                        eq_pos.line
+                    ),
+                )
+            })?;
+            let subst = |e: &Expr| {
+                e.rewrite_bottom_up(&mut |x| {
+                    if crate::pde::as_unknown(&x) == Some(lm) {
+                        value.clone()
+                    } else {
+                        x
+                    }
+                })
+            };
+            for (e, _) in eqs.iter_mut() {
+                e.lhs = subst(&e.lhs);
+                e.rhs = subst(&e.rhs);
+            }
+            unknowns.retain(|u| u.label != lm);
+        }
+        let boundaries = self.lower_boundaries(&unknowns, &label_of)?;
         // Systems order equations like their unknowns.
         let mut ordered = Vec::with_capacity(eqs.len());
         for u in &unknowns {
@@ -783,7 +895,84 @@ impl Lowerer {
             equation_pos: ordered.iter().map(|(_, p)| *p).collect(),
             unknowns,
             params,
+            boundaries,
         })
+    }
+
+    /// Lowers the `boundary` statements: one linear condition per (kind, unknown), every
+    /// unknown closed once a kind has conditions at all (they are square, like the system).
+    fn lower_boundaries(
+        &self,
+        unknowns: &[TextUnknown],
+        label_of: &LabelOf<'_>,
+    ) -> Result<Vec<TextBoundary>, PdeTextError> {
+        let mut out: Vec<TextBoundary> = Vec::new();
+        for pb in &self.boundaries {
+            let target = label_of(&pb.target, pb.target_pos)?;
+            if !unknowns.iter().any(|u| u.label == target) {
+                return Err(PdeTextError::at(
+                    pb.target_pos,
+                    format!(
+                        "{} was eliminated: it has no boundary condition",
+                        self.name_of(target)
+                    ),
+                ));
+            }
+            if let Some(b) = out.iter().find(|b| b.kind == pb.kind && b.target == target) {
+                return Err(PdeTextError::at(
+                    pb.pos,
+                    format!(
+                        "a second `boundary {}` condition for {} (the first is on line {})",
+                        pb.kind,
+                        self.name_of(target),
+                        b.pos.line
+                    ),
+                ));
+            }
+            let lhs = self.scalar(&pb.lhs, &pb.scope, 0)?;
+            let rhs = self.scalar(&pb.rhs, &pb.scope, 0)?;
+            let form = split_boundary(&Expr::add(vec![lhs, rhs.neg()]), false)
+                .map_err(|m| PdeTextError::at(pb.pos, m))?;
+            if form.rest.iter().any(|e| const_value(e) != Some(0.0)) {
+                return Err(PdeTextError::at(
+                    pb.pos,
+                    "a boundary condition must be homogeneous (every term a coefficient times an \
+                     unknown or dn(unknown), = 0): it has a term without an unknown",
+                ));
+            }
+            if form.normal.is_empty() {
+                return Err(PdeTextError::at(
+                    pb.pos,
+                    "a boundary condition needs a normal derivative dn(…) of an unknown (it \
+                     closes the flux across the face)",
+                ));
+            }
+            out.push(TextBoundary {
+                kind: pb.kind.clone(),
+                target,
+                value: form.value,
+                normal: form.normal,
+                pos: pb.pos,
+            });
+        }
+        for kind in BOUNDARY_KINDS {
+            let Some(first) = out.iter().find(|b| b.kind == kind) else {
+                continue;
+            };
+            for u in unknowns {
+                if !out.iter().any(|b| b.kind == kind && b.target == u.label) {
+                    return Err(PdeTextError::at(
+                        u.pos,
+                        format!(
+                            "unknown {} has no `boundary {kind}` condition (line {} states one; \
+                             the conditions must be square: one per unknown)",
+                            u.name, first.pos.line
+                        ),
+                    ));
+                }
+            }
+        }
+        Ok(out)
     }
 
     fn name_of(&self, lm: (i64, i64)) -> String {
@@ -836,4 +1025,205 @@ fn binary(op: BinOp, x: Val, y: Val, pos: Pos) -> Result<Val, PdeTextError> {
         (BinOp::Pow, S(a), S(b)) => S(a.pow(b)),
         (BinOp::Pow, _, _) => return bad("powers of vectors are not defined"),
     })
+}
+
+/// A boundary expression split into `Σ value_j u_j + Σ normal_k dn(u_k) + Σ rest`.
+#[derive(Default)]
+struct BoundaryForm {
+    value: Vec<((i64, i64), Expr)>,
+    normal: Vec<((i64, i64), Expr)>,
+    rest: Vec<Expr>,
+}
+
+impl BoundaryForm {
+    fn add(mut self, o: BoundaryForm) -> BoundaryForm {
+        self.value.extend(o.value);
+        self.normal.extend(o.normal);
+        self.rest.extend(o.rest);
+        self
+    }
+    fn scale(self, c: &Expr) -> BoundaryForm {
+        let sc = |v: Vec<((i64, i64), Expr)>| {
+            v.into_iter()
+                .map(|(lm, e)| (lm, Expr::mul(vec![c.clone(), e])))
+                .collect()
+        };
+        BoundaryForm {
+            value: sc(self.value),
+            normal: sc(self.normal),
+            rest: self
+                .rest
+                .into_iter()
+                .map(|e| Expr::mul(vec![c.clone(), e]))
+                .collect(),
+        }
+    }
+}
+
+/// Whether `e` mentions an unknown or `dn`.
+fn mentions_unknown(e: &Expr) -> bool {
+    e.any(&|x| crate::pde::as_unknown(x).is_some() || matches!(x, Expr::Func(f, _) if f == "dn"))
+}
+
+/// Splits a lowered boundary expression into its linear parts (coefficients are left as
+/// `cas` expressions); `in_dn`: inside `dn(…)`.
+fn split_boundary(e: &Expr, in_dn: bool) -> Result<BoundaryForm, String> {
+    if let Some(lm) = crate::pde::as_unknown(e) {
+        let one = vec![(lm, Expr::int(1))];
+        return Ok(if in_dn {
+            BoundaryForm {
+                normal: one,
+                ..Default::default()
+            }
+        } else {
+            BoundaryForm {
+                value: one,
+                ..Default::default()
+            }
+        });
+    }
+    if !mentions_unknown(e) {
+        if e.any(&|x| matches!(x, Expr::Deriv(..))) {
+            return Err(derivative_message());
+        }
+        if in_dn {
+            return Err(
+                "dn(…) applies to unknowns (the normal derivative of a coefficient \
+                        is not part of a boundary condition)"
+                    .into(),
+            );
+        }
+        return Ok(BoundaryForm {
+            rest: vec![e.clone()],
+            ..Default::default()
+        });
+    }
+    match e {
+        Expr::Add(ts) => {
+            let mut acc = BoundaryForm::default();
+            for t in ts {
+                acc = acc.add(split_boundary(t, in_dn)?);
+            }
+            Ok(acc)
+        }
+        Expr::Mul(fs) => {
+            let mut linear: Option<BoundaryForm> = None;
+            let mut coeff = Vec::new();
+            for f in fs {
+                if mentions_unknown(f) {
+                    if linear.is_some() {
+                        return Err(
+                            "a product of unknowns (a boundary condition must be linear)".into(),
+                        );
+                    }
+                    linear = Some(split_boundary(f, in_dn)?);
+                } else {
+                    if f.any(&|x| matches!(x, Expr::Deriv(..))) {
+                        return Err(derivative_message());
+                    }
+                    coeff.push(f.clone());
+                }
+            }
+            let linear = linear.unwrap_or_default();
+            Ok(linear.scale(&Expr::mul(coeff)))
+        }
+        Expr::Func(f, args) if f == "dn" && args.len() == 1 => {
+            if in_dn {
+                return Err(
+                    "dn(dn(…)): a boundary condition takes first normal derivatives only".into(),
+                );
+            }
+            let inner = split_boundary(&args[0], true)?;
+            if inner.normal.iter().any(|(_, c)| const_value(c).is_none()) {
+                return Err(
+                    "dn(…) takes unknowns with constant coefficients (dn(c*u) with a \
+                            field c is not c*dn(u)); write the coefficient outside: c*dn(u)"
+                        .into(),
+                );
+            }
+            if !inner.rest.is_empty() {
+                return Err(
+                    "dn(…) applies to unknowns (the normal derivative of a coefficient \
+                            is not part of a boundary condition)"
+                        .into(),
+                );
+            }
+            Ok(inner)
+        }
+        Expr::Deriv(..) => Err(derivative_message()),
+        _ => Err(
+            "an unknown inside a power or function (a boundary condition must be linear)".into(),
+        ),
+    }
+}
+
+fn derivative_message() -> String {
+    "derivatives in a boundary condition are written dn(…), the outward normal derivative \
+     (dx, dy, dz, grad, div and lap are not allowed there)"
+        .into()
+}
+
+/// Solves the expression `e = 0` for the unknown `lm`: `e` must be `c·lm + rest` with `c`
+/// and `rest` free of `lm` and `lm` not under a derivative; returns `−rest / c`.
+fn solve_for(e: &Expr, lm: (i64, i64)) -> Result<Expr, String> {
+    /// The terms of `e` with `lm` (their coefficients) and without it.
+    fn split(e: &Expr, lm: (i64, i64)) -> Result<(Vec<Expr>, Vec<Expr>), String> {
+        let has = |x: &Expr| x.any(&|y| crate::pde::as_unknown(y) == Some(lm));
+        if crate::pde::as_unknown(e) == Some(lm) {
+            return Ok((vec![Expr::int(1)], Vec::new()));
+        }
+        if !has(e) {
+            return Ok((Vec::new(), vec![e.clone()]));
+        }
+        match e {
+            Expr::Add(ts) => {
+                let (mut c, mut r) = (Vec::new(), Vec::new());
+                for t in ts {
+                    let (ct, rt) = split(t, lm)?;
+                    c.extend(ct);
+                    r.extend(rt);
+                }
+                Ok((c, r))
+            }
+            Expr::Mul(fs) => {
+                let mut inner = None;
+                let mut others = Vec::new();
+                for f in fs {
+                    if has(f) {
+                        if inner.is_some() {
+                            return Err("it appears in a product with itself".into());
+                        }
+                        inner = Some(split(f, lm)?);
+                    } else {
+                        others.push(f.clone());
+                    }
+                }
+                let (c, r) = inner.unwrap_or_default();
+                let scale = |v: Vec<Expr>| -> Vec<Expr> {
+                    v.into_iter()
+                        .map(|x| {
+                            let mut fs = others.clone();
+                            fs.push(x);
+                            Expr::mul(fs)
+                        })
+                        .collect()
+                };
+                Ok((scale(c), scale(r)))
+            }
+            Expr::Deriv(..) => Err("it is differentiated in its own equation".into()),
+            _ => Err("it appears inside a power or function".into()),
+        }
+    }
+    let (c, rest) = split(e, lm)?;
+    if c.is_empty() {
+        return Err("its own equation does not contain it".into());
+    }
+    let c = Expr::add(c);
+    if c.any(&|y| crate::pde::as_unknown(y).is_some()) {
+        return Err("its coefficient contains an unknown".into());
+    }
+    if const_value(&c) == Some(0.0) {
+        return Err("its coefficient is zero".into());
+    }
+    Ok(Expr::mul(vec![Expr::add(rest).neg(), c.recip()]))
 }

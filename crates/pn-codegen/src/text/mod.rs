@@ -17,9 +17,18 @@
 //!                                       are derived from the couplings, docs/design.md §3)
 //! equation TARGET: LHS = RHS            the equation located at TARGET (a name or L(l, m))
 //! add TARGET: EXPR                      adds EXPR to the left-hand side of TARGET's equation
+//! boundary KIND TARGET: LHS = RHS       a boundary condition of kind KIND (`marshak`: what
+//!                                       `--bc marshak` applies) stated for the unknown
+//!                                       TARGET, linear in the unknowns' face values and
+//!                                       their outward normal derivatives `dn(e)`
+//! eliminate TARGET                      solves TARGET's equation (c·TARGET + terms without
+//!                                       it = 0, TARGET not differentiated, c free of
+//!                                       unknowns) for TARGET and substitutes it into every
+//!                                       other equation; TARGET leaves the system
 //! include pn(N)                         the derived real P_N unknowns L(l, m), l ≤ N, and
 //!                                       their equations
-//! for v = LO..HI [, w = LO..HI]: STMT   repeats STMT (unknown, equation, add or for)
+//! for v = LO..HI [, w = LO..HI]: STMT   repeats STMT (unknown, equation, add, boundary,
+//!                                       eliminate or for)
 //! ```
 //!
 //! Expressions: numbers (decimals are exact rationals), `+ - * / ^`, parentheses;
@@ -28,6 +37,11 @@
 //! `pi`; `dx(e)`, `dy(e)`, `dz(e)`, `grad(e)`, `div(v)`, `lap(e)`; `sum(k = LO..HI, e)`;
 //! `exp`, `ln`, `sqrt`, `sin`, `cos`, `abs` of constants. Indices (`l`, `m`, loop bounds)
 //! must evaluate to integers.
+//!
+//! Boundary conditions are square like the system: once a kind has a condition, every
+//! unknown has exactly one of that kind, each `Σ a_j u_j + Σ b_k dn(u_k) = 0` with
+//! coefficients free of unknowns ([`TextPde::boundary`], applied by the runtime's
+//! `robin` module to the faces of that kind).
 //!
 //! Unknowns without `= L(l, m)` are auxiliary: they get moment labels no radiance moment
 //! uses (in storage slots beyond the highest band, with l+m even so that the 2D reduction
@@ -98,6 +112,22 @@ pub struct TextUnknown {
     pub pos: Pos,
 }
 
+/// One `boundary` statement, lowered: `Σ value_j u_j + Σ normal_k ∂_n u_k = 0` with
+/// `cas` coefficients (free of unknowns) and the unknowns by label.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TextBoundary {
+    /// The boundary kind (`marshak`).
+    pub kind: String,
+    /// The label of the unknown the condition is stated for.
+    pub target: (i64, i64),
+    /// `(label, coefficient)` of the face values.
+    pub value: Vec<((i64, i64), cas::Expr)>,
+    /// `(label, coefficient)` of the outward normal derivatives `dn(u)`.
+    pub normal: Vec<((i64, i64), cas::Expr)>,
+    /// Where the statement is.
+    pub pos: Pos,
+}
+
 /// A parsed text PDE: the system in `cas` form plus what the placement and error messages
 /// need.
 #[derive(Clone, Debug, PartialEq)]
@@ -111,6 +141,8 @@ pub struct TextPde {
     pub equation_pos: Vec<Pos>,
     /// The parameters and their values (after overrides), in declaration order.
     pub params: Vec<(String, f64)>,
+    /// The `boundary` statements, in the order written.
+    pub boundaries: Vec<TextBoundary>,
 }
 
 /// Parses `src` with parameter overrides `params` (each must be declared by `param`).
@@ -342,6 +374,56 @@ impl TextPde {
             col: 0,
             message,
         }
+    }
+
+    /// The boundary conditions of kind `kind` in `dim`, with the unknowns indexed as in
+    /// [`TextPde::ir`]'s moments and the coefficients as [`pn_stencil::Weight`]s read at the
+    /// face point; `None` when the PDE states none of that kind. In 2D, unknowns the
+    /// reduction drops (l+m odd moments) are dropped from the conditions too, with their own
+    /// conditions. A coefficient that cannot be evaluated (a derivative, an unknown) is
+    /// reported at its statement.
+    pub fn boundary(
+        &self,
+        dim: Dim,
+        kind: &str,
+    ) -> Result<Option<pn_stencil::robin::RobinBoundary>, PdeTextError> {
+        use pn_stencil::robin::{RobinBoundary, RobinCondition};
+        let (sys, _) = self.system_in(dim);
+        let index = |lm: (i64, i64)| sys.unknowns.iter().position(|&u| u == lm);
+        let mut conditions = Vec::new();
+        for b in self.boundaries.iter().filter(|b| b.kind == kind) {
+            let Some(target) = index(b.target) else {
+                continue;
+            };
+            let weights = |terms: &[((i64, i64), cas::Expr)]| {
+                let mut merged: Vec<(usize, Vec<cas::Expr>)> = Vec::new();
+                for (lm, c) in terms {
+                    let Some(q) = index(*lm) else { continue };
+                    match merged.iter_mut().find(|(k, _)| *k == q) {
+                        Some((_, cs)) => cs.push(c.clone()),
+                        None => merged.push((q, vec![c.clone()])),
+                    }
+                }
+                let mut out = Vec::new();
+                for (q, cs) in merged {
+                    let w = discretize::coefficient_weight(&cas::Expr::add(cs), dim)
+                        .map_err(|e| PdeTextError::at(b.pos, self.rename(&e.to_string())))?;
+                    if let Some(w) = w {
+                        out.push((q, w));
+                    }
+                }
+                Ok::<_, PdeTextError>(out)
+            };
+            conditions.push(RobinCondition {
+                target,
+                value: weights(&b.value)?,
+                normal: weights(&b.normal)?,
+            });
+        }
+        Ok((!conditions.is_empty()).then(|| RobinBoundary {
+            kind: kind.to_string(),
+            conditions,
+        }))
     }
 
     /// Whether the unknown labelled `(l, m)` is a radiance moment.

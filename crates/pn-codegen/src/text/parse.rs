@@ -91,8 +91,25 @@ pub enum Stmt {
     Equation(Target, Ast, Ast, Pos),
     /// `add TARGET: expr` (adds to the left-hand side of TARGET's equation).
     AddTerm(Target, Ast, Pos),
+    /// `eliminate TARGET`: TARGET's equation, algebraic in TARGET, solved for it and
+    /// substituted into the other equations; the unknown and its equation leave the system.
+    Eliminate(Target, Pos),
     /// `include pn(N)`: the derived P_N unknowns and equations.
     IncludePn(Ast, Pos),
+    /// `boundary KIND TARGET: lhs = rhs`: a boundary condition of the kind KIND (`marshak`)
+    /// stated for the unknown TARGET; `dn(e)` is the outward normal derivative.
+    Boundary {
+        /// The boundary kind and where it is written.
+        kind: (String, Pos),
+        /// The unknown the condition is stated for.
+        target: Target,
+        /// Left-hand side.
+        lhs: Ast,
+        /// Right-hand side.
+        rhs: Ast,
+        /// Where the statement is.
+        pos: Pos,
+    },
     /// `for v = lo..hi [, w = lo..hi]: statement`.
     For(Vec<(String, Ast, Ast)>, Box<Stmt>, Pos),
 }
@@ -118,8 +135,17 @@ struct Parser<'a> {
     i: usize,
 }
 
-const KEYWORDS: [&str; 8] = [
-    "pde", "param", "let", "unknown", "equation", "add", "include", "for",
+const KEYWORDS: [&str; 10] = [
+    "pde",
+    "param",
+    "let",
+    "unknown",
+    "equation",
+    "add",
+    "boundary",
+    "eliminate",
+    "include",
+    "for",
 ];
 
 impl Parser<'_> {
@@ -197,8 +223,9 @@ impl Parser<'_> {
     }
 
     fn statement(&mut self) -> Result<Stmt, PdeTextError> {
-        let (kw, pos) =
-            self.ident("a statement (pde, param, let, unknown, equation, add, include, for)")?;
+        let (kw, pos) = self.ident(
+            "a statement (pde, param, let, unknown, equation, add, boundary, eliminate, include, for)",
+        )?;
         match kw.as_str() {
             "pde" => {
                 let (name, _) = self.ident("the PDE's name after 'pde'")?;
@@ -274,6 +301,25 @@ impl Parser<'_> {
                 self.expect_op(":", "after the unknown whose equation gets the term")?;
                 Ok(Stmt::AddTerm(target, self.expr()?, pos))
             }
+            "boundary" => {
+                let kind = self.ident("the boundary kind after 'boundary' (marshak)")?;
+                let target = self.target()?;
+                self.expect_op(
+                    ":",
+                    "after the unknown the boundary condition is stated for",
+                )?;
+                let lhs = self.expr()?;
+                self.expect_op("=", "between the two sides of the boundary condition")?;
+                let rhs = self.expr()?;
+                Ok(Stmt::Boundary {
+                    kind,
+                    target,
+                    lhs,
+                    rhs,
+                    pos,
+                })
+            }
+            "eliminate" => Ok(Stmt::Eliminate(self.target()?, pos)),
             "include" => {
                 let (what, wpos) = self.ident("pn(N) after 'include'")?;
                 if what != "pn" {
@@ -305,7 +351,7 @@ impl Parser<'_> {
                 if matches!(body, Stmt::Pde(..) | Stmt::Param(..) | Stmt::Let(..)) {
                     return Err(PdeTextError::at(
                         pos,
-                        "a loop body must be unknown, equation, add or for",
+                        "a loop body must be unknown, equation, add, boundary, eliminate or for",
                     ));
                 }
                 Ok(Stmt::For(ranges, Box::new(body), pos))
