@@ -23,6 +23,11 @@ const CDA: &str = include_str!("../../../pdes/cda.pde");
 const SP1: &str = include_str!("../../../pdes/sp1.pde");
 const SP3: &str = include_str!("../../../pdes/sp3.pde");
 const FPN: &str = include_str!("../../../pdes/fpn.pde");
+const DPN: &str = include_str!("../../../pdes/dpn.pde");
+
+/// The largest point-source grid DP_3 is benchmarked on: its P_4-sized system (25 moments
+/// per cell, 4.6 M non-zeros at 24³) grows past a few GB at the 80³ of the full bench.
+const DPN_MAX_RES: usize = 32;
 
 /// The exact point-source fluence a variant is judged by (normalised, τ from the source).
 enum Exact {
@@ -82,7 +87,9 @@ fn push_row(
 /// `reference` (`checkerboard/starmap_p5_n71.csv`), and the point source on `n³` cells
 /// (tolerance 1e-6) against the variant's exact solution (CDA and SP_1: the CDA solution;
 /// SP_3: its two-mode solution; filtered P_3: the P_3 solution, so the error is the
-/// filter's). `quick` leaves out filtered P_5.
+/// filter's). `quick` leaves out filtered P_5 and DP_3 (P_3 with a diffusive correction,
+/// whose steady state is P_4 with band 4 eliminated: judged against the P_4 solution, on at
+/// most [`DPN_MAX_RES`]³ cells; its checkerboard solve takes ~13 s).
 pub(crate) fn pde_rows(
     quick: bool,
     reference: &Path,
@@ -98,6 +105,7 @@ pub(crate) fn pde_rows(
     ];
     if !quick {
         checkerboard.push(("fpn.pde N=5", FPN, &[("N", "5")]));
+        checkerboard.push(("dpn.pde N=3", DPN, &[]));
     }
     let starmap = pn_runtime::reference::starmap::read_csv(
         &reference.join("checkerboard/starmap_p5_n71.csv"),
@@ -122,9 +130,10 @@ pub(crate) fn pde_rows(
         (("sp3.pde", SP3, &[]), Exact::Sp3, "sp3_exact"),
         (("fpn.pde N=3", FPN, &[]), Exact::P3, "pn_exact"),
     ];
-    let (sp3, p3) = (
+    let (sp3, p3, p4) = (
         PointSourceModes::sp3(params.albedo, params.g)?,
         pn_point_source(3, params.albedo, params.g)?,
+        pn_point_source(4, params.albedo, params.g)?,
     );
     for (v, exact, reference) in pointsource {
         let (sol, res) = solve_variant("pointsource", &scene, v, 1e-6, tuning)?;
@@ -140,6 +149,36 @@ pub(crate) fn pde_rows(
             },
         );
         push_row(rows, "pointsource", v.0, res, &sol, err, reference);
+    }
+    if !quick {
+        let m = n.min(DPN_MAX_RES);
+        let (params, opts) = pointsource_options(m);
+        let scene = builtin("pointsource", &opts)?;
+        let tau_per_cell = params.sigma_t * 2.0 * params.half_width / m as f64;
+        let c = m / 2;
+        let (sol, res) = solve_variant(
+            "pointsource",
+            &scene,
+            ("dpn.pde N=3", DPN, &[]),
+            1e-6,
+            tuning,
+        )?;
+        let l00 = sol.l00();
+        let err = profile_error(
+            tau_per_cell,
+            m - 1 - c,
+            |k| l00[((c + k) * m + c) * m + c] * norm,
+            |t| p4.fluence(t),
+        );
+        push_row(
+            rows,
+            "pointsource",
+            "dpn.pde N=3",
+            res,
+            &sol,
+            err,
+            "p4_exact",
+        );
     }
     Ok(())
 }
