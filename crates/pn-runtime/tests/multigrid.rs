@@ -287,3 +287,28 @@ fn applications_vs_cgnr_table() {
         }
     }
 }
+
+/// The statistics name the Krylov method that ran: CG on the symmetric CDA matrix,
+/// BiCGSTAB once a drift term makes it measurably nonsymmetric (both still converge).
+#[test]
+fn the_reported_solver_names_the_krylov_method_that_ran() {
+    let (a, b, geom) = cda(16);
+    let (_, st) = mg_krylov(&a, &b, &geom, &opts(1e-8)).unwrap();
+    assert_eq!(st.solver, "mg-cg");
+    // A first-order drift along the storage order: +c above the diagonal, −c below.
+    let mut tri = sprs::TriMat::new((a.rows(), a.cols()));
+    for (v, (i, j)) in a.iter() {
+        let drift = if i < j {
+            0.2 * v.abs()
+        } else if i > j {
+            -0.2 * v.abs()
+        } else {
+            0.0
+        };
+        tri.add_triplet(i, j, *v + drift);
+    }
+    let nonsymmetric: sprs::CsMat<f64> = tri.to_csr();
+    let (u, st) = mg_krylov(&nonsymmetric, &b, &geom, &opts(1e-8)).unwrap();
+    assert_eq!(st.solver, "mg-bicgstab");
+    assert!(st.converged() && u.iter().all(|v| v.is_finite()), "{st:?}");
+}

@@ -27,7 +27,8 @@ fn asymmetry(a: &CsMat<f64>) -> f64 {
     }
 }
 
-/// Multigrid-preconditioned CG (BiCGSTAB when `a` is measurably nonsymmetric) on `a`,
+/// Multigrid-preconditioned CG (BiCGSTAB when `a` is measurably nonsymmetric; the stats name
+/// the method, `mg-cg` or `mg-bicgstab`) on `a`,
 /// with the stopping rules of [`SolverOptions`]; the residual is recomputed at the end.
 /// The multigrid parameters are `opts.tuning`'s ([`crate::solver::SolverTuning`]); an unset
 /// correction scale is [`SCALAR_CORRECTION_SCALE`]. With `opts.tuning.profile`, prints
@@ -83,7 +84,7 @@ pub fn mg_krylov(
     Ok((
         x,
         SolveStats {
-            solver: "mg-cg".into(),
+            solver: format!("mg-{}", method.name()),
             status,
             iterations: ctl.iterations,
             relative_residual: rel,
