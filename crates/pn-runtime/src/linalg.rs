@@ -182,9 +182,61 @@ pub fn transpose_csr(a: &CsMat<f64>) -> CsMat<f64> {
     a.transpose_view().to_csr()
 }
 
+/// Solves the small dense system `a x = rhs` (rows of `a`) by Gaussian elimination with
+/// partial pivoting; `None` when a pivot is at or below `min_pivot` in magnitude (the caller
+/// states what counts as singular relative to its own scale) or the solution is not finite.
+/// For the few-unknown systems of the solvers (Gram matrices, boundary conditions,
+/// Anderson acceleration), not for anything large.
+pub fn solve_small_dense(
+    mut a: Vec<Vec<f64>>,
+    mut rhs: Vec<f64>,
+    min_pivot: f64,
+) -> Option<Vec<f64>> {
+    let n = rhs.len();
+    for col in 0..n {
+        let p = (col..n).max_by(|&i, &j| a[i][col].abs().total_cmp(&a[j][col].abs()))?;
+        let pivot = a[p][col].abs();
+        if pivot <= min_pivot || pivot.is_nan() {
+            return None;
+        }
+        a.swap(col, p);
+        rhs.swap(col, p);
+        let (pivot_rows, rest) = a.split_at_mut(col + 1);
+        let pivot = &pivot_rows[col];
+        for (k, row) in rest.iter_mut().enumerate() {
+            let f = row[col] / pivot[col];
+            for (x, p) in row[col..n].iter_mut().zip(&pivot[col..n]) {
+                *x -= f * p;
+            }
+            rhs[col + 1 + k] -= f * rhs[col];
+        }
+    }
+    for r in (0..n).rev() {
+        let s: f64 = (r + 1..n).map(|c| a[r][c] * rhs[c]).sum();
+        rhs[r] = (rhs[r] - s) / a[r][r];
+    }
+    rhs.iter().all(|v| v.is_finite()).then_some(rhs)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn small_dense_solve_pivots_and_refuses_singular_systems() {
+        // A zero in the first pivot position: partial pivoting swaps the rows.
+        let x =
+            solve_small_dense(vec![vec![0.0, 2.0], vec![1.0, 1.0]], vec![4.0, 3.0], 0.0).unwrap();
+        assert!(
+            (x[0] - 1.0).abs() < 1e-15 && (x[1] - 2.0).abs() < 1e-15,
+            "{x:?}"
+        );
+        let singular = vec![vec![1.0, 2.0], vec![2.0, 4.0]];
+        assert!(solve_small_dense(singular, vec![1.0, 0.0], 1e-13).is_none());
+        assert!(solve_small_dense(vec![vec![0.0]], vec![1.0], 0.0).is_none());
+        assert!(solve_small_dense(vec![vec![1.0]], vec![f64::NAN], 0.0).is_none());
+        assert_eq!(solve_small_dense(vec![], vec![], 0.0), Some(vec![]));
+    }
 
     #[test]
     fn spmv_and_transpose() {

@@ -344,39 +344,14 @@ impl<'a> RobinFaces<'a> {
     }
 }
 
-/// Solves the small dense system `m x = rhs` by Gaussian elimination with partial
-/// pivoting; `None` when `m` is singular (a pivot below 1e-13 of the largest entry).
-fn solve_dense(mut m: Vec<Vec<f64>>, mut rhs: Vec<f64>) -> Option<Vec<f64>> {
-    let n = rhs.len();
+/// Solves the small dense system `m x = rhs`; `None` when `m` is singular (a pivot below
+/// 1e-13 of the largest entry, [`crate::linalg::solve_small_dense`]).
+fn solve_dense(m: Vec<Vec<f64>>, rhs: Vec<f64>) -> Option<Vec<f64>> {
     let scale = m.iter().flatten().fold(0.0f64, |s, v| s.max(v.abs()));
     if !(scale > 0.0 && scale.is_finite()) {
         return None;
     }
-    for col in 0..n {
-        let p = (col..n).max_by(|&i, &j| m[i][col].abs().total_cmp(&m[j][col].abs()))?;
-        if m[p][col].abs() <= 1e-13 * scale {
-            return None;
-        }
-        m.swap(col, p);
-        rhs.swap(col, p);
-        let (pivot_rows, rest) = m.split_at_mut(col + 1);
-        let pivot = &pivot_rows[col];
-        for (k, row) in rest.iter_mut().enumerate() {
-            let f = row[col] / pivot[col];
-            if f != 0.0 {
-                for (x, p) in row[col..].iter_mut().zip(&pivot[col..]) {
-                    *x -= f * p;
-                }
-                rhs[col + 1 + k] -= f * rhs[col];
-            }
-        }
-    }
-    let mut x = vec![0.0; n];
-    for r in (0..n).rev() {
-        let s: f64 = (r + 1..n).map(|c| m[r][c] * x[c]).sum();
-        x[r] = (rhs[r] - s) / m[r][r];
-    }
-    Some(x)
+    crate::linalg::solve_small_dense(m, rhs, 1e-13 * scale)
 }
 
 #[cfg(test)]

@@ -347,7 +347,7 @@ impl Anderson {
             for (i, row) in a.iter_mut().enumerate() {
                 row[i] += 1e-10 * trace.max(f64::MIN_POSITIVE);
             }
-            if let Some(gamma) = solve_small(a, rhs) {
+            if let Some(gamma) = crate::linalg::solve_small_dense(a, rhs, f64::MIN_POSITIVE) {
                 for (j, (xj, fj)) in self.past.iter().enumerate() {
                     let gj = gamma[j];
                     for (k, v) in next.iter_mut().enumerate() {
@@ -370,34 +370,6 @@ impl Anderson {
         }
         next
     }
-}
-
-/// Solves the small dense system `a y = b` by Gaussian elimination with partial pivoting;
-/// `None` when it is singular.
-fn solve_small(mut a: Vec<Vec<f64>>, mut b: Vec<f64>) -> Option<Vec<f64>> {
-    let n = b.len();
-    for col in 0..n {
-        let piv = (col..n).max_by(|&i, &j| a[i][col].abs().total_cmp(&a[j][col].abs()))?;
-        if a[piv][col].abs() <= f64::MIN_POSITIVE {
-            return None;
-        }
-        a.swap(col, piv);
-        b.swap(col, piv);
-        let pivot_row = a[col].clone();
-        for row in col + 1..n {
-            let factor = a[row][col] / pivot_row[col];
-            for (v, p) in a[row].iter_mut().zip(&pivot_row).skip(col) {
-                *v -= factor * p;
-            }
-            b[row] -= factor * b[col];
-        }
-    }
-    let mut y = vec![0.0; n];
-    for row in (0..n).rev() {
-        let s: f64 = (row + 1..n).map(|k| a[row][k] * y[k]).sum();
-        y[row] = (b[row] - s) / a[row][row];
-    }
-    Some(y)
 }
 
 /// The linear system of one Picard step: the stencil's rows at the interior cells, with the

@@ -436,13 +436,18 @@ fn start_from(s: &dyn LinearOperator, f: &[f64], guesses: &[Vec<f64>]) -> (Vec<f
         })
         .collect();
     let k = w.len();
-    let mut gram: Vec<Vec<f64>> = (0..k)
+    let gram: Vec<Vec<f64>> = (0..k)
         .map(|i| (0..k).map(|j| dot(&w[i], &w[j])).collect())
         .collect();
-    let mut c: Vec<f64> = w.iter().map(|wi| dot(wi, f)).collect();
-    if !gauss_solve(&mut gram, &mut c) {
+    let wf: Vec<f64> = w.iter().map(|wi| dot(wi, f)).collect();
+    // Numerically singular: a pivot below 1e-14 of the largest diagonal entry.
+    let scale = (0..k).fold(0.0f64, |m, i| m.max(gram[i][i].abs()));
+    if !(scale.is_finite() && scale > 0.0) {
         return zero();
     }
+    let Some(c) = crate::linalg::solve_small_dense(gram, wf, 1e-14 * scale) else {
+        return zero();
+    };
     let mut x = vec![0.0; n];
     for (ck, g) in c.iter().zip(guesses) {
         x.iter_mut().zip(g).for_each(|(xi, gi)| *xi += ck * gi);
@@ -456,41 +461,6 @@ fn start_from(s: &dyn LinearOperator, f: &[f64], guesses: &[Vec<f64>]) -> (Vec<f
     } else {
         zero()
     }
-}
-
-/// Solves the small dense system `a c = rhs` in place (Gaussian elimination with partial
-/// pivoting); `false` when `a` is numerically singular (pivot below 1e-14 of the largest
-/// diagonal entry) or a value is not finite.
-fn gauss_solve(a: &mut [Vec<f64>], rhs: &mut [f64]) -> bool {
-    let k = rhs.len();
-    let scale = (0..k).fold(0.0f64, |m, i| m.max(a[i][i].abs()));
-    if !(scale.is_finite() && scale > 0.0) {
-        return false;
-    }
-    for col in 0..k {
-        let piv = (col..k)
-            .max_by(|&i, &j| a[i][col].abs().total_cmp(&a[j][col].abs()))
-            .unwrap_or(col);
-        if a[piv][col].abs() <= 1e-14 * scale {
-            return false;
-        }
-        a.swap(col, piv);
-        rhs.swap(col, piv);
-        let (upper, lower) = a.split_at_mut(col + 1);
-        let pivot_row = &upper[col];
-        for (offset, row) in lower.iter_mut().enumerate() {
-            let m = row[col] / pivot_row[col];
-            for (x, p) in row[col..k].iter_mut().zip(&pivot_row[col..k]) {
-                *x -= m * p;
-            }
-            rhs[col + 1 + offset] -= m * rhs[col];
-        }
-    }
-    for col in (0..k).rev() {
-        let sum: f64 = (col + 1..k).map(|j| a[col][j] * rhs[j]).sum();
-        rhs[col] = (rhs[col] - sum) / a[col][col];
-    }
-    rhs.iter().all(|v| v.is_finite())
 }
 
 impl LinearSolver for ParityCg {
