@@ -12,10 +12,13 @@ use pn_runtime::field::{Field, Point};
 use pn_runtime::pipeline::{solve_problem, Solution};
 use pn_runtime::problem::{Boundary, Problem};
 use pn_runtime::reference::{pn_marshak_milne, pn_marshak_slab, pn_point_source};
-use pn_runtime::scenes::vacuum::{milne_extrapolation_length, slab_fluxes, SlabParams};
+use pn_runtime::scenes::vacuum::{milne_extrapolation_length, slab_fluxes};
 use pn_runtime::scenes::{builtin, BuiltinOptions, PointSourceParams};
-use pn_runtime::solver::{SolverKind, SolverOptions};
+use pn_runtime::solver::SolverKind;
 use pn_stencil::Dim;
+
+mod common;
+use common::marshak::{opts, richardson, slab_scene};
 
 /// README tables: (N, R, T_d) for τ = 1, c = 0.9 and (N, z_0).
 const SLAB_README: [(usize, f64, f64); 4] = [
@@ -25,14 +28,6 @@ const SLAB_README: [(usize, f64, f64); 4] = [
     (7, 0.26797, 0.22374),
 ];
 const MILNE_README: [(usize, f64); 4] = [(1, 0.66667), (3, 0.70509), (5, 0.70821), (7, 0.70920)];
-
-fn opts() -> SolverOptions {
-    SolverOptions {
-        tol: 1e-10,
-        max_iter: 20_000,
-        ..Default::default()
-    }
-}
 
 fn solve(problem: &Problem, order: usize, dim: Dim, solver: SolverKind) -> Solution {
     let k = pn_kernel(order, dim, Staggering::Staggered).unwrap();
@@ -45,33 +40,10 @@ fn solve(problem: &Problem, order: usize, dim: Dim, solver: SolverKind) -> Solut
     sol
 }
 
-fn slab_scene(res: usize, tau: f64, albedo: f64, dim: Dim) -> Problem {
-    builtin(
-        "slab",
-        &BuiltinOptions {
-            dim: Some(dim),
-            res: Some(vec![res]),
-            slab: SlabParams {
-                tau: Some(tau),
-                albedo: Some(albedo),
-            },
-            ..Default::default()
-        },
-    )
-    .unwrap()
-    .problem
-}
-
 fn slab_rt(order: usize, res: usize, tau: f64, albedo: f64) -> (f64, f64) {
     let p = slab_scene(res, tau, albedo, Dim::Two);
     let sol = solve(&p, order, Dim::Two, SolverKind::ParityCg);
     slab_fluxes(&sol.layout, &sol.u).unwrap()
-}
-
-/// Richardson extrapolation of a second-order quantity from h and h/2, and the observed
-/// order `log2((f_h − f_{h/4}) … )` from three levels.
-fn richardson(coarse: f64, fine: f64) -> f64 {
-    fine + (fine - coarse) / 3.0
 }
 
 /// Slab τ = 1, c = 0.9, P_1 … P_7: at h = 0.01 within 1e-4 of the README (which the issue

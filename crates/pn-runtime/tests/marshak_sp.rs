@@ -14,18 +14,14 @@ use pn_runtime::pipeline::{solve_problem, Solution};
 use pn_runtime::problem::{Boundary, Problem};
 use pn_runtime::reference::{pn_marshak_milne, pn_marshak_slab};
 use pn_runtime::robin::RobinFaces;
-use pn_runtime::scenes::vacuum::{milne_extrapolation_length, slab_fluxes, SlabParams};
+use pn_runtime::scenes::vacuum::{milne_extrapolation_length, slab_fluxes};
 use pn_runtime::scenes::{builtin, BuiltinOptions};
-use pn_runtime::solver::{SolverKind, SolverOptions};
+use pn_runtime::solver::SolverKind;
 use pn_stencil::Dim;
 
-fn opts() -> SolverOptions {
-    SolverOptions {
-        tol: 1e-10,
-        max_iter: 20_000,
-        ..Default::default()
-    }
-}
+mod common;
+use common::marshak::{opts, richardson, slab_scene};
+use common::rel_diff;
 
 /// The kernel of a shipped PDE file.
 fn text_kernel(file: &str, dim: Dim) -> KernelChoice {
@@ -65,22 +61,6 @@ fn solve_text(problem: &Problem, file: &str, dim: Dim) -> Solution {
     solve_with(problem, &text_kernel(file, dim), SolverKind::ParityCg)
 }
 
-fn slab_scene(res: usize, tau: f64, albedo: f64) -> Problem {
-    builtin(
-        "slab",
-        &BuiltinOptions {
-            res: Some(vec![res]),
-            slab: SlabParams {
-                tau: Some(tau),
-                albedo: Some(albedo),
-            },
-            ..Default::default()
-        },
-    )
-    .unwrap()
-    .problem
-}
-
 /// (R, T) of a text PDE: the flux of its L_0^0 equation through the two x faces.
 fn text_rt(problem: &Problem, file: &str, sol: &Solution, dim: Dim) -> (f64, f64) {
     let k = text_kernel(file, dim);
@@ -93,20 +73,6 @@ fn text_rt(problem: &Problem, file: &str, sol: &Solution, dim: Dim) -> (f64, f64
             .unwrap()
     };
     (out(0), out(1))
-}
-
-/// Largest difference of the fluence (L_0^0 at the centres), relative to its maximum.
-fn max_rel_diff(a: &[f64], b: &[f64]) -> f64 {
-    assert_eq!(a.len(), b.len());
-    let max = b.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-    a.iter()
-        .zip(b)
-        .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()))
-        / max
-}
-
-fn richardson(coarse: f64, fine: f64) -> f64 {
-    fine + (fine - coarse) / 3.0
 }
 
 /// In a slab, SP_3 with its Marshak conditions is P_3 with Marshak's: the fluence, R and T
@@ -127,12 +93,12 @@ fn sp3_slab_is_p3_slab_and_converges_to_the_p3_marshak_reference() {
         };
         let mut levels = Vec::new();
         for &n in &cells {
-            let p = slab_scene(n, tau, c);
+            let p = slab_scene(n, tau, c, Dim::Two);
             let sp3 = solve_text(&p, "sp3.pde", Dim::Two);
             let p3 = solve_pn(&p, 3, Dim::Two);
             let (r, t) = text_rt(&p, "sp3.pde", &sp3, Dim::Two);
             let (r3, t3) = slab_fluxes(&p3.layout, &p3.u).unwrap();
-            let d = max_rel_diff(&sp3.l00(), &p3.l00());
+            let d = rel_diff(&sp3.l00(), &p3.l00());
             eprintln!(
                 "τ {tau} c {c}, {n} cells: SP_3 R {r:.9} T {t:.9}, P_3 R {r3:.9} T {t3:.9}, \
                  fluence max rel diff {d:.2e} (reference {:.6} {:.6})",
@@ -209,13 +175,13 @@ fn sp3_milne_is_p3_milne() {
 /// 1e-10).
 #[test]
 fn sp1_and_cda_are_p1_with_marshak_faces() {
-    let p = slab_scene(100, 1.0, 0.9);
+    let p = slab_scene(100, 1.0, 0.9, Dim::Two);
     let p1 = solve_pn(&p, 1, Dim::Two);
     let (r1, t1) = slab_fluxes(&p1.layout, &p1.u).unwrap();
     for file in ["sp1.pde", "cda.pde"] {
         let s = solve_text(&p, file, Dim::Two);
         let (r, t) = text_rt(&p, file, &s, Dim::Two);
-        let d = max_rel_diff(&s.l00(), &p1.l00());
+        let d = rel_diff(&s.l00(), &p1.l00());
         eprintln!("slab {file}: R {r:.9} T {t:.9} (P_1 {r1:.9} {t1:.9}), fluence diff {d:.2e}");
         assert!((r - r1).abs() < 1e-8 && (t - t1).abs() < 1e-8 && d < 1e-8);
     }
@@ -258,7 +224,7 @@ fn sp1_and_cda_are_p1_with_marshak_faces() {
         let p1 = solve_pn(p, 1, dim);
         for file in ["sp1.pde", "cda.pde"] {
             let s = solve_text(p, file, dim);
-            let d = max_rel_diff(&s.l00(), &p1.l00());
+            let d = rel_diff(&s.l00(), &p1.l00());
             eprintln!("{name} {file}: fluence max rel diff from P_1 {d:.2e}");
             assert!(d < 1e-8, "{name} {file}: {d}");
         }
@@ -270,7 +236,7 @@ fn sp1_and_cda_are_p1_with_marshak_faces() {
 #[test]
 fn sp3_slab_along_every_axis_in_3d() {
     let cells = 40;
-    let p2 = slab_scene(cells, 1.0, 0.9);
+    let p2 = slab_scene(cells, 1.0, 0.9, Dim::Two);
     let s2 = solve_text(&p2, "sp3.pde", Dim::Two);
     let reference = text_rt(&p2, "sp3.pde", &s2, Dim::Two);
     let k = text_kernel("sp3.pde", Dim::Three);
@@ -342,7 +308,7 @@ fn sp3_checkerboard_with_marshak_faces_is_mirror_symmetric() {
 /// assembly, not a panic.
 #[test]
 fn marshak_faces_need_the_pdes_conditions() {
-    let p = slab_scene(20, 1.0, 0.9);
+    let p = slab_scene(20, 1.0, 0.9, Dim::Two);
     let run = |src: &str| -> String {
         let pde = parse_pde(src, &[]).unwrap();
         let k = pde_kernel(&pde, Dim::Two).unwrap();

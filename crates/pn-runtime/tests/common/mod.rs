@@ -1,7 +1,7 @@
 //! The one support module of the runtime's integration tests: an independent P_N stencil
 //! built from quadrature, not from the CAS ([`QuadKernel`]); the built-in problems, solver
 //! options, the StaRMAP references and the relative difference the tests bound; the FLD
-//! test problems ([`fld`]).
+//! test problems ([`fld`]); the Marshak tests' slab ([`marshak`]).
 //!
 //! The quadrature stencil's equations are docs/design.md §2.2,
 //! `Σ_d M^d ∂_d L + (σ_t − σ_s λ_l p_l) L_l^m = Q_l^m`, with
@@ -13,6 +13,7 @@
 #![allow(dead_code)]
 
 pub mod fld;
+pub mod marshak;
 
 use pn_stencil::{Dim, FieldContext, FieldRef, MomentPlacement, StencilKernel, TermPattern};
 use std::f64::consts::PI;
