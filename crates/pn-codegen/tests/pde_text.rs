@@ -22,6 +22,22 @@ fn err(src: &str) -> PdeTextError {
     }
 }
 
+/// Every source of `cases` fails at (line, column) with a message containing the text;
+/// all mismatches are reported together.
+fn assert_errors_at<S: AsRef<str>>(cases: &[(S, (usize, usize), &str)]) {
+    let mut wrong = Vec::new();
+    for (src, (line, col), what) in cases {
+        let src = src.as_ref();
+        let e = err(src);
+        if !(e.message.contains(what) && (e.line, e.col) == (*line, *col)) {
+            wrong.push(format!(
+                "for\n{src}\nexpected {line}:{col} '{what}', got {e}"
+            ));
+        }
+    }
+    assert!(wrong.is_empty(), "{}", wrong.join("\n\n"));
+}
+
 #[test]
 fn cda_from_text_is_the_built_in_cda_stencil() {
     let pde = parse(&pde_file("cda.pde"));
@@ -170,13 +186,7 @@ fn errors_carry_line_column_and_reason() {
             "cannot be at",
         ),
     ];
-    for (src, (line, col), what) in cases {
-        let e = err(src);
-        assert!(
-            e.message.contains(what) && (e.line, e.col) == (*line, *col),
-            "for\n{src}\nexpected {line}:{col} '{what}', got {e}"
-        );
-    }
+    assert_errors_at(cases);
 }
 
 #[test]
@@ -304,14 +314,7 @@ fn boundary_errors_carry_line_column_and_reason() {
             "a second `boundary marshak` condition for u",
         ),
     ];
-    let mut wrong = Vec::new();
-    for (src, (line, col), what) in &cases {
-        let e = err(src);
-        if !(e.message.contains(what) && (e.line, e.col) == (*line, *col)) {
-            wrong.push(format!("for\n{src}expected {line}:{col} '{what}', got {e}"));
-        }
-    }
-    assert!(wrong.is_empty(), "{}", wrong.join("\n\n"));
+    assert_errors_at(&cases);
 }
 
 /// `eliminate`: solving P_1's band 1 from its own equations and substituting gives CDA's
@@ -360,12 +363,5 @@ fn eliminate_errors_carry_line_column_and_reason() {
         ),
         (format!("{p1}equation v: dx(u) + v = 0\neliminate\n"), (5, 10), "expected an unknown"),
     ];
-    let mut wrong = Vec::new();
-    for (src, (line, col), what) in &cases {
-        let e = err(src);
-        if !(e.message.contains(what) && (e.line, e.col) == (*line, *col)) {
-            wrong.push(format!("for\n{src}expected {line}:{col} '{what}', got {e}"));
-        }
-    }
-    assert!(wrong.is_empty(), "{}", wrong.join("\n\n"));
+    assert_errors_at(&cases);
 }
