@@ -11,9 +11,11 @@ use crate::bench_rows::{
     fld_point_source, grid_label, max_rel_diff, peak_memory, pointsource_options, profile_error,
     reset_peak_memory, row_from, Row, CSV_HEADER,
 };
+use crate::fld_setup::{solve_fld_route, FldSettings};
+use crate::scene_setup::Route;
 use anyhow::Context;
 use pn_kernels::{cda_kernel, diffusion_kernel, pn_kernel, Dim, Staggering};
-use pn_runtime::fld::{solve_fld, solve_fld_picard, FldParams, Limiter, PicardOptions};
+use pn_runtime::fld::{FldParams, Limiter};
 use pn_runtime::pipeline::{solve_problem, Solution};
 use pn_runtime::reference::{cda_point_source, grosjean, pn_point_source};
 use pn_runtime::scenes::{builtin, BuiltinOptions};
@@ -211,18 +213,17 @@ fn pointsource_rows(args: &BenchRequest, rows: &mut Vec<Row>) -> anyhow::Result<
     let cells = problem.grid.len();
     let fparams = FldParams::for_grid(Limiter::LevermorePomraning, &problem.grid);
     let dk = diffusion_kernel(Dim::Three)?;
-    for route in ["gauss-seidel", "picard(mg-cg)"] {
+    for route in [Route::GaussSeidel, Route::Picard] {
         reset_peak_memory();
         let t0 = Instant::now();
-        let fsol = if route == "gauss-seidel" {
-            solve_fld(&problem, &fparams)?
-        } else {
-            let opts = PicardOptions {
-                tuning: args.tuning.clone(),
-                ..Default::default()
-            };
-            solve_fld_picard(&problem, &fparams, dk.kernel.as_ref(), &opts, None)?.fld
+        let settings = FldSettings {
+            params: fparams,
+            route,
+            linear_solver: SolverKind::ParityCg,
+            tuning: args.tuning.clone(),
         };
+        let run = solve_fld_route(&problem, &settings, &dk, None)?;
+        let fsol = run.solution;
         let seconds = t0.elapsed().as_secs_f64();
         let phi = &fsol.phi;
         let err = profile_error(
@@ -234,7 +235,10 @@ fn pointsource_rows(args: &BenchRequest, rows: &mut Vec<Row>) -> anyhow::Result<
         let row = Row {
             problem: "pointsource".into(),
             method: "fld-lp".into(),
-            solver: route.into(),
+            solver: match run.linear_solver {
+                Some(linear) => format!("picard({linear})"),
+                None => "gauss-seidel".into(),
+            },
             order: 0,
             resolution: format!("{n}x{n}x{n}"),
             unknowns: cells,
