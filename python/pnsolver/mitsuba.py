@@ -426,10 +426,8 @@ class Solution:
         self.lmax = int(round(math.sqrt(self.per_cell))) - 1 if self.moments else -1
         phase = settings["phase"]
         g = float(phase.get("g", 0.0)) if phase["kind"] == "hg" else 0.0
-        # λ_l p_l: g^l for Henyey–Greenstein (Phase::moment); isotropic: only l = 0.
+        # λ_l p_l (Phase::moment): g^l for Henyey–Greenstein; isotropic (g = 0): only l = 0.
         self.phase_moments = [1.0] + [g ** l for l in range(1, self.lmax + 1)]
-        if phase["kind"] == "isotropic":
-            self.phase_moments = [1.0] + [0.0] * self.lmax
 
     def inscatter(self, p, wo):
         """Σ_{l,m} λ_l p_l L_l^m(p) Y_l^m(wo) per colour channel (a list), 0 outside the
@@ -450,8 +448,7 @@ class Solution:
             vals = tex.eval(mi.Point3f(u), active=inside)
             s = mi.Float(0.0)
             for c, v in zip(coeffs, vals):
-                if c is not None:
-                    s += c * v
+                s += c * v
             out.append(dr.select(inside, s, 0.0))
         return out
 
