@@ -4,8 +4,7 @@
 //! solutions differ only through the boundary closure of the eliminated face unknowns.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
-use pn_codegen::text::parse_pde;
-use pn_kernels::{pde_kernel, pn_kernel, KernelChoice, Staggering};
+use pn_kernels::{pn_kernel, KernelChoice, Staggering};
 use pn_runtime::assemble::assemble;
 use pn_runtime::layout::Layout;
 use pn_runtime::pipeline::solve_problem;
@@ -14,11 +13,10 @@ use pn_runtime::scenes::{builtin, BuiltinOptions};
 use pn_runtime::solver::{SolverKind, SolverOptions};
 use pn_stencil::Dim;
 
+mod common;
+
 fn dpn_kernel(n: usize, dim: Dim) -> KernelChoice {
-    let path = format!("{}/../../pdes/dpn.pde", env!("CARGO_MANIFEST_DIR"));
-    let src = std::fs::read_to_string(&path).unwrap();
-    let pde = parse_pde(&src, &[("N".into(), n.to_string())]).unwrap();
-    pde_kernel(&pde, dim).unwrap()
+    common::pde_file_kernel("dpn.pde", &[("N", n.to_string())], dim)
 }
 
 fn point_source(res: usize, bc: Boundary) -> Problem {
@@ -35,11 +33,11 @@ fn point_source(res: usize, bc: Boundary) -> Problem {
     p
 }
 
-/// `y = A x` for a CSR matrix.
+/// `y = A x` for a CSR matrix ([`pn_runtime::linalg::spmv`]).
 fn matvec(a: &sprs::CsMat<f64>, x: &[f64]) -> Vec<f64> {
-    a.outer_iterator()
-        .map(|row| row.iter().map(|(c, v)| v * x[c]).sum())
-        .collect()
+    let mut y = vec![0.0; a.rows()];
+    pn_runtime::linalg::spmv(a, x, &mut y);
+    y
 }
 
 /// For a field supported three cells inside the domain (so that no row sees the boundary
@@ -187,9 +185,7 @@ fn derived_marshak_rows_refuse_dpn() {
         e.contains("equal parity") && e.contains("boundary marshak"),
         "{e}"
     );
-    let fpn = std::fs::read_to_string(format!("{}/../../pdes/fpn.pde", env!("CARGO_MANIFEST_DIR")))
-        .unwrap();
-    let k = pde_kernel(&parse_pde(&fpn, &[]).unwrap(), Dim::Two).unwrap();
+    let k = common::pde_file_kernel("fpn.pde", &[], Dim::Two);
     let s = solve_problem(&p, k.kernel.as_ref(), SolverKind::ParityCg, &opts).unwrap();
     assert!(s.stats.converged(), "{:?}", s.stats);
 }

@@ -25,10 +25,7 @@ use common::rel_diff;
 
 /// The kernel of a shipped PDE file.
 fn text_kernel(file: &str, dim: Dim) -> KernelChoice {
-    let path = format!("{}/../../pdes/{file}", env!("CARGO_MANIFEST_DIR"));
-    let src = std::fs::read_to_string(&path).unwrap();
-    let pde = parse_pde(&src, &[]).unwrap();
-    pde_kernel(&pde, dim).unwrap()
+    common::pde_file_kernel(file, &[], dim)
 }
 
 fn solve_with(problem: &Problem, k: &KernelChoice, solver: SolverKind) -> Solution {

@@ -282,6 +282,22 @@ pub fn builtin_problem(name: &str, dim: Dim, res: &[usize]) -> pn_runtime::probl
     pn_runtime::scenes::builtin(name, &o).unwrap().problem
 }
 
+/// The kernel of the shipped PDE file `pdes/<file>` with parameter overrides `params`.
+pub fn pde_file_kernel(
+    file: &str,
+    params: &[(&str, String)],
+    dim: Dim,
+) -> pn_kernels::KernelChoice {
+    let path = format!("{}/../../pdes/{file}", env!("CARGO_MANIFEST_DIR"));
+    let src = std::fs::read_to_string(&path).unwrap();
+    let params: Vec<(String, String)> = params
+        .iter()
+        .map(|(k, v)| (k.to_string(), v.clone()))
+        .collect();
+    let pde = pn_codegen::text::parse_pde(&src, &params).unwrap();
+    pn_kernels::pde_kernel(&pde, dim).unwrap()
+}
+
 /// Solver options with tolerance `tol` and no progress bar.
 pub fn opts(tol: f64) -> pn_runtime::solver::SolverOptions {
     pn_runtime::solver::SolverOptions {
