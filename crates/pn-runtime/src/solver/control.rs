@@ -11,7 +11,7 @@
 //! * divergence: a relative residual above `divergence_limit`, or not finite,
 //!
 //! and keeps the history and the progress display (a progress bar every 16 iterations,
-//! and an optional callback and [`super::IterationObserver`] after every iteration).
+//! and the optional [`super::IterationObserver`] of the options after every iteration).
 
 use super::{SolveStats, SolveStatus, SolverOptions};
 use crate::linalg::norm;
@@ -47,7 +47,7 @@ impl Outcome {
 }
 
 /// Stopping rules, history and progress of one solve (over all its restarts).
-pub struct Control<'a> {
+pub struct Control {
     /// Absolute residual target.
     pub target: f64,
     /// Residuals are divided by this for the history (‖b‖ of the full system).
@@ -68,7 +68,6 @@ pub struct Control<'a> {
     pub history: Vec<f64>,
     /// Restarts (or re-checks) taken so far ([`Control::may_restart`]).
     pub restarts: usize,
-    callback: Option<&'a dyn Fn(usize, f64)>,
     observer: Option<super::IterationObserver>,
     bar: indicatif::ProgressBar,
     best: f64,
@@ -77,7 +76,7 @@ pub struct Control<'a> {
     check_below: f64,
 }
 
-impl<'a> Control<'a> {
+impl Control {
     /// The controller for a system whose right-hand side has norm `bnorm`, with the limits of
     /// `opts`: target `tol·‖b‖`, residuals recorded relative to `‖b‖` (to 1 when `b = 0`),
     /// and a progress bar when `opts.progress` (drawn only on a terminal).
@@ -115,19 +114,12 @@ impl<'a> Control<'a> {
             applications: 0,
             history: Vec::new(),
             restarts: 0,
-            callback: None,
             observer: None,
             bar: indicatif::ProgressBar::hidden(),
             best: f64::INFINITY,
             best_at: 0,
             check_below: target,
         }
-    }
-
-    /// Calls `callback(iteration, relative residual)` after every iteration.
-    pub fn with_callback(mut self, callback: &'a dyn Fn(usize, f64)) -> Self {
-        self.callback = Some(callback);
-        self
     }
 
     /// `Some` when a run (or restart) whose starting residual has norm `rnorm` must not
@@ -150,9 +142,6 @@ impl<'a> Control<'a> {
         if self.iterations.is_multiple_of(16) {
             self.bar.set_position(self.iterations as u64);
             self.bar.set_message(format!("relative residual {rel:.3e}"));
-        }
-        if let Some(cb) = self.callback {
-            cb(self.iterations, rel);
         }
         if let Some(o) = &self.observer {
             o.notify(self.iterations, rel);
