@@ -35,7 +35,7 @@ not solve again.
 Integrator properties: `method` ("pn", "cda", "fld"; default "pn"; "none": single scattering
 only), `order` (3),
 `resolution` (solve cells per axis: an integer or "nx,ny,nz"; default 32), `tolerance`
-(1e-6), `margin`, `absorbing_layer` (the `[solve]` keys of a pn render scene; defaults as
+(1e-6), `margin`, `absorber_width`, `absorbing_layer` (the `[solve]` keys of a pn render scene; defaults as
 there), `threads` (default: all cores).
 """
 
@@ -484,6 +484,8 @@ class PnIntegrator:
         for key in ("margin", "absorbing_layer"):
             if key in props:
                 solve_settings[key] = int(props[key])
+        if "absorber_width" in props:
+            solve_settings["absorber_width"] = float(props["absorber_width"])
         self.solve_settings = solve_settings
         self.threads = int(props["threads"]) if "threads" in props else None
         self._solutions = {}

@@ -187,9 +187,9 @@ pub fn first_scatter_problem_with_shadows(
     let t1 = std::time::Instant::now();
     let (mut sigma_t, sigma_s) = resample(density, &scene.medium, grid);
     if scene.solve.absorber == AbsorberPlacement::Hull {
-        add_hull_absorber(grid, scene.solve.absorbing_layer, &mut sigma_t);
+        add_hull_absorber(grid, scene.solve.ramp_cells(), &mut sigma_t);
     }
-    add_absorbing_layer(grid, scene.solve.absorbing_layer, &mut sigma_t);
+    add_absorbing_layer(grid, scene.solve.layer_cells(), &mut sigma_t);
     // σ_s per voxel in the Grid order (x slowest) of `vgrid`.
     let [nx, ny, nz] = density.res;
     let fine_index = |[i, j, k]: [usize; 3]| (i * ny + j) * nz + k;

@@ -16,24 +16,23 @@
 //! darker image with the larger margin that the issue measured. Absorbing the vacuum outside
 //! the hull removes the short circuit without touching the transport problem.
 //!
-//! The absorber is graded over `ramp` cells ([`add_hull_absorber`]): a cell whose centre lies
-//! δ cells outside the hull gets `σ_t ≥ min(1, δ/ramp)²·τ/h` with
-//! τ = [`super::solve_setup::ABSORBER_OPTICAL_DEPTH_PER_CELL`]. In the P_N equations a pure
-//! absorber with σ_t(x) = f(x/h)/h is the same problem for every h (the equations scale with
-//! σ_t·x), and in the limit N → ∞ it reflects nothing, like the exact absorber; so the
-//! treatment converges to transport as N grows, and as h → 0 the absorber shrinks onto the
-//! hull.
+//! The absorber is graded over a ramp of `ramp` cells ([`add_hull_absorber`]): a cell whose
+//! centre lies δ cells outside the hull gets `σ_t ≥ min(1, δ/ramp)²·τ/h` with
+//! τ = [`super::solve_setup::ABSORBER_OPTICAL_DEPTH_PER_CELL`].
 //!
-//! At finite N the profile is not neutral: the weak first cells of a long ramp are themselves
-//! near-vacuum, where the short circuit above acts again. On the convex `sphere` scene the
-//! P_3 image mean against Mitsuba goes −1.6 / −3.8 / −5.3 / −6.4 / −8.0 % for ramps of
-//! 1 / 2 / 4 / 8 / 16 cells, monotonically (docs/vacuum.md). The default ramp
-//! ([`super::scene::DEFAULT_ABSORBING_LAYER`]) is therefore the shortest one, 1 cell: the
-//! absorber reaches full strength one cell outside the hull. This is the end of a monotone
-//! trend, not a value fitted in between. The strength τ pulls the other way: a sharper jump
-//! reflects light back (1-cell ramp, P_5: τ = 1 / 3 / 10 gives the sphere −2.5 / +0.2 /
-//! +5.7 %). Both effects vanish only as N → ∞ (the problem scales with σ_t·x). A discrete
-//! perfectly matched layer would remove them; docs/vacuum.md.
+//! **The ramp is fixed in space, not in cells** ([`super::scene::SolveSettings::ramp_cells`],
+//! default 1/12 of the solve cells across the medium box). The continuous P_N equations with
+//! a pure absorber reflect nothing in 1-D; their staggered discretization does: a jump of
+//! σ_t·h between two cells reflects part of the light that reaches it, by the same share at
+//! every N (about 0.14 per unit jump of σ_t·h, `scripts/absorber-reflection.py`:
+//! a 1-cell ramp reflects 0.12–0.15 of the amplitude at P_1…P_15, a 4-cell ramp 0.06, an
+//! 8-cell one 0.02). A ramp of a fixed number of cells is the same discrete problem at every
+//! h, so its reflection never goes away and the image does not converge as h → 0: with the
+//! former 1-cell default the cumulus' P_5 mean went −2.1 / +2.1 / +3.2 / +4.9 % against
+//! Mitsuba at 12³ / 24³ / 32³ / 48³, while a ramp of fixed width (1 / 2 / 4 cells at
+//! 12³ / 24³ / 48³) gives −2.1 / −0.2 / −0.3 % (docs/vacuum.md). A ramp fixed in space is
+//! resolved as h → 0, its reflection vanishes, and what remains is the P_N problem with a
+//! smooth absorber outside the hull, which converges to transport as N → ∞.
 //!
 //! The hull is approximated from outside by the polytope ⋂_k {x : n_k·x ≤ s_k} over the
 //! directions n_k of [`hull_directions`], with s_k the largest n_k·x over the corners of the
@@ -128,8 +127,8 @@ pub fn hull_depth(grid: &Grid, medium: &[f64]) -> Option<Vec<f64>> {
 /// absorber graded over `ramp` cells: `σ_t ≥ min(1, δ/ramp)²·τ/h`, δ the distance of the cell
 /// centre outside the hull in cells of the smallest side h (module docs). `ramp = 0` leaves
 /// σ_t alone. Cells that hold medium are never changed (their centres lie inside the hull).
-pub fn add_hull_absorber(grid: &Grid, ramp: usize, sigma_t: &mut [f64]) {
-    if ramp == 0 {
+pub fn add_hull_absorber(grid: &Grid, ramp: f64, sigma_t: &mut [f64]) {
+    if ramp <= 0.0 {
         return;
     }
     let Some(depth) = hull_depth(grid, sigma_t) else {
@@ -139,7 +138,7 @@ pub fn add_hull_absorber(grid: &Grid, ramp: usize, sigma_t: &mut [f64]) {
     let full = super::solve_setup::ABSORBER_OPTICAL_DEPTH_PER_CELL / hmin;
     for (s, &delta) in sigma_t.iter_mut().zip(&depth) {
         if delta > 0.0 {
-            let t = (delta / ramp as f64).min(1.0);
+            let t = (delta / ramp).min(1.0);
             *s = s.max(t * t * full);
         }
     }
@@ -186,7 +185,7 @@ mod tests {
         }
         let before = sigma_t.clone();
         let depth = hull_depth(&g, &sigma_t).unwrap();
-        add_hull_absorber(&g, 4, &mut sigma_t);
+        add_hull_absorber(&g, 4.0, &mut sigma_t);
         for c in 0..n * n * n {
             if before[c] > 0.0 {
                 assert_eq!(sigma_t[c], before[c], "medium changed at {c}");
@@ -206,6 +205,11 @@ mod tests {
         }
         // A corner of the grid is far outside.
         assert!((sigma_t[0] - full).abs() < 1e-9);
+        // A ramp of a fractional number of cells (a width fixed in space): 1.5/2.5 of the way.
+        let mut frac = before.clone();
+        add_hull_absorber(&g, 2.5, &mut frac);
+        assert!((frac[at(16)] - (1.5f64 / 2.5).powi(2) * full).abs() < 1e-9);
+        assert!((frac[at(17)] - full).abs() < 1e-9);
     }
 
     /// The gap of a C-shaped (non-convex) medium lies inside its hull: left as vacuum.
@@ -228,7 +232,7 @@ mod tests {
         }
         let gap = (5 * n + 7) * n + 6;
         assert_eq!(sigma_t[gap], 0.0);
-        add_hull_absorber(&g, 3, &mut sigma_t);
+        add_hull_absorber(&g, 3.0, &mut sigma_t);
         assert_eq!(sigma_t[gap], 0.0, "the concavity must stay vacuum");
         assert!(
             sigma_t[(5 * n + 11) * n + 6] > 0.0,
@@ -240,12 +244,12 @@ mod tests {
     fn no_medium_and_no_ramp_change_nothing() {
         let g = test_box_grid([6; 3]);
         let mut empty = vec![0.0; 216];
-        add_hull_absorber(&g, 4, &mut empty);
+        add_hull_absorber(&g, 4.0, &mut empty);
         assert!(empty.iter().all(|&v| v == 0.0));
         let mut one = vec![0.0; 216];
         one[100] = 1.0;
         let before = one.clone();
-        add_hull_absorber(&g, 0, &mut one);
+        add_hull_absorber(&g, 0.0, &mut one);
         assert_eq!(one, before);
     }
 }

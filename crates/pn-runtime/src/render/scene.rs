@@ -43,7 +43,9 @@
 //! pop_epsilon_l = 1e-3      # "pop" residuum: stop when this fraction is still in flight
 //! resolution = [32, 32, 32] # solve grid over the medium box (may be coarser)
 //! margin = 2                # empty cells kept around the cropped medium
-//! absorbing_layer = 1       # cells over which the graded absorber ramps up (0 = none)
+//! absorber_width = 0.0833   # the absorber's ramp: this fraction of the solve cells across
+//!                           # the medium box (1/12: 1 cell at 12³, 2 at 24³, 4 at 48³)
+//! absorbing_layer = 2       # optional: the ramp in cells instead, at every resolution (0 = none)
 //! absorber = "hull"         # where it starts: "hull" (outside the medium's convex hull,
 //!                           # default) | "box" (only the outermost cells, beyond the margin)
 //! boundary = "dirichlet"    # the grid's faces: "dirichlet" (zero, default) | "marshak"
@@ -225,10 +227,14 @@ pub struct SolveSettings {
     pub resolution: [usize; 3],
     /// Empty solve cells kept around the cropped medium.
     pub margin: usize,
-    /// Cells over which the graded absorber ramps up: outside the medium's convex hull
-    /// ([`AbsorberPlacement::Hull`]) and in the grid's outermost cells (0: no absorber; the
-    /// Dirichlet boundary then sits right at the margin).
-    pub absorbing_layer: usize,
+    /// Width of the graded absorber's ramp as a fraction of the solve grid's cells across the
+    /// medium box ([`Self::ramp_cells`]): a width fixed in space, so that the absorber is
+    /// resolved as the grid is refined ([`DEFAULT_ABSORBER_WIDTH`]).
+    pub absorber_width: f64,
+    /// The ramp in cells, the same at every resolution, instead of [`Self::absorber_width`]
+    /// (0: no absorber; the Dirichlet boundary then sits right at the margin). Such a ramp
+    /// does not converge as h → 0 (docs/vacuum.md); kept for studies and tight crops.
+    pub absorbing_layer: Option<usize>,
     /// Where the graded absorber starts ([`AbsorberPlacement`]).
     pub absorber: AbsorberPlacement,
     /// The condition on the solve grid's faces ([`SolveBoundary`]).
@@ -269,11 +275,11 @@ pub const POP_MAX_ITERATIONS: usize = 100_000;
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, serde::Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum AbsorberPlacement {
-    /// Outside the medium's convex hull, graded over `absorbing_layer` cells, where light
+    /// Outside the medium's convex hull, graded over [`SolveSettings::ramp_cells`], where light
     /// cannot return ([`super::hull_absorber`]); plus the outer layer of `Box`. The default.
     #[default]
     Hull,
-    /// Only the outermost `absorbing_layer` cells of the solve grid, beyond the empty margin
+    /// Only the outermost [`SolveSettings::layer_cells`] of the solve grid, beyond the margin
     /// ([`super::solve_setup::add_absorbing_layer`]; the treatment before issue 17).
     Box,
 }
@@ -488,6 +494,7 @@ struct SolveToml {
     resolution: Option<[usize; 3]>,
     margin: Option<usize>,
     absorbing_layer: Option<usize>,
+    absorber_width: Option<f64>,
     absorber: Option<AbsorberPlacement>,
     boundary: Option<SolveBoundary>,
     tolerance: Option<f64>,
@@ -1074,6 +1081,7 @@ fn build(t: SceneToml, base: &Path) -> anyhow::Result<RenderScene> {
         resolution: None,
         margin: None,
         absorbing_layer: None,
+        absorber_width: None,
         absorber: None,
         boundary: None,
         tolerance: None,
@@ -1090,7 +1098,8 @@ fn build(t: SceneToml, base: &Path) -> anyhow::Result<RenderScene> {
         order: s.order.unwrap_or(3),
         resolution: s.resolution.unwrap_or([32; 3]),
         margin: s.margin.unwrap_or(2),
-        absorbing_layer: s.absorbing_layer.unwrap_or(DEFAULT_ABSORBING_LAYER),
+        absorber_width: s.absorber_width.unwrap_or(DEFAULT_ABSORBER_WIDTH),
+        absorbing_layer: s.absorbing_layer,
         absorber: s.absorber.unwrap_or_default(),
         boundary: s.boundary.unwrap_or_default(),
         tolerance: s.tolerance.unwrap_or(1e-6),
@@ -1136,15 +1145,34 @@ fn build(t: SceneToml, base: &Path) -> anyhow::Result<RenderScene> {
     })
 }
 
-/// Default thickness (cells) of the absorber's ramp outside the medium's hull and of the
-/// layer at the grid's faces: the shortest ramp, since every weak cell of a longer one is
-/// near-vacuum in P_N and darkens the image (issue 17; [`super::hull_absorber`]).
-pub const DEFAULT_ABSORBING_LAYER: usize = 1;
+/// Default width of the absorber's ramp, as a fraction of the solve cells across the medium
+/// box ([`SolveSettings::absorber_width`]): one cell at a 12-cell grid, the coarsest grids
+/// renders use, where it is the 1-cell ramp that shorter ramps cannot undercut; from there it
+/// keeps its size in space (2 cells at 24³, 4 at 48³). A ramp fixed in cells reflects the
+/// same share of the light at every h and N, so the image stops converging (docs/vacuum.md,
+/// "The absorber must shrink in space, not in cells"); one fixed in space is resolved as
+/// h → 0 and converges, to transport as N → ∞ as well.
+pub const DEFAULT_ABSORBER_WIDTH: f64 = 1.0 / 12.0;
 
 impl SolveSettings {
-    /// Cells added around the cropped medium: the empty margin plus the absorbing layer.
+    /// The absorber's ramp in solve cells: [`Self::absorbing_layer`] when set, else
+    /// [`Self::absorber_width`] × the largest solve resolution.
+    pub fn ramp_cells(&self) -> f64 {
+        match self.absorbing_layer {
+            Some(n) => n as f64,
+            None => self.absorber_width * self.resolution.iter().copied().max().unwrap_or(0) as f64,
+        }
+    }
+
+    /// Cells added around the cropped medium: the empty margin plus the absorbing layer
+    /// (the ramp rounded up).
     pub fn padding(&self) -> usize {
-        self.margin + self.absorbing_layer
+        self.margin + self.layer_cells()
+    }
+
+    /// The ramp rounded up to whole cells: the layer at the grid's faces and the padding.
+    pub fn layer_cells(&self) -> usize {
+        self.ramp_cells().ceil() as usize
     }
 
     /// Checks order, resolution, tolerance, threshold and the POP settings.
@@ -1166,9 +1194,16 @@ impl SolveSettings {
             self.margin
         );
         ensure!(
-            self.absorbing_layer <= 64,
-            "absorbing_layer must be at most 64 cells, got {}",
-            self.absorbing_layer
+            self.absorber_width.is_finite() && (0.0..=1.0).contains(&self.absorber_width),
+            "absorber_width must lie in [0, 1] (a fraction of the solve cells across the \
+             medium box), got {}",
+            self.absorber_width
+        );
+        ensure!(
+            self.ramp_cells() <= 64.0,
+            "the absorber's ramp must be at most 64 cells, got {} (absorbing_layer, or \
+             absorber_width × resolution)",
+            self.ramp_cells()
         );
         ensure!(
             self.tolerance.is_finite() && self.tolerance > 0.0 && self.tolerance < 1.0,
@@ -1469,6 +1504,34 @@ height = 8
             ("boundary = \"marshak\"\norder = 4", "odd order"),
             ("boundary = \"marshak\"\nmethod = \"cda\"", "odd order"),
             ("boundary = \"robin\"", "unknown variant"),
+        ] {
+            let e = err(&with(bad));
+            assert!(e.contains(want), "{bad}: {e}");
+        }
+    }
+
+    /// The default ramp keeps its size in space: 1 cell at 12³, 2 at 24³, 4 at 48³ (the
+    /// padding rounds it up); `absorbing_layer` fixes it in cells instead.
+    #[test]
+    fn the_absorber_ramp_is_fixed_in_space_unless_given_in_cells() {
+        let with = |r: &str| format!("{MINIMAL}[solve]\n{r}\n");
+        for (res, cells) in [(12, 1.0), (24, 2.0), (48, 4.0), (32, 32.0 / 12.0)] {
+            let s = parse(&with(&format!("resolution = [{res}, {res}, {res}]"))).unwrap();
+            assert!((s.solve.ramp_cells() - cells).abs() < 1e-12, "{res}");
+            assert_eq!(s.solve.padding(), s.solve.margin + cells.ceil() as usize);
+        }
+        let s = parse(&with("resolution = [48, 24, 24]\nabsorber_width = 0.25")).unwrap();
+        assert_eq!(s.solve.ramp_cells(), 12.0);
+        let s = parse(&with("resolution = [48, 48, 48]\nabsorbing_layer = 3")).unwrap();
+        assert_eq!((s.solve.ramp_cells(), s.solve.layer_cells()), (3.0, 3));
+        for (bad, want) in [
+            ("absorber_width = -0.1", "absorber_width must lie in [0, 1]"),
+            ("absorber_width = nan", "absorber_width must lie in [0, 1]"),
+            ("absorbing_layer = 65", "at most 64 cells"),
+            (
+                "resolution = [512, 512, 512]\nabsorber_width = 0.5",
+                "at most 64 cells",
+            ),
         ] {
             let e = err(&with(bad));
             assert!(e.contains(want), "{bad}: {e}");
