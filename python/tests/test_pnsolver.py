@@ -122,7 +122,10 @@ def test_coloured_scenes_give_rgb_images_and_one_solution_per_channel():
     with pytest.raises(ValueError, match="one solution per channel"):
         pnsolver.solve(scene)
     green = pnsolver.render(scene.channel(1), threads=1)
-    np.testing.assert_array_equal(green["image"], out["image"][..., 1])
+    # The coloured render starts green's iteration from red's solution (same σ_t), the
+    # channel alone from zero: two solves to the relative residual 1e-8, equal to about
+    # that, not bit for bit (1e-7 relative was seen in a few pixels).
+    np.testing.assert_allclose(green["image"], out["image"][..., 1], rtol=1e-6, atol=1e-12)
 
 
 @pytest.mark.parametrize("make, message", [

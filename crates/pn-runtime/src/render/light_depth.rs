@@ -402,8 +402,8 @@ mod tests {
     /// that the voxel-centre grid is what the renderer reads).
     #[test]
     fn shadow_maps_near_the_medium_agree_where_they_are_read() {
-        use crate::render::first_scatter::{density_as_grid, shadow_maps_near_medium};
         use crate::render::medium::DensityFilter;
+        use crate::render::shadow::{density_as_grid, shadow_maps_near_medium};
         // A 9³ grid with two blobs of density and empty space between them and the faces.
         let n = 9;
         let mut data = vec![0.0f32; n * n * n];
@@ -512,7 +512,7 @@ mod tests {
         // The same from the deep shadow maps' transmittance (τ = −ln T).
         let maps = DeepShadowMaps::compute(
             &ext,
-            &crate::render::first_scatter::density_as_grid(&g),
+            &crate::render::shadow::density_as_grid(&g),
             std::slice::from_ref(&p),
         );
         let from_maps =

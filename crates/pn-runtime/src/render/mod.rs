@@ -30,6 +30,7 @@ pub mod scene;
 pub mod scene_override;
 pub mod shadow;
 pub mod solve_setup;
+pub mod source_quadrature;
 
 pub use camera::Camera;
 pub use lights::Light;

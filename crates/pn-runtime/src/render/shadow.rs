@@ -354,6 +354,35 @@ impl DeepShadowMaps {
     }
 }
 
+/// The density grid's voxels as a [`Grid`] (cell centres = voxel centres).
+pub fn density_as_grid(density: &DensityGrid) -> Grid {
+    Grid {
+        dim: pn_stencil::Dim::Three,
+        min: density.bbox_min,
+        max: density.bbox_max,
+        res: density.res,
+    }
+}
+
+/// Deep shadow maps at the voxel centres of `ext`'s density grid (the cells of
+/// [`density_as_grid`]), computed only where they can be read: at voxels within one voxel
+/// (the 26-neighbourhood) of a voxel with non-zero density; elsewhere they hold 0. The
+/// first-scatter source reads T only at voxels with σ_s > 0, and a trilinear read of τ at a
+/// point of non-zero density (either filter; [`super::light_depth::LightDepth`] for point
+/// lights) only reads the 8 voxel centres around it, which all lie within one voxel of a
+/// non-empty voxel; so every value that is used equals [`DeepShadowMaps::compute`]'s, and
+/// the rays from the empty space around the medium are not traced.
+pub fn shadow_maps_near_medium(ext: &Extinction, lights: &[Light]) -> DeepShadowMaps {
+    let g = ext.grid;
+    let [nx, ny, nz] = g.res;
+    let occupied = |i: usize, j: usize, k: usize| g.data[g.index(i, j, k)] != 0.0;
+    let near = |[i, j, k]: [usize; 3]| {
+        let span = |c: usize, n: usize| c.saturating_sub(1)..=(c + 1).min(n - 1);
+        span(i, nx).any(|a| span(j, ny).any(|b| span(k, nz).any(|c| occupied(a, b, c))))
+    };
+    DeepShadowMaps::compute_where(ext, &density_as_grid(g), lights, near)
+}
+
 /// World position of the centre of cell (i, j, k) of `grid`.
 pub fn cell_centre(grid: &Grid, c: [usize; 3]) -> [f64; 3] {
     [0, 1, 2].map(|d| grid.coord(d, 2 * c[d] as i64 + 1))

@@ -197,7 +197,7 @@ fn overlaps(density: &DensityGrid, grid: &Grid, d: usize) -> Vec<Vec<(usize, f64
 /// Per-axis quadrature nodes of the solve cells: 2-point Gauss–Legendre on every piece of
 /// [`pieces`], as `(coordinate, weight / h)` (the weights of a cell sum to the fraction of
 /// it inside the density box).
-fn gauss_nodes(density: &DensityGrid, grid: &Grid, d: usize) -> Vec<Vec<(f64, f64)>> {
+pub(crate) fn gauss_nodes(density: &DensityGrid, grid: &Grid, d: usize) -> Vec<Vec<(f64, f64)>> {
     let h = grid.h(d);
     let breaks = density.axis_breaks(d);
     let off = 0.5 / 3f64.sqrt();

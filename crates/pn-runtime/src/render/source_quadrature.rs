@@ -1,0 +1,215 @@
+//! The first-scatter source's weight per solve cell: σ_s·T·E averaged over the cell
+//! (docs/design.md §6; issue 17).
+//!
+//! The first-scatter source of a light is `σ_s(x) T(x) E(x) p(d·ω)`. The solve needs its
+//! moments per solve cell. The direction d is taken at the cell centre; it is constant for a
+//! directional light. The scalar factor is averaged over the cell:
+//!
+//! ```text
+//! w_c = (1/V_c) ∫_c σ_s(x) T(x) E(x) dx.
+//! ```
+//!
+//! Before this, the source was σ_s T E at the density-voxel centres, read between them with
+//! the medium's filter and then averaged onto the solve cells. At the voxel centres that is
+//! the midpoint rule, which underestimates the convex e^{−τ} across a voxel about one mean
+//! free path thick. In issue 17's study the image mean rose by 1.0–2.7 pp when the source was
+//! sampled on a lattice twice as fine.
+//!
+//! **Quadrature.** Each solve cell is cut at the density filter's break points
+//! ([`DensityGrid::axis_breaks`]: the voxel centres for trilinear, the voxel faces for nearest),
+//! so that σ_s is a product of linear factors on each piece. Each piece gets the 2×2×2
+//! Gauss–Legendre rule ([`super::solve_setup::gauss_nodes`], the rule of `cell_average_of`),
+//! with T = e^{−τ} at the nodes and τ from [`LightDepth::tau`]. For a directional light that
+//! is the light-frame planes plus the exact optical depth back to the nearest plane. For a
+//! point light it is the voxel-centre τ, interpolated trilinearly. The rule is exact for
+//! polynomials of degree 3 per axis. A piece is at most one voxel long (centre to centre),
+//! and the rule's relative error on e^{−σ_t x} across a piece of length ℓ is about
+//! (σ_t ℓ)⁴/4320: 2·10⁻⁴ at σ_t ℓ = 1.
+
+use super::light_depth::LightDepth;
+use super::lights::Light;
+use super::medium::DensityGrid;
+use super::scene::MediumSpec;
+use super::shadow::Extinction;
+use super::solve_setup::gauss_nodes;
+use crate::problem::Grid;
+use rayon::prelude::*;
+
+/// `w[light][c] = (1/V_c) ∫_c σ_s T_light E_light dx` for every cell c of the solve grid
+/// `grid` (x slowest, the order of [`crate::field::VoxelGrid`]): module docs. `ext` is the
+/// medium's extinction on `density`, `medium` gives the scale and the albedo, `depth` the
+/// optical depth to each of `lights`.
+pub fn cell_scattering_weights(
+    density: &DensityGrid,
+    medium: &MediumSpec,
+    ext: &Extinction,
+    lights: &[Light],
+    depth: &LightDepth,
+    grid: &Grid,
+) -> Vec<Vec<f64>> {
+    let [nx, ny, nz] = grid.res;
+    let nodes = [0, 1, 2].map(|d| gauss_nodes(density, grid, d));
+    // One x-slab of cells per task: [light][(j·nz + k)].
+    let slabs: Vec<Vec<Vec<f64>>> = (0..nx)
+        .into_par_iter()
+        .map(|i| {
+            let mut slab = vec![vec![0.0; ny * nz]; lights.len()];
+            for j in 0..ny {
+                for k in 0..nz {
+                    for &(x, wx) in &nodes[0][i] {
+                        for &(y, wy) in &nodes[1][j] {
+                            for &(z, wz) in &nodes[2][k] {
+                                let p = [x, y, z];
+                                let (_, sigma_s) = medium.coefficients_at(density, p);
+                                if sigma_s == 0.0 {
+                                    continue;
+                                }
+                                let base = sigma_s * wx * wy * wz;
+                                for (l, light) in lights.iter().enumerate() {
+                                    let e = light.incident(p).irradiance;
+                                    if e == 0.0 {
+                                        continue;
+                                    }
+                                    let t = (-depth.tau(ext, l, p)).exp();
+                                    slab[l][j * nz + k] += base * t * e;
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+            slab
+        })
+        .collect();
+    (0..lights.len())
+        .map(|l| slabs.iter().flat_map(|s| s[l].iter().copied()).collect())
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::render::medium::DensityFilter;
+    use crate::render::scene::{Albedo, MediumSource};
+    use crate::render::test_box_grid;
+
+    fn medium(density: &DensityGrid, scale: f64, albedo: f64) -> MediumSpec {
+        MediumSpec {
+            source: MediumSource::File {
+                path: "test.vol".into(),
+                grid: std::sync::Arc::new(density.clone()),
+            },
+            seed: 0,
+            resolution: density.res,
+            bbox_min: density.bbox_min,
+            bbox_max: density.bbox_max,
+            sigma_t_scale: scale,
+            albedo: Albedo::Constant(albedo),
+            filter: density.filter,
+        }
+    }
+
+    fn sun() -> [Light; 1] {
+        [Light::Directional {
+            direction: [0.0, 0.0, -1.0],
+            irradiance: 1.5,
+        }]
+    }
+
+    /// A homogeneous cube [−1, 1]³ lit along −z: the cell average of σ_s e^{−σ_t(1−z)} E is
+    /// σ_s E (e^{−σ_t(1−z_hi)} − e^{−σ_t(1−z_lo)})/(σ_t h) exactly. Six voxels with
+    /// σ_t·h_voxel = 1, solve grids of 6 and 4 cells, both filters: the weights match it to
+    /// 3e-4 (the Gauss rule's (σ_t ℓ)⁴/4320 on pieces up to a voxel long), where σ_s T E at
+    /// the cell centre (the midpoint rule) is 4 % or more too low.
+    #[test]
+    fn cell_weights_are_the_cell_averages_in_a_homogeneous_cube() {
+        let (n, st, albedo) = (6, 3.0, 0.8);
+        for filter in [DensityFilter::Trilinear, DensityFilter::Nearest] {
+            let density = DensityGrid::new([n; 3], [-1.0; 3], [1.0; 3], vec![1.0; n * n * n])
+                .unwrap()
+                .with_filter(filter);
+            let ext = Extinction {
+                grid: &density,
+                scale: st,
+            };
+            let depth = LightDepth::compute(&ext, &sun());
+            for cells in [6, 4] {
+                let grid = test_box_grid([cells; 3]);
+                let w = cell_scattering_weights(
+                    &density,
+                    &medium(&density, st, albedo),
+                    &ext,
+                    &sun(),
+                    &depth,
+                    &grid,
+                );
+                let h = 2.0 / cells as f64;
+                for (c, got) in w[0].iter().enumerate() {
+                    let k = c % cells;
+                    let (lo, hi) = (-1.0 + k as f64 * h, -1.0 + (k + 1) as f64 * h);
+                    let t = |z: f64| (-st * (1.0 - z)).exp();
+                    let exact = albedo * st * 1.5 * (t(hi) - t(lo)) / (st * h);
+                    assert!(
+                        (got - exact).abs() < 3e-4 * exact,
+                        "{filter:?}, {cells} cells, cell {c}: {got} vs {exact}"
+                    );
+                    let midpoint = albedo * st * 1.5 * t(0.5 * (lo + hi));
+                    assert!(midpoint < 0.96 * exact, "{midpoint} vs {exact}");
+                }
+            }
+        }
+    }
+
+    /// A medium whose density varies along x, y and z (trilinear), lit along −z: the weights
+    /// agree to 1e-3 with a brute-force average, with T from the exact optical depth of every
+    /// point: the midpoint rule on 12³ and 24³ points per cell, Richardson-extrapolated
+    /// (its error is O(m⁻²)).
+    #[test]
+    fn cell_weights_match_brute_force_in_a_heterogeneous_medium() {
+        let n = 5;
+        let mut data = vec![0.0f32; n * n * n];
+        let density0 = DensityGrid::new([n; 3], [-1.0; 3], [1.0; 3], data.clone()).unwrap();
+        for i in 0..n {
+            for j in 0..n {
+                for k in 0..n {
+                    let v = 0.2 + 0.3 * i as f32 + 0.4 * ((k * 7 + j * 3) % 5) as f32;
+                    data[density0.index(i, j, k)] = v;
+                }
+            }
+        }
+        let density = DensityGrid::new([n; 3], [-1.0; 3], [1.0; 3], data).unwrap();
+        let (st, albedo) = (1.0, 0.9);
+        let ext = Extinction {
+            grid: &density,
+            scale: st,
+        };
+        let depth = LightDepth::compute(&ext, &sun());
+        let grid = test_box_grid([3; 3]);
+        let spec = medium(&density, st, albedo);
+        let w = cell_scattering_weights(&density, &spec, &ext, &sun(), &depth, &grid);
+        let h = 2.0 / 3.0;
+        let brute = |cell: [usize; 3], m: usize| {
+            let mut sum = 0.0;
+            for a in 0..m {
+                for b in 0..m {
+                    for d in 0..m {
+                        let p = [a, b, d].map(|q| (q as f64 + 0.5) / m as f64 * h);
+                        let p = [0, 1, 2].map(|e| -1.0 + cell[e] as f64 * h + p[e]);
+                        let (_, sigma_s) = spec.coefficients_at(&density, p);
+                        let tau = ext.optical_depth(p, [0.0, 0.0, 1.0], 1.0 - p[2]);
+                        sum += sigma_s * (-tau).exp() * 1.5;
+                    }
+                }
+            }
+            sum / (m * m * m) as f64
+        };
+        for (c, got) in w[0].iter().enumerate() {
+            let cell = [c / 9, (c / 3) % 3, c % 3];
+            let exact = (4.0 * brute(cell, 24) - brute(cell, 12)) / 3.0;
+            assert!(
+                (got - exact).abs() < 1e-3 * exact,
+                "cell {c}: {got} vs {exact}"
+            );
+        }
+    }
+}
