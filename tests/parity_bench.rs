@@ -113,6 +113,48 @@ fn generated_stencils_same_answer_less_work() {
     }
 }
 
+/// The roofline byte models of `pn bench` on the 31² checkerboard (P_1, P_3), counted from
+/// the stored arrays themselves: the matrix-free `S` (blocks with 12-byte entries, 64-bit
+/// row pointers, 48 bytes per even and 16 per odd unknown of vectors), the formed `S`
+/// (16-byte entries) and one compact-CSR product with `A` (cgnr).
+#[test]
+fn roofline_byte_models_count_the_stored_arrays() {
+    use pn_runtime::operator::{AssembledOperator, LinearOperator};
+    use pn_runtime::solver::parity::reduced::ReducedOperator;
+    use pn_runtime::solver::parity::split::split;
+    let p = checkerboard(31);
+    for order in [1, 3] {
+        let (layout, sys) = system(&p, order);
+        let sp = split(&sys.matrix, &even_mask(&layout)).unwrap();
+        let (ne, no) = (sp.even.len(), sp.odd.len());
+        let blocks = sp.b.data().len() * 8
+            + sp.b.indices().len() * 4
+            + sp.b.indptr().raw_storage().len() * 8
+            + sp.c_scaled.data().len() * 8
+            + sp.c_scaled.indices().len() * 4
+            + sp.c_scaled.indptr().raw_storage().len() * 8;
+        let free = ReducedOperator::new(&sp, ReducedMode::MatrixFree);
+        assert_eq!(
+            free.bytes_per_application(),
+            (blocks + 48 * ne + 16 * no) as u64,
+            "P{order}"
+        );
+        let formed = ReducedOperator::new(&sp, ReducedMode::Formed);
+        let s = formed.formed().unwrap();
+        assert_eq!(
+            formed.bytes_per_application(),
+            (s.nnz() * 16 + (ne + 1) * 8 + 16 * ne) as u64,
+            "P{order}"
+        );
+        let n = layout.len();
+        assert_eq!(
+            AssembledOperator::new(&sys.matrix).bytes_per_application(),
+            Some((sys.matrix.nnz() * 12 + (n + 1) * 8 + 16 * n) as u64),
+            "P{order}"
+        );
+    }
+}
+
 /// Applications and times against CGNR: checkerboard 71², P_1/P_3/P_5, residual 1e-10.
 #[test]
 #[ignore]

@@ -100,6 +100,7 @@ fn checkerboard_rows(args: &BenchRequest, rows: &mut Vec<Row>) -> anyhow::Result
             .ok(),
             _ => None,
         };
+        let start = rows.len();
         for solver in [
             SolverKind::Cgnr,
             SolverKind::ParityIlu,
@@ -131,6 +132,24 @@ fn checkerboard_rows(args: &BenchRequest, rows: &mut Vec<Row>) -> anyhow::Result
             eprintln!("bench: {}", row.csv());
             rows.push(row);
         }
+        roofline(&mut rows[start..], "checkerboard", &opts, order)?;
+    }
+    Ok(())
+}
+
+/// The roofline entries of the P_N `rows` of one problem and order (`bench_roofline`):
+/// the operators rebuilt and timed after the solves.
+fn roofline(
+    rows: &mut [Row],
+    scene_name: &str,
+    opts: &BuiltinOptions,
+    order: usize,
+) -> anyhow::Result<()> {
+    let scene = builtin(scene_name, opts)?;
+    let k = pn_kernel(order, scene.problem.grid.dim, Staggering::Staggered)?;
+    crate::bench_roofline::attach(rows, &scene.problem, k.kernel.as_ref())?;
+    for r in rows.iter().filter(|r| r.roofline.is_some()) {
+        eprintln!("bench: roofline {}", r.csv());
     }
     Ok(())
 }
@@ -152,6 +171,7 @@ fn pointsource_rows(args: &BenchRequest, rows: &mut Vec<Row>) -> anyhow::Result<
     let orders: &[usize] = if args.quick { &[1, 3] } else { &[1, 3, 5] };
     for &order in orders {
         let modes = pn_point_source(order, params.albedo, params.g)?;
+        let start = rows.len();
         for solver in [
             SolverKind::Cgnr,
             SolverKind::ParityIlu,
@@ -187,6 +207,7 @@ fn pointsource_rows(args: &BenchRequest, rows: &mut Vec<Row>) -> anyhow::Result<
             eprintln!("bench: {}", row.csv());
             rows.push(row);
         }
+        roofline(&mut rows[start..], "pointsource", &opts, order)?;
     }
     // CDA through the same pipeline (input PDE): the cgnr baseline and multigrid-CG
     // (`parity-mg` solves this scalar system with MG-preconditioned CG on A itself).
@@ -250,6 +271,7 @@ fn pointsource_rows(args: &BenchRequest, rows: &mut Vec<Row>) -> anyhow::Result<
             reference: "grosjean",
             converged: fsol.converged,
             operator_applications: 0,
+            roofline: None,
         };
         eprintln!("bench: {}", row.csv());
         rows.push(row);
@@ -485,8 +507,59 @@ fn solver_comparison(rows: &[Row]) -> String {
     md
 }
 
+/// The roofline section: for each P_N row with an operator model, the modelled bytes of one
+/// application, the median time of one (timed on its own after the solves), the achieved
+/// bandwidth and the ratio to the limit set by the measured triad bandwidth.
+fn roofline_section(rows: &[Row], bw: &pn_runtime::bandwidth::Bandwidth) -> String {
+    let mut md =
+        String::from("\n## Roofline: operator applications against the memory bandwidth\n\n");
+    let _ = writeln!(
+        md,
+        "Memory bandwidth, measured once at the start of this run (STREAM-like, \
+         `pn_runtime::bandwidth`): {}. The limit below uses the all-thread triad, \
+         **{:.2} GB/s**.\n",
+        bw.describe(),
+        bw.triad_gbs
+    );
+    md.push_str(
+        "Operators: `s-matfree` is S = D_e − B C̃ applied from the stored blocks (parity-mg; \
+         parity-cg with Jacobi), `s-formed` the CSR S of parity-cg with ILU(0), `a-csr` one \
+         product with A or Aᵀ in compact CSR (cgnr, lsqr, lsmr), `a-matfree` the matrix-free A \
+         of cgnr-mf (compulsory traffic only, a lower bound). Bytes are modelled (values, \
+         column indices and row pointers of every block, each vector read or written once, \
+         the temporary of S), the time is the median of at least 10 applications timed \
+         after the solves; ratio = time / (bytes / bandwidth): 1 at the limit, ≤ 2 within \
+         2× of it, below 1 where the operator fits in cache. bytes/(unknown·it) is the \
+         operator's traffic per unknown and iteration (applications × bytes / (unknowns × \
+         iterations)).\n\n",
+    );
+    md.push_str("| problem | N | resolution | solver | operator | MB / application | bytes / (unknown·it) | ms / application | GB/s | ratio to limit |\n");
+    md.push_str("|---|---|---|---|---|---|---|---|---|---|\n");
+    for r in rows {
+        let Some(rf) = &r.roofline else { continue };
+        let _ = writeln!(
+            md,
+            "| {} | {} | {} | {} | {} | {:.2} | {:.0} | {:.3} | {:.2} | {:.2} |",
+            r.problem,
+            r.order,
+            r.resolution,
+            r.solver,
+            rf.operator,
+            rf.bytes_per_application as f64 / 1e6,
+            r.bytes_per_unknown_iteration().unwrap_or(f64::NAN),
+            rf.seconds_per_application * 1e3,
+            rf.achieved_gbs(),
+            rf.ratio(bw.triad_gbs)
+        );
+    }
+    md
+}
+
 /// Runs `pn bench`: writes `bench.csv` and `bench.md` and prints the Markdown to `stdout`.
 pub fn run(args: &BenchRequest, stdout: &mut dyn std::io::Write) -> anyhow::Result<()> {
+    // Once per run, before the solves, while the memory is free.
+    let bandwidth = pn_runtime::bandwidth::measure_default();
+    eprintln!("bench: memory bandwidth {}", bandwidth.describe());
     let mut rows = Vec::new();
     checkerboard_rows(args, &mut rows)?;
     pointsource_rows(args, &mut rows)?;
@@ -500,7 +573,7 @@ pub fn run(args: &BenchRequest, stdout: &mut dyn std::io::Write) -> anyhow::Resu
     let mut csv = String::from(CSV_HEADER);
     csv.push('\n');
     for r in &rows {
-        csv.push_str(&r.csv());
+        csv.push_str(&r.csv_line(Some(bandwidth.triad_gbs)));
         csv.push('\n');
     }
     std::fs::write(args.out.join("bench.csv"), csv)?;
@@ -508,6 +581,7 @@ pub fn run(args: &BenchRequest, stdout: &mut dyn std::io::Write) -> anyhow::Resu
     md.push_str(&solver_comparison(&rows));
     md.push_str(&mg_comparison(&rows));
     md.push_str(&work_comparison(&rows));
+    md.push_str(&roofline_section(&rows, &bandwidth));
     md.push_str(&model_md);
     std::fs::write(args.out.join("bench.md"), &md)?;
     writeln!(stdout, "{md}")?;

@@ -6,6 +6,36 @@ use pn_runtime::fld::{FldGrid, FldProblem};
 use pn_runtime::pipeline::Solution;
 use pn_runtime::scenes::PointSourceParams;
 
+/// One operator's model and measurement (`bench_roofline` fills it).
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct Roofline {
+    /// `s-matfree`, `s-formed`, `a-csr` or `a-matfree`.
+    pub(crate) operator: &'static str,
+    /// Modelled bytes of one application.
+    pub(crate) bytes_per_application: u64,
+    /// Median seconds of one application.
+    pub(crate) seconds_per_application: f64,
+}
+
+impl Roofline {
+    /// Achieved bandwidth, GB/s.
+    pub(crate) fn achieved_gbs(&self) -> f64 {
+        pn_runtime::bandwidth::achieved_gbs(
+            self.bytes_per_application as f64,
+            self.seconds_per_application,
+        )
+    }
+
+    /// Time of one application over the time of its bytes at `bandwidth_gbs`.
+    pub(crate) fn ratio(&self, bandwidth_gbs: f64) -> f64 {
+        pn_runtime::bandwidth::roofline_ratio(
+            self.bytes_per_application as f64,
+            self.seconds_per_application,
+            bandwidth_gbs,
+        )
+    }
+}
+
 /// One row of bench.csv.
 pub(crate) struct Row {
     pub(crate) problem: String,
@@ -23,14 +53,53 @@ pub(crate) struct Row {
     pub(crate) converged: bool,
     /// Products with `A` or their equivalent ([`pn_runtime::solver::SolveStats::operator_applications`]).
     pub(crate) operator_applications: usize,
+    /// The operator this solver applies, modelled and timed (`bench_roofline`); `None`
+    /// where there is no model.
+    pub(crate) roofline: Option<Roofline>,
 }
 
-pub(crate) const CSV_HEADER: &str = "problem,method,solver,order,resolution,unknowns,iterations,seconds_assemble,seconds_solve,peak_memory_bytes,error,reference,converged,operator_applications";
+/// The columns of bench.csv. The roofline columns (from `bytes_per_application` on) were
+/// appended on 2026-12-05, after the older ones, so that readers by position keep working.
+pub(crate) const CSV_HEADER: &str = "problem,method,solver,order,resolution,unknowns,iterations,seconds_assemble,seconds_solve,peak_memory_bytes,error,reference,converged,operator_applications,bytes_per_application,bytes_per_unknown_iteration,seconds_per_application,achieved_gbs,bandwidth_gbs,roofline_ratio,roofline_operator";
 
 impl Row {
+    /// The CSV line without the measured bandwidth (and hence without the roofline ratio).
     pub(crate) fn csv(&self) -> String {
+        self.csv_line(None)
+    }
+
+    /// Modelled operator bytes per unknown and iteration: one application's bytes times the
+    /// applications, over unknowns × iterations (the Krylov vectors and the rest of the
+    /// preconditioner not included).
+    pub(crate) fn bytes_per_unknown_iteration(&self) -> Option<f64> {
+        let r = self.roofline.as_ref()?;
+        Some(
+            r.bytes_per_application as f64 * self.operator_applications as f64
+                / (self.unknowns.max(1) * self.iterations.max(1)) as f64,
+        )
+    }
+
+    /// The CSV line, with the machine's `bandwidth_gbs` (measured once per run) and the
+    /// roofline ratio against it where the row has a model.
+    pub(crate) fn csv_line(&self, bandwidth_gbs: Option<f64>) -> String {
+        let r = self.roofline.as_ref();
+        let opt = |v: Option<String>| v.unwrap_or_default();
+        let roofline = [
+            opt(r.map(|r| r.bytes_per_application.to_string())),
+            opt(self
+                .bytes_per_unknown_iteration()
+                .map(|b| format!("{b:.1}"))),
+            opt(r.map(|r| format!("{:.6e}", r.seconds_per_application))),
+            opt(r.map(|r| format!("{:.3}", r.achieved_gbs()))),
+            opt(bandwidth_gbs.map(|b| format!("{b:.2}"))),
+            opt(r
+                .zip(bandwidth_gbs)
+                .map(|(r, b)| format!("{:.3}", r.ratio(b)))),
+            opt(r.map(|r| r.operator.to_string())),
+        ]
+        .join(",");
         format!(
-            "{},{},{},{},{},{},{},{:.6},{:.6},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{:.6},{:.6},{},{},{},{},{},{roofline}",
             self.problem,
             self.method,
             self.solver,
@@ -105,6 +174,7 @@ pub(crate) fn row_from(
         reference,
         converged: sol.stats.converged(),
         operator_applications: sol.stats.operator_applications,
+        roofline: None,
     }
 }
 

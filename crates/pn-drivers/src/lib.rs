@@ -11,7 +11,7 @@
 //! the stencil they select) is below [`fld_setup`], [`error_estimate`] and
 //! [`pointsource_extras`], which are below [`solve`], [`fld_method`] and [`converge`];
 //! [`render`] uses [`fld_setup`], [`figure`] uses [`render`]; `bench_rows` is below
-//! [`bench`](mod@bench) (and its `bench_model` section) and [`tradeoff`].
+//! [`bench`](mod@bench) (and its `bench_model` and `bench_roofline` sections) and [`tradeoff`].
 //!
 //! # Example
 //!
@@ -44,6 +44,7 @@
 pub mod bench;
 mod bench_model;
 mod bench_pde;
+mod bench_roofline;
 mod bench_rows;
 pub mod compare;
 pub mod converge;

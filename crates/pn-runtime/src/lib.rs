@@ -17,7 +17,8 @@
 //!   [`pipeline`] (the whole chain, [`pipeline::solve_problem`]), [`fld`] (flux-limited
 //!   diffusion), [`pop`] (Principal-Ordinates Propagation for directional lights),
 //!   [`convergence`] (resolution studies).
-//! * Results: [`unstagger`], [`energy`], [`output`], [`plot`], [`memory`] and
+//! * Results: [`unstagger`], [`energy`], [`output`], [`plot`], [`memory`], [`bandwidth`] (the
+//!   machine's measured memory bandwidth, for the roofline of `pn bench`) and
 //!   [`memory_estimate`]; [`threads`] for `--threads`.
 //! * [`reference`]: analytic and semi-analytic reference solutions (point source, the 1D
 //!   P_N–Marshak slab and Milne problems, StaRMAP files); [`render`]: first-scatter sources, the volumetric renderer and the Mitsuba
@@ -49,6 +50,7 @@ pub mod reference;
 
 pub mod assemble;
 pub mod assemble_split;
+pub mod bandwidth;
 pub mod context;
 pub mod convergence;
 pub mod energy;

@@ -37,6 +37,11 @@ impl CompactCsr {
         self.indptr.len() - 1
     }
 
+    /// Modelled bytes one product moves ([`csr_product_bytes`] with 4-byte indices).
+    pub fn bytes_per_product(&self) -> u64 {
+        csr_product_bytes(self.data.len(), self.rows(), self.cols, 4)
+    }
+
     /// `y = A x`.
     pub fn mul(&self, x: &[f64], y: &mut [f64]) {
         assert_eq!(self.cols, x.len());
@@ -84,6 +89,16 @@ impl CsrOperator {
         }
     }
 
+    /// Modelled bytes one product moves ([`csr_product_bytes`]).
+    pub fn bytes_per_product(&self) -> u64 {
+        match self {
+            CsrOperator::Compact(c) => c.bytes_per_product(),
+            CsrOperator::Plain(a) => {
+                csr_product_bytes(a.nnz(), a.rows(), a.cols(), std::mem::size_of::<usize>())
+            }
+        }
+    }
+
     /// `y = A x`.
     pub fn mul(&self, x: &[f64], y: &mut [f64]) {
         match self {
@@ -91,6 +106,15 @@ impl CsrOperator {
             CsrOperator::Plain(a) => spmv(a, x, y),
         }
     }
+}
+
+/// The bytes one CSR product `y = A x` ([`spmv`], [`CompactCsr::mul`]) moves, in the model
+/// of the roofline ([`crate::bandwidth`]; every array read or written once, as STREAM
+/// counts): `nnz` values (8 bytes) and column indices (`index_bytes`), `rows + 1` row
+/// pointers (8 bytes), `x` read once (`cols` × 8: the gather is assumed to hit each entry
+/// of `x` in memory once, the rest in cache) and `y` written once (`rows` × 8).
+pub fn csr_product_bytes(nnz: usize, rows: usize, cols: usize, index_bytes: usize) -> u64 {
+    (nnz * (8 + index_bytes) + 8 * (rows + 1) + 8 * cols + 8 * rows) as u64
 }
 
 /// `y = A x` for a CSR matrix with any column-index type (`usize`, or `u32` for the

@@ -9,7 +9,7 @@
 //! [`crate::solver::parity::precond`] ILU(0), block-Jacobi and the multigrid cycle
 //! ([`crate::solver::multigrid::Multigrid::with_fine`]).
 
-use crate::linalg::{transpose_csr, CsrOperator};
+use crate::linalg::{csr_product_bytes, transpose_csr, CsrOperator};
 use sprs::CsMat;
 
 /// A square or rectangular linear operator `A: R^cols → R^rows`.
@@ -22,6 +22,14 @@ pub trait LinearOperator: Send + Sync {
     fn apply(&self, x: &[f64], y: &mut [f64]);
     /// `y = Aᵀ x` (`y` is overwritten).
     fn apply_transpose(&self, x: &[f64], y: &mut [f64]);
+    /// The bytes one application (`apply`, or `apply_transpose` where it moves the same)
+    /// moves to and from memory in the operator's own traffic model, counted as STREAM
+    /// counts ([`crate::bandwidth`]: every array read or written once, write-allocate not
+    /// counted); `None` for an operator without a model. With the measured bandwidth this
+    /// gives the roofline of `pn bench`.
+    fn bytes_per_application(&self) -> Option<u64> {
+        None
+    }
 }
 
 /// A preconditioner: `z ≈ A⁻¹ r`, a fixed linear map (the Krylov methods of
@@ -119,6 +127,9 @@ impl LinearOperator for Counted<'_> {
         self.tick();
         self.inner.apply_transpose(x, y);
     }
+    fn bytes_per_application(&self) -> Option<u64> {
+        self.inner.bytes_per_application()
+    }
 }
 
 /// `r = b − A x` for any operator.
@@ -147,6 +158,16 @@ impl LinearOperator for CsMat<f64> {
                 y[c] += v * xr;
             }
         }
+    }
+    /// `A x` ([`csr_product_bytes`], 8-byte indices); the transposed product is a serial
+    /// scatter that moves more.
+    fn bytes_per_application(&self) -> Option<u64> {
+        Some(csr_product_bytes(
+            self.nnz(),
+            CsMat::rows(self),
+            CsMat::cols(self),
+            std::mem::size_of::<usize>(),
+        ))
     }
 }
 
@@ -184,6 +205,11 @@ impl LinearOperator for AssembledOperator {
     }
     fn apply_transpose(&self, x: &[f64], y: &mut [f64]) {
         self.at.mul(x, y);
+    }
+    /// The mean of the products with `A` and `Aᵀ` (equal for a square `A`: the same
+    /// non-zeros, rows and columns swapped), each [`csr_product_bytes`] with 4-byte indices.
+    fn bytes_per_application(&self) -> Option<u64> {
+        Some((self.a.bytes_per_product() + self.at.bytes_per_product()) / 2)
     }
 }
 

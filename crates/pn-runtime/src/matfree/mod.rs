@@ -416,4 +416,17 @@ impl LinearOperator for MatFreeOperator {
             y[c] += w * x[r];
         }
     }
+
+    /// The compulsory traffic of one product, a lower bound (the roofline model of
+    /// [`crate::bandwidth`]): `x` read and `y` written once (`16·n`; the stencil's shifted
+    /// reads of `x` are assumed to hit cache after the first, and each output slab stays in
+    /// cache while its terms accumulate), the position-dependent weights once
+    /// (`8·`[`MatFreeOperator::stored_weights`] less the clamped list) and the clamped
+    /// references (`(row, column, weight)`, 24 bytes each). Constant weights and the term
+    /// tables are a few hundred bytes and not counted.
+    fn bytes_per_application(&self) -> Option<u64> {
+        let varying: usize = self.blocks.iter().map(|b| b.varying.len()).sum();
+        let clamped = self.clamped.len() * std::mem::size_of::<(usize, usize, f64)>();
+        Some((16 * self.layout.len() + 8 * varying + clamped) as u64)
+    }
 }

@@ -10,7 +10,7 @@
 //! touch the off-diagonal entries of `A` once) or from a CSR matrix formed once.
 
 use super::split::Split;
-use crate::linalg::{dot, norm, spmv, spmv_transpose};
+use crate::linalg::{csr_product_bytes, dot, norm, spmv, spmv_transpose};
 use crate::operator::LinearOperator;
 use rayon::prelude::*;
 use sprs::CsMat;
@@ -70,6 +70,29 @@ impl<'a> ReducedOperator<'a> {
     /// Stored non-zeros of `S` (when formed).
     pub fn formed_nnz(&self) -> Option<usize> {
         self.formed.as_ref().map(|s| s.nnz())
+    }
+
+    /// The bytes one [`ReducedOperator::apply`] moves in the roofline model
+    /// ([`crate::bandwidth`]: each array read or written once per pass, as STREAM counts).
+    ///
+    /// Matrix-free, with `n_e`/`n_o` even/odd unknowns and 32-bit block column indices
+    /// ([`super::split::BlockMat`], 12 bytes per entry, 64-bit row pointers), three passes:
+    /// * `t = C̃ x`: `12·nnz(C̃) + 8·(n_o + 1)` for the block, `8·n_e` to read `x`, `8·n_o`
+    ///   to write `t`;
+    /// * `y = B t`: `12·nnz(B) + 8·(n_e + 1)`, `8·n_o` to read `t`, `8·n_e` to write `y`;
+    /// * `y = D_e x − y`: `x`, `D_e` and `y` read and `y` written, `32·n_e`;
+    ///
+    /// in all `12·(nnz(B) + nnz(C̃)) + 8·(n_e + n_o + 2) + 48·n_e + 16·n_o`. Formed, one
+    /// product with the CSR `S` (64-bit indices): `16·nnz(S) + 8·(n_e + 1) + 16·n_e`.
+    pub fn bytes_per_application(&self) -> u64 {
+        let s = self.split;
+        let (ne, no) = (s.even.len(), s.odd.len());
+        if let Some(f) = &self.formed {
+            return csr_product_bytes(f.nnz(), ne, ne, std::mem::size_of::<usize>());
+        }
+        let c = csr_product_bytes(s.c_scaled.nnz(), no, ne, 4);
+        let b = csr_product_bytes(s.b.nnz(), ne, no, 4);
+        c + b + 32 * ne as u64
     }
 
     /// `y = S x`.
@@ -152,6 +175,11 @@ impl LinearOperator for ReducedOperator<'_> {
         y.iter_mut()
             .zip(x.iter().zip(&self.split.d_e))
             .for_each(|(yi, (xi, di))| *yi = di * xi - *yi);
+    }
+    /// [`ReducedOperator::bytes_per_application`] (of `apply`; the transposed product is a
+    /// serial scatter for occasional use).
+    fn bytes_per_application(&self) -> Option<u64> {
+        Some(ReducedOperator::bytes_per_application(self))
     }
 }
 
@@ -274,6 +302,23 @@ mod tests {
             );
         }
         assert!(free.asymmetry(3) < 1e-15);
+    }
+
+    /// The byte model by hand on the 5-unknown system: 3 even and 2 odd unknowns, B and C̃
+    /// with 4 entries each. Matrix-free: blocks 12·8 = 96, row pointers 8·(4 + 3) = 56,
+    /// vectors x (C̃ pass) 24 + t written 16 + t read 16 + y written 24 + the update's
+    /// x, D_e, y read and y written 4·24 = 96; 328 in all. Formed S (7 entries: a
+    /// tridiagonal 3×3), 16·7 + 8·4 + 24 + 24 = 192.
+    #[test]
+    fn byte_model_matches_a_hand_count() {
+        let s = split(&system(), &[true, false, true, false, true]).unwrap();
+        assert_eq!((s.b.nnz(), s.c_scaled.nnz()), (4, 4));
+        let free = ReducedOperator::new(&s, ReducedMode::MatrixFree);
+        assert_eq!(free.bytes_per_application(), 328);
+        assert_eq!(LinearOperator::bytes_per_application(&free), Some(328));
+        let formed = ReducedOperator::new(&s, ReducedMode::Formed);
+        assert_eq!(formed.formed_nnz(), Some(7));
+        assert_eq!(formed.bytes_per_application(), 192);
     }
 
     #[test]
