@@ -15,7 +15,7 @@ use crate::assemble::{assemble_chunk, check_kernel, face_closures, Chunk, CHUNK}
 use crate::layout::Layout;
 use crate::problem::Problem;
 use crate::solver::parity::split::{classes, BlockMat, Classes, ParityError, Split};
-use crate::solver::pn_layout::even_mask;
+use crate::solver::pn_layout::{retained_mask, Retained};
 use pn_stencil::StencilKernel;
 use rayon::prelude::*;
 
@@ -74,10 +74,31 @@ struct SplitChunk {
 /// input (as [`crate::assemble::assemble`]); the inner one says that the system lacks the
 /// parity structure (a same-parity coupling, or a zero odd diagonal where σ_t = 0), in
 /// which case the caller assembles `A` and takes another solver.
+///
+/// The kept parity is [`Retained::for_layout`] (odd l for even N); when the system cannot
+/// be split that way (a zero absorption where the even moments would be eliminated), it
+/// is assembled again with the even-l moments kept.
 pub fn assemble_split(
     problem: &Problem,
     kernel: &dyn StencilKernel,
     layout: &Layout,
+) -> anyhow::Result<Result<SplitSystem, ParityError>> {
+    let retained = Retained::for_layout(layout);
+    match assemble_split_retaining(problem, kernel, layout, retained)? {
+        Err(_) if retained == Retained::Odd => {
+            assemble_split_retaining(problem, kernel, layout, Retained::Even)
+        }
+        r => Ok(r),
+    }
+}
+
+/// [`assemble_split`] keeping the moments of the parity `retained` (the blocks' "even"
+/// class), without a fallback.
+pub fn assemble_split_retaining(
+    problem: &Problem,
+    kernel: &dyn StencilKernel,
+    layout: &Layout,
+    retained: Retained,
 ) -> anyhow::Result<Result<SplitSystem, ParityError>> {
     check_kernel(problem, kernel, layout)?;
     let (robin, marshak) = face_closures(problem, kernel, layout)?;
@@ -88,7 +109,7 @@ pub fn assemble_split(
         "the split assembly does not take a PDE's own boundary conditions; assemble A instead"
     );
     let n = layout.len();
-    let even = even_mask(layout);
+    let even = retained_mask(layout, retained);
     let Classes {
         local,
         even: ev,
@@ -108,7 +129,7 @@ pub fn assemble_split(
             .count()
             // A Marshak row may have more entries than the stencil's row it replaces.
             .max(marshak.as_ref().map_or(0, |m| m.max_row_len()));
-        *(if mp.l % 2 == 0 {
+        *(if retained.keeps(mp.l as usize) {
             &mut b_cap
         } else {
             &mut c_cap

@@ -69,8 +69,13 @@ const PROBE_PAIRS: usize = 2;
 /// The parity-eliminating solver.
 #[derive(Clone, Debug)]
 pub struct ParityCg {
-    /// `None`: detect the classes from the matrix ([`coloring::detect_mask`]).
+    /// The unknowns kept in the reduced system ("even"; for even N the odd-l moments,
+    /// [`crate::solver::pn_layout::Retained`]). `None`: detect the classes from the
+    /// matrix ([`coloring::detect_mask`]).
     even: Option<Vec<bool>>,
+    /// A second mask to split with when `even` cannot split the matrix (the even-l
+    /// moments, where keeping the odd ones meets a zero absorption).
+    fallback_even: Option<Vec<bool>>,
     precond: Precond,
     mode: ReducedMode,
     method: Option<KrylovMethod>,
@@ -94,9 +99,10 @@ pub struct ParityReport {
     pub asymmetry: f64,
     /// Whether `S` was formed as CSR.
     pub formed: bool,
-    /// Even and odd unknowns.
+    /// Unknowns kept in the reduced system (the even-l ones, or the odd-l ones for even N:
+    /// [`crate::solver::pn_layout::Retained`]).
     pub even_unknowns: usize,
-    /// Odd unknowns.
+    /// Unknowns eliminated.
     pub odd_unknowns: usize,
     /// Applications of `S` (Krylov iterations, restarts, the symmetry probe, and for
     /// multigrid the finest-level smoothing and residuals and the setup's power iteration).
@@ -122,11 +128,14 @@ impl ParityReport {
 }
 
 impl ParityCg {
-    /// A parity solver for matrices whose unknown `g` is even-l iff `even[g]`
-    /// (see [`crate::solver::pn_layout::even_mask`]), with the preconditioner `precond`.
+    /// A parity solver for matrices whose unknown `g` is kept in the reduced system iff
+    /// `even[g]` (the even-l moments: [`crate::solver::pn_layout::even_mask`]; the parity
+    /// a layout is best solved in: [`crate::solver::pn_layout::retained_mask`]), with the
+    /// preconditioner `precond`.
     pub fn new(even: Vec<bool>, precond: Precond) -> Self {
         Self {
             even: Some(even),
+            fallback_even: None,
             precond,
             mode: ReducedMode::Auto,
             method: None,
@@ -140,6 +149,7 @@ impl ParityCg {
     pub fn auto(precond: Precond) -> Self {
         Self {
             even: None,
+            fallback_even: None,
             precond,
             mode: ReducedMode::Auto,
             method: None,
@@ -153,6 +163,12 @@ impl ParityCg {
     /// `ParityCg::with_layout_geometry` ([`crate::solver::pn_layout`]).
     pub fn with_geometry(mut self, geometry: Geometry) -> Self {
         self.geometry = Some(geometry);
+        self
+    }
+
+    /// A mask to split with when the first one fails (see [`ParityCg::for_layout`]).
+    pub fn with_fallback_mask(mut self, fallback: Option<Vec<bool>>) -> Self {
+        self.fallback_even = fallback;
         self
     }
 
@@ -187,7 +203,15 @@ impl ParityCg {
 
     /// Checks that `a` has the parity block structure this solver needs.
     pub fn check(&self, a: &CsMat<f64>) -> Result<(), ParityError> {
-        split::split(a, &self.mask(a)?).map(|_| ())
+        self.split(a).map(|_| ())
+    }
+
+    /// Splits `a` with the mask, or with the fallback mask when the first fails.
+    fn split(&self, a: &CsMat<f64>) -> Result<split::Split, ParityError> {
+        match (split::split(a, &self.mask(a)?), &self.fallback_even) {
+            (Err(_), Some(fallback)) => split::split(a, fallback),
+            (r, _) => r,
+        }
     }
 
     /// The given mask, or the detected one.
@@ -206,7 +230,7 @@ impl ParityCg {
         opts: &SolverOptions,
     ) -> Result<(Vec<f64>, ParityReport), ParityError> {
         let t0 = Instant::now();
-        let sp = split::split(a, &self.mask(a)?)?;
+        let sp = self.split(a)?;
         let t_split = t0.elapsed().as_secs_f64();
         self.solve_split_timed(&sp, b, opts, t_split, &[])
     }

@@ -39,8 +39,23 @@ impl ParityCg {
     /// The layout also gives the unknowns' positions, so [`Precond::Auto`] resolves to
     /// multigrid for systems with at least [`super::parity::MG_MIN_NONZEROS`] stored
     /// entries.
+    ///
+    /// It keeps the parity [`Retained::for_layout`] picks (odd l for even N) and, when the
+    /// system cannot be split that way, splits with the even-l moments kept.
+    ///
+    /// For even N the preconditioner is multigrid at every size: ILU(0) breaks down on the
+    /// even-order systems in either parity (CG or BiCGSTAB stagnate at residuals 1e-2 to
+    /// 1e2 on a dense ball in near-vacuum at P_2 and P_4, and on the 71² checkerboard,
+    /// where multigrid needs 109–186 and 136–155 iterations).
     pub fn for_layout(layout: &Layout) -> Self {
-        Self::new(even_mask(layout), Precond::Auto).with_layout_geometry(layout)
+        let (mask, fallback) = layout_masks(layout);
+        let precond = match fallback {
+            Some(_) => Precond::Multigrid,
+            None => Precond::Auto,
+        };
+        Self::new(mask, precond)
+            .with_fallback_mask(fallback)
+            .with_layout_geometry(layout)
     }
 
     /// Records the unknowns' classes and positions from `layout` (needed by
@@ -72,10 +87,12 @@ impl SolverKind {
                 ParityCg::for_layout(layout).with_precond(Precond::Multigrid),
                 layout,
             )),
-            SolverKind::ParityIlu => Some(LayoutSolver::without_multigrid(ParityCg::new(
-                even_mask(layout),
-                Precond::Auto,
-            ))),
+            SolverKind::ParityIlu => {
+                let (mask, fallback) = layout_masks(layout);
+                Some(LayoutSolver::without_multigrid(
+                    ParityCg::new(mask, Precond::Auto).with_fallback_mask(fallback),
+                ))
+            }
             _ => None,
         }
     }
@@ -196,14 +213,74 @@ impl LinearSolver for LayoutSolver {
     }
 }
 
-/// `true` for the unknowns of even-l moments, in the storage order of `layout`.
-pub fn even_mask(layout: &Layout) -> Vec<bool> {
+/// Which moments the parity solvers keep as the unknowns of the reduced system `S`; the
+/// moments of the other parity are eliminated (docs/design.md §5, "Which parity is kept").
+///
+/// The algebra is the same either way: `A = [[D_r, B], [C, D_x]]` with `D_x` diagonal gives
+/// `S = D_r − B D_x⁻¹ C`. What differs is where the truncation sits. The highest band
+/// `l = N` couples only to band `N − 1` (band `N + 1` is cut off). Kept, it lacks half of
+/// its transport coupling: its modes with `|m| = N` about a direction `k` have no diffusion
+/// along `k`, so in near-vacuum (σ_t ≈ the threshold) `S` has eigenvalues of order σ_t for
+/// plane waves of every frequency, which neither smoothing nor a coarse grid removes.
+/// Eliminated, every kept band couples fully to both neighbours. So the solvers keep the
+/// parity *opposite* to `N`'s: even `l` for odd `N` (as always), odd `l` for even `N`.
+/// On the cloud scene at 16³ this took P_4 from 1503 to 171 multigrid-CG iterations
+/// (docs/solvers.md, "Even orders").
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Retained {
+    /// Keep the even-l moments, eliminate the odd ones (odd `N`, and P_0).
+    Even,
+    /// Keep the odd-l moments, eliminate the even ones (even `N ≥ 2`). Needs the even
+    /// moments' diagonal, for `l = 0` the absorption σ_a = σ_t − σ_s, to be non-zero;
+    /// where it is not (albedo 1), [`Retained::Even`] is the fallback.
+    Odd,
+}
+
+impl Retained {
+    /// The parity opposite to the layout's highest band (see [`Retained`]).
+    pub fn for_layout(layout: &Layout) -> Self {
+        let top = layout.moments.iter().map(|m| m.l).max().unwrap_or(0);
+        if top > 0 && top % 2 == 0 {
+            Retained::Odd
+        } else {
+            Retained::Even
+        }
+    }
+
+    /// Whether a moment of band `l` is kept.
+    pub fn keeps(self, l: usize) -> bool {
+        l.is_multiple_of(2) == (self == Retained::Even)
+    }
+}
+
+/// `true` for the unknowns the parity solvers keep (`retained`), in the storage order of
+/// `layout`. The parity blocks call them "even" (`D_e`, `B`, [`Split::even`]) whichever
+/// parity they are.
+pub fn retained_mask(layout: &Layout, retained: Retained) -> Vec<bool> {
     let mut mask = Vec::with_capacity(layout.len());
     for (q, mp) in layout.moments.iter().enumerate() {
         let n = layout.offsets[q + 1] - layout.offsets[q];
-        mask.extend(std::iter::repeat_n(mp.l % 2 == 0, n));
+        mask.extend(std::iter::repeat_n(retained.keeps(mp.l as usize), n));
     }
     mask
+}
+
+/// `true` for the unknowns of even-l moments, in the storage order of `layout`
+/// ([`retained_mask`] with [`Retained::Even`]).
+pub fn even_mask(layout: &Layout) -> Vec<bool> {
+    retained_mask(layout, Retained::Even)
+}
+
+/// The mask [`ParityCg::for_layout`] splits with first ([`Retained::for_layout`]), and
+/// the even-l mask to fall back on when that one is [`Retained::Odd`].
+fn layout_masks(layout: &Layout) -> (Vec<bool>, Option<Vec<bool>>) {
+    match Retained::for_layout(layout) {
+        Retained::Even => (even_mask(layout), None),
+        Retained::Odd => (
+            retained_mask(layout, Retained::Odd),
+            Some(even_mask(layout)),
+        ),
+    }
 }
 
 /// Block id of every unknown: the grid cell it belongs to (a face or corner position at

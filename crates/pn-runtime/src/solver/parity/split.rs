@@ -53,10 +53,12 @@ pub enum ParityError {
         /// The offending entry.
         value: f64,
     },
-    /// A zero (or non-finite) diagonal entry in an odd row: `D_o` cannot be inverted.
+    /// A zero (or non-finite) diagonal entry in a row of the eliminated parity (odd l, or
+    /// even l for even N): `D_o` cannot be inverted.
     #[error(
-        "odd-l row {row} has diagonal {value:e}; parity elimination divides by it \
-         (σ_t must be positive everywhere: vacuum regions need a minimum σ_t, docs/design.md §5)"
+        "row {row} of the eliminated parity has diagonal {value:e}; parity elimination divides \
+         by it (σ_t must be positive everywhere: vacuum regions need a minimum σ_t; where the \
+         even-l moments are eliminated, also the absorption σ_t − σ_s, docs/design.md §5)"
     )]
     SingularOddDiagonal {
         /// Row index.
@@ -139,11 +141,15 @@ pub fn classes(even: &[bool]) -> Result<Classes, ParityError> {
 }
 
 /// The parity blocks of `A`.
+///
+/// "Even" names the class that is kept in the reduced system and "odd" the eliminated
+/// one: the even-l and odd-l moments for odd N, the other way round for even N
+/// ([`crate::solver::pn_layout::Retained`]).
 #[derive(Clone, Debug)]
 pub struct Split {
-    /// Global index of each even unknown (in increasing order).
+    /// Global index of each kept ("even") unknown (in increasing order).
     pub even: Vec<usize>,
-    /// Global index of each odd unknown (in increasing order).
+    /// Global index of each eliminated ("odd") unknown (in increasing order).
     pub odd: Vec<usize>,
     /// Diagonal of the even–even block.
     pub d_e: Vec<f64>,
@@ -157,7 +163,8 @@ pub struct Split {
     pub nnz_a: usize,
 }
 
-/// Splits `a` (CSR) by the parity mask `even` (`true` for even-l unknowns).
+/// Splits `a` (CSR) by the parity mask `even` (`true` for the unknowns kept in the
+/// reduced system, the even-l ones unless [`crate::solver::pn_layout::Retained::Odd`]).
 pub fn split(a: &CsMat<f64>, even: &[bool]) -> Result<Split, ParityError> {
     let n = a.rows();
     if a.cols() != n {
