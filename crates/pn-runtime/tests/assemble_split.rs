@@ -185,7 +185,7 @@ fn even_orders_keep_the_odd_moments_with_the_same_answer() {
             .unwrap();
         assert!(
             kept_odd.1.stats.converged() && kept_even.1.stats.converged(),
-            "P_{order}: {:?} {} it / {:?} {} it",
+            "P_{order}: {:?} at residual {:e} / {:?} at residual {:e}",
             kept_odd.1.stats.status,
             kept_odd.1.stats.relative_residual,
             kept_even.1.stats.status,

@@ -203,11 +203,11 @@ impl ParityCg {
 
     /// Checks that `a` has the parity block structure this solver needs.
     pub fn check(&self, a: &CsMat<f64>) -> Result<(), ParityError> {
-        self.split(a).map(|_| ())
+        self.split_matrix(a).map(|_| ())
     }
 
     /// Splits `a` with the mask, or with the fallback mask when the first fails.
-    fn split(&self, a: &CsMat<f64>) -> Result<split::Split, ParityError> {
+    fn split_matrix(&self, a: &CsMat<f64>) -> Result<split::Split, ParityError> {
         match (split::split(a, &self.mask(a)?), &self.fallback_even) {
             (Err(_), Some(fallback)) => split::split(a, fallback),
             (r, _) => r,
@@ -230,7 +230,7 @@ impl ParityCg {
         opts: &SolverOptions,
     ) -> Result<(Vec<f64>, ParityReport), ParityError> {
         let t0 = Instant::now();
-        let sp = self.split(a)?;
+        let sp = self.split_matrix(a)?;
         let t_split = t0.elapsed().as_secs_f64();
         self.solve_split_timed(&sp, b, opts, t_split, &[])
     }

@@ -48,11 +48,11 @@ impl ParityCg {
     /// 1e2 on a dense ball in near-vacuum at P_2 and P_4, and on the 71² checkerboard,
     /// where multigrid needs 109–186 and 136–155 iterations).
     pub fn for_layout(layout: &Layout) -> Self {
-        let (mask, fallback) = layout_masks(layout);
-        let precond = match fallback {
-            Some(_) => Precond::Multigrid,
-            None => Precond::Auto,
+        let precond = match Retained::for_layout(layout) {
+            Retained::Odd => Precond::Multigrid,
+            Retained::Even => Precond::Auto,
         };
+        let (mask, fallback) = layout_masks(layout);
         Self::new(mask, precond)
             .with_fallback_mask(fallback)
             .with_layout_geometry(layout)
