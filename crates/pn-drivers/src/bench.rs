@@ -568,6 +568,10 @@ pub fn run(args: &BenchRequest, stdout: &mut dyn std::io::Write) -> anyhow::Resu
         .unwrap_or(if args.quick { 40 } else { 80 });
     crate::bench_pde::pde_rows(args.quick, &args.reference, n, &args.tuning, &mut rows)?;
     let model_md = crate::bench_model::model_rows(args.quick, &args.tuning, &mut rows)?;
+    // Compiled against interpreted stencils: P_1/P_3/P_5 both ways, P_7 interpreted only
+    // (its row shows the interpreter's cost per term beyond the compiled set).
+    let kernel_res = if args.quick { 16 } else { 32 };
+    let kernels = crate::bench_kernels::kernel_rows(&[1, 3, 5, 7], kernel_res)?;
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
     let mut csv = String::from(CSV_HEADER);
@@ -577,14 +581,22 @@ pub fn run(args: &BenchRequest, stdout: &mut dyn std::io::Write) -> anyhow::Resu
         csv.push('\n');
     }
     std::fs::write(args.out.join("bench.csv"), csv)?;
+    std::fs::write(
+        args.out.join("kernels.csv"),
+        crate::bench_kernels::csv(&kernels),
+    )?;
     let mut md = markdown(&rows, args.quick);
     md.push_str(&solver_comparison(&rows));
     md.push_str(&mg_comparison(&rows));
     md.push_str(&work_comparison(&rows));
     md.push_str(&roofline_section(&rows, &bandwidth));
     md.push_str(&model_md);
+    md.push_str(&crate::bench_kernels::markdown(&kernels));
     std::fs::write(args.out.join("bench.md"), &md)?;
     writeln!(stdout, "{md}")?;
-    eprintln!("wrote {}/bench.csv and bench.md", args.out.display());
+    eprintln!(
+        "wrote {}/bench.csv, kernels.csv and bench.md",
+        args.out.display()
+    );
     Ok(())
 }

@@ -42,6 +42,7 @@
 #![warn(missing_docs)]
 
 pub mod bench;
+mod bench_kernels;
 mod bench_model;
 mod bench_pde;
 mod bench_roofline;

@@ -96,7 +96,13 @@ fn compiled_and_interpreted_stencils_agree() {
     }
     for ir in irs {
         let k = compiled::find(&ir.name).unwrap_or_else(|| panic!("{} not compiled", ir.name));
-        assert_same_kernel(k, &InterpretedKernel::new(ir.clone()));
+        let interpreted = InterpretedKernel::new(ir.clone());
+        // Every derived stencil row has a flat program (a text PDE's row with more than
+        // the program's slots, DP_N's, walks its trees: checked all the same below).
+        if !ir.name.starts_with("pde_") {
+            assert_eq!(interpreted.tree_walked_rows(), 0, "{}", ir.name);
+        }
+        assert_same_kernel(k, &interpreted);
         checked.push(ir.name);
     }
     // Every compiled kernel was compared.
@@ -135,4 +141,40 @@ fn kernels_come_compiled_or_interpreted() {
         assert_same_kernel(c, k.kernel.as_ref());
     }
     assert!(pn_kernel(0, Dim::Three, Staggering::Staggered).is_err());
+}
+
+/// Beyond the compiled orders the interpreter's flat row programs are all there is: every
+/// row of P_6–P_9 (3D staggered, 2D collocated) has one, and it gives the tree walk's
+/// weights and right-hand side to rounding (1e-13 relative; constants are folded).
+#[test]
+fn flat_programs_match_the_tree_walk_beyond_the_compiled_orders() {
+    for order in 6..=9 {
+        for (dim, layout) in [
+            (Dim::Three, Staggering::Staggered),
+            (Dim::Two, Staggering::Collocated),
+        ] {
+            let k = InterpretedKernel::new(pn_ir_for_order(order, dim, layout).unwrap());
+            let name = k.name().to_string();
+            assert_eq!(k.tree_walked_rows(), 0, "{name}");
+            for r in 0..k.moments().len() {
+                let n = k.pattern(r).len();
+                for seed in 0..2 {
+                    let ctx = RandomFields(seed);
+                    let (mut a, mut b) = (vec![0.0; n], vec![0.0; n]);
+                    let ra = k.eval_row(r, &ctx, &mut a);
+                    let rb = k.eval_row_tree(r, &ctx, &mut b);
+                    for (t, (x, y)) in a.iter().zip(&b).enumerate() {
+                        assert!(
+                            (x - y).abs() <= 1e-13 * (x.abs() + y.abs() + 1e-300),
+                            "{name} row {r} term {t}: flat {x} vs tree {y}"
+                        );
+                    }
+                    assert!(
+                        (ra - rb).abs() <= 1e-13 * (ra.abs() + rb.abs() + 1e-300),
+                        "{name} row {r} rhs: flat {ra} vs tree {rb}"
+                    );
+                }
+            }
+        }
+    }
 }
