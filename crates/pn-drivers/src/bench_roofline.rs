@@ -8,8 +8,9 @@
 //! on their own, outside the Krylov loop: at least [`MIN_REPS`] applications after one
 //! warm-up, more (up to [`MAX_REPS`]) while they take less than [`BUDGET_S`] seconds, the
 //! median kept. Which operator each solver applies:
-//! * `parity-mg`, and `parity-cg` with Jacobi: `S = D_e − B C̃` matrix-free from the blocks
-//!   (`s-matfree`);
+//! * `parity-mg`: `S = D_e − B C̃` from the blocks' per-moment stencils (`s-stencil`,
+//!   [`pn_runtime::solver::parity::stencil_s`]; `s-matfree` where they cannot be recovered);
+//! * `parity-cg` with Jacobi: `S` matrix-free from the stored blocks (`s-matfree`);
 //! * `parity-cg` with ILU(0) (small systems, [`Precond::forms_s`]): the formed CSR `S`
 //!   (`s-formed`);
 //! * `cgnr`, `lsqr`, `lsmr`: products with `A` and `Aᵀ` in compact CSR (`a-csr`; the time is
@@ -27,6 +28,7 @@ use pn_runtime::layout::Layout;
 use pn_runtime::matfree::MatFreeOperator;
 use pn_runtime::operator::{AssembledOperator, LinearOperator};
 use pn_runtime::problem::Problem;
+use pn_runtime::solver::multigrid::Geometry;
 use pn_runtime::solver::parity::reduced::ReducedOperator;
 use pn_runtime::solver::parity::{Precond, ReducedMode};
 use pn_stencil::StencilKernel;
@@ -113,7 +115,16 @@ pub(crate) fn attach(
             "s-matfree",
         );
         if mg {
-            set(rows, &["parity-mg"], &free);
+            // parity-mg knows the unknowns' positions and applies S from the blocks'
+            // stencils where they can be recovered (solver::parity::stencil_s).
+            let geometry = Geometry::from_layout(&layout, None);
+            let op = ReducedOperator::new(&split, ReducedMode::MatrixFree).with_stencil(&geometry);
+            let stencil = if op.is_stencil() {
+                measure(&op, false, "s-stencil")
+            } else {
+                free.clone()
+            };
+            set(rows, &["parity-mg"], &stencil);
         }
         if cg {
             // The mode `ParityCg` picks for `parity-ilu` (Precond::Auto, no geometry).
@@ -187,7 +198,7 @@ mod tests {
                 op("parity-mg"),
                 op("parity-cg")
             ],
-            ["a-csr", "a-csr", "a-matfree", "s-matfree", "s-formed"]
+            ["a-csr", "a-csr", "a-matfree", "s-stencil", "s-formed"]
         );
         // The matrix-free S by the formula of ReducedOperator::bytes_per_application.
         let layout = Layout::new(&problem.grid, k.kernel.moments()).unwrap();
@@ -197,9 +208,19 @@ mod tests {
             .split;
         let (ne, no) = (split.even.len(), split.odd.len());
         let nnz = split.b.nnz() + split.c_scaled.nnz();
-        let want = 12 * nnz + 8 * (ne + no + 2) + 48 * ne + 16 * no;
+        let blocks = 12 * nnz + 8 * (ne + no + 2) + 48 * ne + 16 * no;
+        let free = ReducedOperator::new(&split, ReducedMode::MatrixFree);
+        assert_eq!(free.bytes_per_application(), blocks as u64);
+        // parity-mg's S from the stencils: the vectors, the diagonals and the corrections.
+        let geometry = Geometry::from_layout(&layout, None);
+        let corrections =
+            pn_runtime::solver::parity::stencil_s::StencilReduced::build(&split, &geometry)
+                .unwrap()
+                .corrections();
+        let want = 32 * ne + 24 * no + 16 * corrections;
         let mg = by("parity-mg").roofline.clone().unwrap();
         assert_eq!(mg.bytes_per_application, want as u64);
+        assert!(mg.bytes_per_application < free.bytes_per_application());
         assert!(mg.seconds_per_application > 0.0 && mg.achieved_gbs().is_finite());
         assert!((mg.ratio(10.0) * 10.0 - mg.ratio(100.0)).abs() <= 1e-9 * mg.ratio(100.0));
         // CSV: the new columns at the end, filled where there is a model.

@@ -187,7 +187,8 @@ pub struct SolverOptions {
 }
 
 /// Expert solver settings, passed in as values: the library never reads the environment.
-/// The `pn` binary fills them from `PN_MG_*`, `PN_PARITY_METHOD` and `PN_SOLVER_PROFILE`
+/// The `pn` binary fills them from `PN_MG_*`, `PN_PARITY_METHOD`, `PN_SOLVER_PROFILE` and
+/// `PN_PARITY_BLOCKS`
 /// through [`SolverTuning::from_vars`].
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct SolverTuning {
@@ -197,6 +198,9 @@ pub struct SolverTuning {
     pub krylov: Option<parity::KrylovMethod>,
     /// Print a per-phase timing line.
     pub profile: bool,
+    /// Apply the reduced operator `S` from the stored parity blocks even where their
+    /// stencils could be recovered ([`parity::stencil_s`]; for comparisons).
+    pub block_operator: bool,
 }
 
 impl SolverTuning {
@@ -206,7 +210,8 @@ impl SolverTuning {
     /// `PN_MG_COARSE_MAX`, `PN_MG_SCALE` (see [`multigrid::MgOptions`]; `PN_MG_ADDITIVE=ω`
     /// with `ω > 0` forces [`multigrid::FineCycle::Additive`], `PN_MG_ADDITIVE=0`
     /// [`multigrid::FineCycle::Multiplicative`]), `PN_PARITY_METHOD=cg|bicgstab|gmres`,
-    /// `PN_SOLVER_PROFILE` (set, to anything: profile). With none of them set it is
+    /// `PN_SOLVER_PROFILE` (set, to anything: profile), `PN_PARITY_BLOCKS` (set: apply `S`
+    /// from the blocks, [`SolverTuning::block_operator`]). With none of them set it is
     /// [`SolverTuning::default`].
     pub fn from_vars(get: impl Fn(&str) -> Option<String>) -> Self {
         let mg = multigrid::MgOptions::from_vars(&get);
@@ -216,6 +221,7 @@ impl SolverTuning {
                 .as_deref()
                 .and_then(krylov::KrylovMethod::from_name),
             profile: get("PN_SOLVER_PROFILE").is_some(),
+            block_operator: get("PN_PARITY_BLOCKS").is_some(),
         }
     }
 
@@ -343,6 +349,7 @@ mod tests {
             ("PN_MG_ADDITIVE", "0.5"),
             ("PN_PARITY_METHOD", "gmres"),
             ("PN_SOLVER_PROFILE", ""),
+            ("PN_PARITY_BLOCKS", "1"),
         ]);
         let want = multigrid::MgOptions {
             fine_degree: 3,
@@ -359,6 +366,7 @@ mod tests {
         assert_eq!(t.multigrid, Some(want));
         assert_eq!(t.krylov, Some(krylov::KrylovMethod::Gmres));
         assert!(t.profile);
+        assert!(t.block_operator);
         let m = tuning(&[("PN_MG_ADDITIVE", "0")]).multigrid_options();
         assert_eq!(m.fine_cycle, multigrid::FineCycle::Multiplicative);
         let b = tuning(&[("PN_PARITY_METHOD", "bicgstab")]);

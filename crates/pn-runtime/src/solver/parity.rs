@@ -48,6 +48,7 @@ pub mod galerkin;
 pub mod precond;
 pub mod reduced;
 pub mod split;
+pub mod stencil_s;
 
 pub use crate::solver::krylov::{KrylovMethod, SYMMETRY_TOL};
 pub use precond::Precond;
@@ -288,12 +289,17 @@ impl ParityCg {
             ReducedMode::Auto => ReducedMode::MatrixFree,
             m => m,
         };
-        let op = reduced::ReducedOperator::new(sp, mode);
-        let t_form = t_split + t0.elapsed().as_secs_f64();
         let tuning = &opts.tuning;
+        let op = match &self.geometry {
+            Some(g) if !tuning.block_operator => {
+                reduced::ReducedOperator::new(sp, mode).with_stencil(g)
+            }
+            _ => reduced::ReducedOperator::new(sp, mode),
+        };
+        let t_form = t_split + t0.elapsed().as_secs_f64();
         let built = match (&precond_used, &self.geometry) {
             (Precond::Multigrid, Some(g)) => {
-                precond::Built::multigrid(sp, g, &tuning.multigrid_options())
+                precond::Built::multigrid_with(sp, g, &tuning.multigrid_options(), &op)
             }
             _ => precond::Built::new(&precond_used, sp, op.formed()),
         };
@@ -392,10 +398,11 @@ impl ParityCg {
                 eprintln!("profile mg: {}", mg.describe());
             }
             eprintln!(
-                "profile parity: split {t_split:.3} s, form S {:.3} s (nnz {:?}), precond {} {:.3} s, \
+                "profile parity: split {t_split:.3} s, form S {:.3} s (nnz {:?}, stencil {}), precond {} {:.3} s, \
                  probes {:.3} s, iterate {it:.3} s ({} it, {} S-apps, {:.4} s/it), asymmetry {asymmetry:.2e}, {}",
                 t_form - t_split,
                 op.formed_nnz(),
+                op.is_stencil(),
                 precond_used.name(),
                 t_pre - t_form,
                 seconds_setup - t_pre,

@@ -176,6 +176,18 @@ impl Built {
         geometry: &crate::solver::multigrid::Geometry,
         opts: &crate::solver::multigrid::MgOptions,
     ) -> Result<Self, ParityError> {
+        let op = super::reduced::ReducedOperator::new(split, super::ReducedMode::MatrixFree);
+        Self::multigrid_with(split, geometry, opts, &op)
+    }
+
+    /// [`Built::multigrid`] with the reduced operator `fine` the solve applies (its setup's
+    /// power iteration applies it too), so that it is built once.
+    pub fn multigrid_with(
+        split: &Split,
+        geometry: &crate::solver::multigrid::Geometry,
+        opts: &crate::solver::multigrid::MgOptions,
+        fine: &super::reduced::ReducedOperator<'_>,
+    ) -> Result<Self, ParityError> {
         use crate::solver::multigrid::{Geometry, Multigrid};
         let n = split.even.len() + split.odd.len();
         if geometry.len() != n {
@@ -188,8 +200,7 @@ impl Built {
             class: split.even.iter().map(|&g| geometry.class[g]).collect(),
             coords: split.even.iter().map(|&g| geometry.coords[g]).collect(),
         };
-        let op = super::reduced::ReducedOperator::new(split, super::ReducedMode::MatrixFree);
-        let apply = |x: &[f64], y: &mut [f64]| op.apply(x, y);
+        let apply = |x: &[f64], y: &mut [f64]| fine.apply(x, y);
         let mg = Multigrid::build(
             &apply,
             &diagonal(split),

@@ -7,11 +7,15 @@
 //! reduced iteration can stop directly on the full system's tolerance.
 //!
 //! `S` is applied either matrix-free (`D_e x − B (C̃ x)`, two sparse products that together
-//! touch the off-diagonal entries of `A` once) or from a CSR matrix formed once.
+//! touch the off-diagonal entries of `A` once), from the blocks' stencils when the unknowns'
+//! positions are known ([`super::stencil_s`]: no per-entry traffic), or from a CSR matrix
+//! formed once.
 
 use super::split::Split;
+use super::stencil_s::StencilReduced;
 use crate::linalg::{csr_product_bytes, dot, norm, spmv, spmv_transpose};
 use crate::operator::LinearOperator;
+use crate::solver::multigrid::Geometry;
 use rayon::prelude::*;
 use sprs::CsMat;
 
@@ -30,6 +34,7 @@ pub enum ReducedMode {
 pub struct ReducedOperator<'a> {
     split: &'a Split,
     formed: Option<CsMat<f64>>,
+    stencil: Option<StencilReduced>,
     tmp: std::sync::Mutex<Vec<f64>>,
 }
 
@@ -43,8 +48,25 @@ impl<'a> ReducedOperator<'a> {
         Self {
             split,
             formed,
+            stencil: None,
             tmp: std::sync::Mutex::new(vec![0.0; split.odd.len()]),
         }
+    }
+
+    /// Applies the matrix-free `S` from the blocks' per-moment stencils
+    /// ([`StencilReduced`]) when `geometry` (every global unknown's moment and position)
+    /// lets them be recovered; unchanged when `S` is formed or the blocks are not
+    /// stencil-like.
+    pub fn with_stencil(mut self, geometry: &Geometry) -> Self {
+        if self.formed.is_none() {
+            self.stencil = StencilReduced::build(self.split, geometry);
+        }
+        self
+    }
+
+    /// Whether `S` is applied from the blocks' stencils.
+    pub fn is_stencil(&self) -> bool {
+        self.stencil.is_some()
     }
 
     /// Number of even unknowns.
@@ -90,6 +112,9 @@ impl<'a> ReducedOperator<'a> {
         if let Some(f) = &self.formed {
             return csr_product_bytes(f.nnz(), ne, ne, std::mem::size_of::<usize>());
         }
+        if let Some(st) = &self.stencil {
+            return st.bytes(ne, no);
+        }
         let c = csr_product_bytes(s.c_scaled.nnz(), no, ne, 4);
         let b = csr_product_bytes(s.b.nnz(), ne, no, 4);
         c + b + 32 * ne as u64
@@ -99,6 +124,10 @@ impl<'a> ReducedOperator<'a> {
     pub fn apply(&self, x: &[f64], y: &mut [f64]) {
         if let Some(s) = &self.formed {
             spmv(s, x, y);
+            return;
+        }
+        if let Some(st) = &self.stencil {
+            st.apply(self.split, x, y);
             return;
         }
         let mut t = self.tmp.lock().unwrap_or_else(|e| e.into_inner());

@@ -1,0 +1,385 @@
+//! `S = D_e − B D_o⁻¹ C` applied from the **stencil structure** of its blocks (issue 19:
+//! "constant transport weights once, per-cell σ terms, nothing per non-zero").
+//!
+//! On a staggered grid the off-diagonal blocks `B` (kept rows × eliminated columns) and
+//! `C = D_o C̃` (eliminated rows × kept columns) are the transport terms of the stencil:
+//! every row of one moment has the same weights `±c/h` at the same index shifts, whatever
+//! the medium (the σ terms are all on the diagonals `D_e`, `D_o`; docs/design.md §3, §5).
+//! [`StencilReduced::build`] recovers, for each moment, that stencil from one interior row
+//! of the assembled blocks, and keeps as **corrections** only the entries where a row
+//! differs from its moment's stencil restricted to the grid (the references the Neumann
+//! closure clamped, a PDE's own boundary rows). Applying `S` then reads the vectors and the
+//! two diagonals, not the blocks' 12 bytes per entry: about `8·(4 n_e + 3 n_o)` bytes per
+//! application instead of `12·(nnz B + nnz C̃) + …` ([`StencilReduced::bytes`]).
+//!
+//! The recovered operator equals the blocks' up to rounding: a weight of `C` is taken as
+//! its moment's when it agrees to [`SAME_WEIGHT`] relative (`C = D_o C̃` is recomputed from
+//! the stored `C̃`), otherwise the difference is a correction. Blocks that are not
+//! stencil-like — more than [`MAX_CORRECTION_SHARE`] of their entries would be corrections,
+//! or the unknowns are not whole moment grids in the layout's order — are not compressed
+//! ([`StencilReduced::build`] returns `None`) and `S` is applied from the blocks as before.
+//! The residual that stops the solve is always computed from the blocks.
+
+use super::split::{BlockMat, Split};
+use crate::solver::multigrid::Geometry;
+use rayon::prelude::*;
+use std::sync::Mutex;
+
+/// Largest share of a block's stored entries that may become corrections; above it the
+/// block is not stencil-like and `S` stays on the blocks. A correction moves 16 bytes per
+/// application where the block moves 12 per entry, so at half the entries the stencil
+/// route still moves less. (The Neumann-clamped references are 7.7 % of `C`'s entries on
+/// the 14³ point source at P_1, 0.9–1.5 % on the 41² checkerboard at P_1; the zero
+/// closure has none.)
+pub const MAX_CORRECTION_SHARE: f64 = 0.5;
+
+/// Rows per parallel task when the corrections are collected.
+const FIX_CHUNK: usize = 4096;
+
+/// Relative difference under which a row's weight counts as its moment's stencil weight
+/// (`C = D_o C̃` recomputed from `C̃` differs from the stencil's weight by rounding).
+pub const SAME_WEIGHT: f64 = 1e-12;
+
+/// One stencil term: the referenced moment, the index shift and the weight.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Term {
+    moment: usize,
+    delta: [i64; 3],
+    weight: f64,
+}
+
+/// One block as per-moment stencils plus corrections.
+#[derive(Clone, Debug, Default)]
+struct StencilBlock {
+    /// Terms of each row moment (empty for moments not in the block's rows).
+    terms: Vec<Vec<Term>>,
+    /// Corrections `(row, column, value)` in local indices, sorted by row.
+    fix_rows: Vec<u32>,
+    fix_cols: Vec<u32>,
+    fix_vals: Vec<f64>,
+}
+
+/// The moment grids: extents, and where each moment starts in its class's local vector.
+#[derive(Clone, Debug)]
+struct Moments {
+    ext: Vec<[usize; 3]>,
+    /// Whether each moment is kept (in `S`'s unknowns).
+    kept: Vec<bool>,
+    /// Start of each moment in the local vector of its class (kept or eliminated).
+    local_off: Vec<usize>,
+}
+
+impl Moments {
+    fn linear(&self, q: usize, idx: [usize; 3]) -> usize {
+        let e = self.ext[q];
+        (idx[0] * e[1] + idx[1]) * e[2] + idx[2]
+    }
+}
+
+/// `S` applied from per-moment stencils (see the module documentation).
+pub struct StencilReduced {
+    moments: Moments,
+    b: StencilBlock,
+    c: StencilBlock,
+    /// `t = D_o⁻¹ C x`, reused between applications.
+    tmp: Mutex<Vec<f64>>,
+}
+
+/// `lo..hi` of `i` in `0..n` with `i + d` in `0..m`.
+fn range(n: usize, m: usize, d: i64) -> std::ops::Range<usize> {
+    let lo = (-d).max(0) as usize;
+    let hi = (m as i64 - d).clamp(0, n as i64) as usize;
+    lo.min(hi)..hi
+}
+
+impl StencilReduced {
+    /// Recovers the stencils of `split`'s blocks, with `geometry` the class (moment) and
+    /// grid position of every global unknown ([`Geometry::from_layout`]). `None` when the
+    /// unknowns are not whole moment grids stored moment by moment, x slowest, or a
+    /// block is not stencil-like (see the module documentation).
+    pub fn build(split: &Split, geometry: &Geometry) -> Option<Self> {
+        let n = split.even.len() + split.odd.len();
+        if geometry.len() != n || n == 0 {
+            return None;
+        }
+        let nm = *geometry.class.iter().max()? as usize + 1;
+        let mut ext = vec![[0usize; 3]; nm];
+        let mut count = vec![0usize; nm];
+        for (&q, c) in geometry.class.iter().zip(&geometry.coords) {
+            let e = &mut ext[q as usize];
+            for d in 0..3 {
+                e[d] = e[d].max(c[d] as usize + 1);
+            }
+            count[q as usize] += 1;
+        }
+        if (0..nm).any(|q| count[q] != ext[q].iter().product::<usize>()) {
+            return None;
+        }
+        // Global order: moment by moment, x slowest.
+        let mut global_off = vec![0usize; nm + 1];
+        for q in 0..nm {
+            global_off[q + 1] = global_off[q] + count[q];
+        }
+        let mut kept = vec![false; nm];
+        for &g in &split.even {
+            kept[geometry.class[g] as usize] = true;
+        }
+        let mut moments = Moments {
+            ext,
+            kept,
+            local_off: vec![0; nm],
+        };
+        let ordered = (0..n).into_par_iter().all(|g| {
+            let q = geometry.class[g] as usize;
+            let c = geometry.coords[g].map(|v| v as usize);
+            g == global_off[q] + moments.linear(q, c)
+        });
+        let whole = split
+            .odd
+            .par_iter()
+            .all(|&g| !moments.kept[geometry.class[g] as usize]);
+        if !ordered || !whole {
+            return None;
+        }
+        let (mut kept_at, mut elim_at) = (0, 0);
+        for (q, &n_q) in count.iter().enumerate() {
+            let at = if moments.kept[q] {
+                &mut kept_at
+            } else {
+                &mut elim_at
+            };
+            moments.local_off[q] = *at;
+            *at += n_q;
+        }
+        let b = block(&split.b, &split.even, &split.odd, None, geometry, &moments)?;
+        let c = block(
+            &split.c_scaled,
+            &split.odd,
+            &split.even,
+            Some(&split.d_o),
+            geometry,
+            &moments,
+        )?;
+        Some(Self {
+            moments,
+            b,
+            c,
+            tmp: Mutex::new(vec![0.0; split.odd.len()]),
+        })
+    }
+
+    /// Number of corrections (entries where a row differs from its moment's stencil).
+    pub fn corrections(&self) -> usize {
+        self.b.fix_vals.len() + self.c.fix_vals.len()
+    }
+
+    /// Bytes one application moves in the roofline model ([`crate::bandwidth`]): `x` read
+    /// twice, `y` written, `D_e` read (`32·n_e`); `t` written and read and `D_o` read
+    /// (`24·n_o`); each correction's row, column and value (16 bytes). The stencil tables
+    /// are a few kilobytes and not counted; the shifted reads of `x` and `t` are assumed to
+    /// hit cache after the first.
+    pub fn bytes(&self, n_e: usize, n_o: usize) -> u64 {
+        (32 * n_e + 24 * n_o + 16 * self.corrections()) as u64
+    }
+
+    /// `y = S x = D_e x − B D_o⁻¹ C x` (kept-local vectors).
+    pub fn apply(&self, split: &Split, x: &[f64], y: &mut [f64]) {
+        let mut t = self.tmp.lock().unwrap_or_else(|e| e.into_inner());
+        let m = &self.moments;
+        // t = D_o⁻¹ (C x), slab by slab.
+        for_slabs(m, false, &mut t, |q, ix, start, ts| {
+            stencil_slab(m, &self.c.terms[q], q, ix, x, ts);
+            self.c.correct(start, ts, x);
+            let d = &split.d_o[start..start + ts.len()];
+            ts.iter_mut().zip(d).for_each(|(v, d)| *v /= d);
+        });
+        let t = &*t;
+        // y = D_e x − B t.
+        for_slabs(m, true, y, |q, ix, start, ys| {
+            stencil_slab(m, &self.b.terms[q], q, ix, t, ys);
+            self.b.correct(start, ys, t);
+            let (xs, d) = (
+                &x[start..start + ys.len()],
+                &split.d_e[start..start + ys.len()],
+            );
+            ys.iter_mut()
+                .zip(xs.iter().zip(d))
+                .for_each(|(v, (x, d))| *v = d * x - *v);
+        });
+    }
+}
+
+impl StencilBlock {
+    /// Adds the corrections of rows `start..start + out.len()` to `out`.
+    fn correct(&self, start: usize, out: &mut [f64], x: &[f64]) {
+        let lo = self.fix_rows.partition_point(|&r| (r as usize) < start);
+        let hi = self
+            .fix_rows
+            .partition_point(|&r| (r as usize) < start + out.len());
+        for k in lo..hi {
+            out[self.fix_rows[k] as usize - start] +=
+                self.fix_vals[k] * x[self.fix_cols[k] as usize];
+        }
+    }
+}
+
+/// Runs `f(moment, x index, first local row, slab)` in parallel over the x-planes of the
+/// moments of one class (`kept` or eliminated) of the local vector `v`.
+fn for_slabs(
+    m: &Moments,
+    kept: bool,
+    v: &mut [f64],
+    f: impl Fn(usize, usize, usize, &mut [f64]) + Sync,
+) {
+    let mut slabs = Vec::new();
+    let mut rest = v;
+    let mut at = 0;
+    for q in (0..m.ext.len()).filter(|&q| m.kept[q] == kept) {
+        let e = m.ext[q];
+        let (mine, tail) = rest.split_at_mut(e.iter().product());
+        rest = tail;
+        let plane = (e[1] * e[2]).max(1);
+        for (ix, s) in mine.chunks_mut(plane).enumerate() {
+            slabs.push((q, ix, at + ix * plane, s));
+        }
+        at += e.iter().product::<usize>();
+    }
+    slabs
+        .into_par_iter()
+        .for_each(|(q, ix, start, s)| f(q, ix, start, s));
+}
+
+/// `out = Σ_terms w · src[shifted]` over the in-grid references of x-plane `ix` of row
+/// moment `q` (`src` is the other class's local vector).
+fn stencil_slab(m: &Moments, terms: &[Term], q: usize, ix: usize, src: &[f64], out: &mut [f64]) {
+    out.fill(0.0);
+    let e = m.ext[q];
+    for t in terms {
+        let p = t.moment;
+        let ep = m.ext[p];
+        let [dx, dy, dz] = t.delta;
+        let ixr = ix as i64 + dx;
+        if ixr < 0 || ixr >= ep[0] as i64 {
+            continue;
+        }
+        let plane = m.local_off[p] + ixr as usize * ep[1] * ep[2];
+        let w = t.weight;
+        if e[2] == 1 && ep[2] == 1 {
+            // One position in z (2D): the slab is contiguous along y.
+            let ys = range(e[1], ep[1], dy);
+            let first = (plane as i64 + ys.start as i64 + dy) as usize;
+            let xs = &src[first..first + ys.len()];
+            out[ys].iter_mut().zip(xs).for_each(|(o, x)| *o += w * x);
+            continue;
+        }
+        let zs = range(e[2], ep[2], dz);
+        for iy in range(e[1], ep[1], dy) {
+            let iyr = (iy as i64 + dy) as usize;
+            let first = (plane as i64 + (iyr * ep[2]) as i64 + zs.start as i64 + dz) as usize;
+            let xs = &src[first..first + zs.len()];
+            let line = &mut out[iy * e[2] + zs.start..iy * e[2] + zs.end];
+            line.iter_mut().zip(xs).for_each(|(o, x)| *o += w * x);
+        }
+    }
+}
+
+/// The stencils and corrections of `mat` (rows `rows`, columns `cols`: global indices in
+/// local order), each row scaled by `scale[row]` when given (`C = D_o C̃`).
+fn block(
+    mat: &BlockMat,
+    rows: &[usize],
+    cols: &[usize],
+    scale: Option<&[f64]>,
+    geometry: &Geometry,
+    m: &Moments,
+) -> Option<StencilBlock> {
+    let nm = m.ext.len();
+    let pos = |g: usize| {
+        (
+            geometry.class[g] as usize,
+            geometry.coords[g].map(|v| v as i64),
+        )
+    };
+    let row_kept = rows.first().map(|&g| m.kept[geometry.class[g] as usize])?;
+    let entries = |r: usize| {
+        let range = mat.indptr().outer_inds_sz(r);
+        let s = scale.map_or(1.0, |s| s[r]);
+        range.map(move |j| (mat.indices()[j] as usize, s * mat.data()[j]))
+    };
+    // Each row moment's stencil, from its row nearest the middle of its grid.
+    let mut terms = vec![Vec::new(); nm];
+    for q in (0..nm).filter(|&q| m.kept[q] == row_kept) {
+        let e = m.ext[q];
+        let mid = e.map(|v| v / 2);
+        let r = m.local_off[q] + m.linear(q, mid);
+        let (rq, ri) = pos(rows[r]);
+        debug_assert_eq!(rq, q);
+        terms[q] = entries(r)
+            .map(|(c, w)| {
+                let (p, pi) = pos(cols[c]);
+                Term {
+                    moment: p,
+                    delta: [0, 1, 2].map(|d| pi[d] - ri[d]),
+                    weight: w,
+                }
+            })
+            .collect();
+    }
+    // Corrections: what each row has that its stencil (within the grid) does not; rows in
+    // chunks, so that nothing is allocated per row.
+    let per_chunk: Vec<Vec<(u32, u32, f64)>> = (0..rows.len().div_ceil(FIX_CHUNK))
+        .into_par_iter()
+        .map(|k| {
+            let mut fixes = Vec::new();
+            let mut implied: Vec<(usize, f64, bool)> = Vec::new();
+            let first = k * FIX_CHUNK;
+            let chunk = &rows[first..(first + FIX_CHUNK).min(rows.len())];
+            for (r, &g) in (first..).zip(chunk) {
+                let (q, ri) = pos(g);
+                implied.clear();
+                implied.extend(terms[q].iter().filter_map(|t| {
+                    let ep = m.ext[t.moment];
+                    let idx = [0, 1, 2].map(|d| ri[d] + t.delta[d]);
+                    let inside = (0..3).all(|d| idx[d] >= 0 && idx[d] < ep[d] as i64);
+                    inside.then(|| {
+                        let c = m.local_off[t.moment] + m.linear(t.moment, idx.map(|v| v as usize));
+                        (c, t.weight, false)
+                    })
+                }));
+                for (c, w) in entries(r) {
+                    match implied.iter_mut().find(|(ic, _, _)| *ic == c) {
+                        Some((_, wt, seen)) => {
+                            *seen = true;
+                            if (w - *wt).abs() > SAME_WEIGHT * wt.abs() {
+                                fixes.push((r as u32, c as u32, w - *wt));
+                            }
+                        }
+                        None => fixes.push((r as u32, c as u32, w)),
+                    }
+                }
+                for &(c, wt, seen) in &implied {
+                    if !seen {
+                        fixes.push((r as u32, c as u32, -wt));
+                    }
+                }
+            }
+            fixes
+        })
+        .collect();
+    let n_fix: usize = per_chunk.iter().map(Vec::len).sum();
+    if n_fix as f64 > MAX_CORRECTION_SHARE * mat.nnz().max(1) as f64 {
+        return None;
+    }
+    let mut out = StencilBlock {
+        terms,
+        fix_rows: Vec::with_capacity(n_fix),
+        fix_cols: Vec::with_capacity(n_fix),
+        fix_vals: Vec::with_capacity(n_fix),
+    };
+    for (r, c, v) in per_chunk.into_iter().flatten() {
+        out.fix_rows.push(r);
+        out.fix_cols.push(c);
+        out.fix_vals.push(v);
+    }
+    Some(out)
+}
