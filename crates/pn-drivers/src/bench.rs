@@ -522,8 +522,10 @@ fn roofline_section(rows: &[Row], bw: &pn_runtime::bandwidth::Bandwidth) -> Stri
         bw.triad_gbs
     );
     md.push_str(
-        "Operators: `s-matfree` is S = D_e − B C̃ applied from the stored blocks (parity-mg; \
-         parity-cg with Jacobi), `s-formed` the CSR S of parity-cg with ILU(0), `a-csr` one \
+        "Operators: `s-stencil` is S = D_e − B C̃ applied from the blocks' per-moment stencils \
+         (parity-mg; `solver::parity::stencil_s`: the vectors, the diagonals and the boundary \
+         corrections, no per-entry traffic), `s-matfree` the same from the stored blocks \
+         (parity-cg with Jacobi), `s-formed` the CSR S of parity-cg with ILU(0), `a-csr` one \
          product with A or Aᵀ in compact CSR (cgnr, lsqr, lsmr), `a-matfree` the matrix-free A \
          of cgnr-mf (compulsory traffic only, a lower bound). Bytes are modelled (values, \
          column indices and row pointers of every block, each vector read or written once, \

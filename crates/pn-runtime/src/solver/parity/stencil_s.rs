@@ -272,6 +272,16 @@ fn stencil_slab(m: &Moments, terms: &[Term], q: usize, ix: usize, src: &[f64], o
             out[ys].iter_mut().zip(xs).for_each(|(o, x)| *o += w * x);
             continue;
         }
+        if dz == 0 && ep[2] == e[2] {
+            // Same z positions (a ∂x or ∂y term): the y-lines are one contiguous run.
+            let ys = range(e[1], ep[1], dy);
+            let first = plane + (ys.start as i64 + dy) as usize * e[2];
+            let len = ys.len() * e[2];
+            let xs = &src[first..first + len];
+            let run = &mut out[ys.start * e[2]..ys.start * e[2] + len];
+            run.iter_mut().zip(xs).for_each(|(o, x)| *o += w * x);
+            continue;
+        }
         let zs = range(e[2], ep[2], dz);
         for iy in range(e[1], ep[1], dy) {
             let iyr = (iy as i64 + dy) as usize;
