@@ -312,3 +312,32 @@ fn the_reported_solver_names_the_krylov_method_that_ran() {
     assert_eq!(st.solver, "mg-bicgstab");
     assert!(st.converged() && u.iter().all(|v| v.is_finite()), "{st:?}");
 }
+
+/// The coarse levels in single precision (the default) against double: the preconditioner
+/// changes by rounding only, so the solve takes the same iterations (up to one) to the same
+/// tolerance, with the same answer.
+#[test]
+fn single_precision_coarse_levels_change_nothing_but_rounding() {
+    for (problem, order) in [
+        (pointsource3d(16, Boundary::Neumann), 3),
+        (checkerboard(31), 5),
+    ] {
+        let (layout, sys) = system(&problem, order);
+        let solver = ParityCg::for_layout(&layout).with_precond(Precond::Multigrid);
+        let mut o = opts(1e-10);
+        let (u_single, single) = solver.solve_detailed(&sys.matrix, &sys.rhs, &o).unwrap();
+        o.tuning.multigrid = Some(MgOptions {
+            double_coarse: true,
+            ..MgOptions::default()
+        });
+        let (u_double, double) = solver.solve_detailed(&sys.matrix, &sys.rhs, &o).unwrap();
+        assert!(single.stats.converged() && double.stats.converged());
+        assert!(
+            single.stats.iterations.abs_diff(double.stats.iterations) <= 1,
+            "P_{order}: {} vs {} iterations",
+            single.stats.iterations,
+            double.stats.iterations
+        );
+        assert!(rel_diff(&u_single, &u_double) <= SAME_ANSWER);
+    }
+}

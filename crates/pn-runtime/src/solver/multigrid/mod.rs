@@ -22,6 +22,7 @@
 //! [`super::parity::galerkin`]).
 
 pub mod aggregate;
+pub mod compact;
 pub mod galerkin;
 pub mod smoother;
 pub mod solve;
@@ -119,6 +120,9 @@ pub struct MgOptions {
     pub correction_scale: Option<f64>,
     /// How the finest level enters the preconditioner.
     pub fine_cycle: FineCycle,
+    /// Keep the coarse levels' operators in double precision instead of the compact
+    /// single-precision storage ([`compact`]; for comparisons).
+    pub double_coarse: bool,
 }
 
 /// How the finest level enters the preconditioner.
@@ -178,6 +182,7 @@ impl Default for MgOptions {
             max_levels: 25,
             correction_scale: None,
             fine_cycle: FineCycle::AdditiveIfSymmetric,
+            double_coarse: false,
         }
     }
 }
@@ -187,7 +192,8 @@ impl MgOptions {
     /// `PN_MG_FINE_DEGREE`, `PN_MG_COARSE_DEGREE`, `PN_MG_COARSE_DEGREE_2D`, `PN_MG_RATIO`,
     /// `PN_MG_FINE_RATIO`, `PN_MG_POWER_STEPS`, `PN_MG_COARSE_MAX`, `PN_MG_SCALE`;
     /// `PN_MG_ADDITIVE=ω` (ω > 0) forces [`FineCycle::Additive`], `PN_MG_ADDITIVE=0`
-    /// [`FineCycle::Multiplicative`]. Unset or unparsable values leave the default. The
+    /// [`FineCycle::Multiplicative`]; `PN_MG_DOUBLE_COARSE` (set) keeps the coarse levels in
+    /// `f64`. Unset or unparsable values leave the default. The
     /// command line passes the environment ([`crate::solver::SolverTuning::from_vars`]).
     pub fn from_vars(get: &dyn Fn(&str) -> Option<String>) -> Self {
         fn parse<T: std::str::FromStr>(
@@ -211,6 +217,7 @@ impl MgOptions {
                 w if w.is_nan() || w < 0.0 || w.is_infinite() => d.fine_cycle,
                 _ => FineCycle::Multiplicative,
             },
+            double_coarse: get("PN_MG_DOUBLE_COARSE").is_some(),
             ..d
         }
     }
@@ -249,9 +256,32 @@ impl Preconditioner for MgCycle<'_> {
 /// One level above the coarsest.
 struct Level {
     /// The level's operator (`None` on the finest level: passed in at each application).
-    op: Option<CsMat<f64>>,
+    op: Option<LevelOp>,
     smoother: Chebyshev,
     agg: Aggregation,
+}
+
+/// A coarse level's operator: compact ([`compact::CompactCsr`], single-precision values)
+/// unless its entries do not fit `f32` or [`MgOptions::double_coarse`] asks for `f64`.
+enum LevelOp {
+    Compact(compact::CompactCsr),
+    Double(CsMat<f64>),
+}
+
+impl LevelOp {
+    fn new(a: CsMat<f64>, double: bool) -> Self {
+        match (double, compact::CompactCsr::new(&a)) {
+            (false, Some(c)) => LevelOp::Compact(c),
+            _ => LevelOp::Double(a),
+        }
+    }
+
+    fn apply(&self, x: &[f64], y: &mut [f64]) {
+        match self {
+            LevelOp::Compact(c) => c.apply(x, y),
+            LevelOp::Double(a) => spmv(a, x, y),
+        }
+    }
 }
 
 /// Work vectors of one level.
@@ -438,7 +468,7 @@ impl Multigrid {
             g = agg.coarse.clone();
             coarse_nnz.push(next.nnz());
             levels.push(Level {
-                op: Some(a),
+                op: Some(LevelOp::new(a, opts.double_coarse)),
                 smoother,
                 agg,
             });

@@ -11,7 +11,6 @@
 //! any application of the finest operator.
 
 use super::{Multigrid, Work};
-use crate::linalg::spmv;
 use rayon::prelude::*;
 
 impl Multigrid {
@@ -47,7 +46,7 @@ impl Multigrid {
         let coarse_apply;
         let apply: &dyn Fn(&[f64], &mut [f64]) = match &lev.op {
             Some(a) => {
-                coarse_apply = move |v: &[f64], out: &mut [f64]| spmv(a, v, out);
+                coarse_apply = move |v: &[f64], out: &mut [f64]| a.apply(v, out);
                 &coarse_apply
             }
             None => fine_apply,
