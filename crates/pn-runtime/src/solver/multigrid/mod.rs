@@ -233,6 +233,11 @@ impl MgOptions {
     }
 }
 
+/// Fewest vector entries per parallel task in the cycle's vector kernels: the coarse levels
+/// are small (the 71² checkerboard's are 11,664 to 225 unknowns), and below a few thousand
+/// entries scheduling costs more than the work.
+pub(crate) const PAR_MIN_LEN: usize = 4096;
+
 /// Over-correction of the coarse-grid step for scalar diffusion: piecewise-constant
 /// aggregation underestimates the coarse correction of smooth modes, and with the plain
 /// step MG-CG on the 7-point CDA operator needed 8/10/14 iterations at 16³/32³/64³,

@@ -63,6 +63,7 @@ impl Chebyshev {
         d.par_iter_mut()
             .zip(x.par_iter_mut())
             .zip(r.par_iter().zip(inv.par_iter()))
+            .with_min_len(super::PAR_MIN_LEN)
             .for_each(|((di, xi), (ri, ii))| {
                 *di = ri * ii / theta;
                 *xi += *di;
@@ -74,6 +75,7 @@ impl Chebyshev {
             apply(d, t);
             r.par_iter_mut()
                 .zip(t.par_iter())
+                .with_min_len(super::PAR_MIN_LEN)
                 .for_each(|(ri, ti)| *ri -= ti);
             if k == self.degree {
                 break;
@@ -83,6 +85,7 @@ impl Chebyshev {
             d.par_iter_mut()
                 .zip(x.par_iter_mut())
                 .zip(r.par_iter().zip(inv.par_iter()))
+                .with_min_len(super::PAR_MIN_LEN)
                 .for_each(|((di, xi), (ri, ii))| {
                     *di = c1 * *di + c2 * ri * ii;
                     *xi += *di;
@@ -110,10 +113,13 @@ pub fn estimate_lambda_max(
         if nv == 0.0 {
             break;
         }
-        v.par_iter_mut().for_each(|x| *x /= nv);
+        v.par_iter_mut()
+            .with_min_len(super::PAR_MIN_LEN)
+            .for_each(|x| *x /= nv);
         apply(&v, &mut w);
         w.par_iter_mut()
             .zip(inv_diag.par_iter())
+            .with_min_len(super::PAR_MIN_LEN)
             .for_each(|(wi, ii)| *wi *= ii);
         std::mem::swap(&mut v, &mut w);
     }

@@ -59,6 +59,7 @@ impl Multigrid {
             let omega = 1.0 / lev.smoother.lambda_max;
             x.par_iter_mut()
                 .zip(b.par_iter().zip(inv.par_iter()))
+                .with_min_len(super::PAR_MIN_LEN)
                 .for_each(|(xi, (bi, di))| *xi = omega * bi * di);
         } else {
             // Pre-smoothing from x = 0 (x was zeroed by the caller).
@@ -68,18 +69,23 @@ impl Multigrid {
         // Restriction b_c = Pᵀ r.
         let agg = &lev.agg;
         let r = &w.r;
-        w.b_next.par_iter_mut().enumerate().for_each(|(c, bc)| {
-            *bc = agg.members[agg.ptr[c]..agg.ptr[c + 1]]
-                .iter()
-                .map(|&i| r[i as usize])
-                .sum();
-        });
+        w.b_next
+            .par_iter_mut()
+            .enumerate()
+            .with_min_len(super::PAR_MIN_LEN)
+            .for_each(|(c, bc)| {
+                *bc = agg.members[agg.ptr[c]..agg.ptr[c + 1]]
+                    .iter()
+                    .map(|&i| r[i as usize])
+                    .sum();
+            });
         w.x_next.iter_mut().for_each(|v| *v = 0.0);
         self.cycle(l + 1, fine_apply, &w.b_next, &mut w.x_next, rest);
         // Prolongation x += s P x_c.
         let (xc, s) = (&w.x_next, self.scale);
         x.par_iter_mut()
             .zip(agg.agg.par_iter())
+            .with_min_len(super::PAR_MIN_LEN)
             .for_each(|(xi, &c)| *xi += s * xc[c as usize]);
         if additive {
             return;
@@ -88,6 +94,7 @@ impl Multigrid {
         apply(x, &mut w.t);
         w.r.par_iter_mut()
             .zip(b.par_iter().zip(w.t.par_iter()))
+            .with_min_len(super::PAR_MIN_LEN)
             .for_each(|(ri, (bi, ti))| *ri = bi - ti);
         lev.smoother
             .smooth(apply, &mut w.r, x, &mut w.d, &mut w.t, false);

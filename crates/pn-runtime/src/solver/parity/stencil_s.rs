@@ -36,6 +36,9 @@ pub const MAX_CORRECTION_SHARE: f64 = 0.5;
 /// Rows per parallel task when the corrections are collected.
 const FIX_CHUNK: usize = 4096;
 
+/// Fewest values of the output per parallel task of an application.
+const MIN_TASK_VALUES: usize = 8192;
+
 /// Relative difference under which a row's weight counts as its moment's stencil weight
 /// (`C = D_o C̃` recomputed from `C̃` differs from the stencil's weight by rounding).
 pub const SAME_WEIGHT: f64 = 1e-12;
@@ -244,8 +247,15 @@ fn for_slabs(
         }
         at += e.iter().product::<usize>();
     }
+    // Slabs are small in 2D (one x-row, 71 values on the checkerboard): at least
+    // MIN_TASK_VALUES values per parallel task, so that scheduling does not dominate.
+    let values: usize = slabs.iter().map(|s| s.3.len()).sum();
+    let min_len = (MIN_TASK_VALUES * slabs.len())
+        .div_ceil(values.max(1))
+        .max(1);
     slabs
         .into_par_iter()
+        .with_min_len(min_len)
         .for_each(|(q, ix, start, s)| f(q, ix, start, s));
 }
 
