@@ -277,6 +277,9 @@ fn stencil_slab(m: &Moments, terms: &[Term], q: usize, ix: usize, src: &[f64], o
         if e[2] == 1 && ep[2] == 1 {
             // One position in z (2D): the slab is contiguous along y.
             let ys = range(e[1], ep[1], dy);
+            if ys.is_empty() {
+                continue;
+            }
             let first = (plane as i64 + ys.start as i64 + dy) as usize;
             let xs = &src[first..first + ys.len()];
             out[ys].iter_mut().zip(xs).for_each(|(o, x)| *o += w * x);
@@ -285,6 +288,9 @@ fn stencil_slab(m: &Moments, terms: &[Term], q: usize, ix: usize, src: &[f64], o
         if dz == 0 && ep[2] == e[2] {
             // Same z positions (a ∂x or ∂y term): the y-lines are one contiguous run.
             let ys = range(e[1], ep[1], dy);
+            if ys.is_empty() {
+                continue;
+            }
             let first = plane + (ys.start as i64 + dy) as usize * e[2];
             let len = ys.len() * e[2];
             let xs = &src[first..first + len];
@@ -293,6 +299,9 @@ fn stencil_slab(m: &Moments, terms: &[Term], q: usize, ix: usize, src: &[f64], o
             continue;
         }
         let zs = range(e[2], ep[2], dz);
+        if zs.is_empty() {
+            continue;
+        }
         for iy in range(e[1], ep[1], dy) {
             let iyr = (iy as i64 + dy) as usize;
             let first = (plane as i64 + (iyr * ep[2]) as i64 + zs.start as i64 + dz) as usize;
