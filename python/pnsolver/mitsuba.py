@@ -35,7 +35,7 @@ not solve again.
 Integrator properties: `method` ("pn", "cda", "fld"; default "pn"; "none": single scattering
 only), `order` (3),
 `resolution` (solve cells per axis: an integer or "nx,ny,nz"; default 32), `tolerance`
-(1e-6), `margin`, `absorber_width`, `absorbing_layer` (the `[solve]` keys of a pn render scene; defaults as
+(1e-4), `margin`, `absorber_width`, `absorbing_layer` (the `[solve]` keys of a pn render scene; defaults as
 there), `threads` (default: all cores).
 """
 
@@ -480,7 +480,7 @@ class PnIntegrator:
         else:
             res = [int(res)] * 3
         solve_settings["resolution"] = res
-        solve_settings["tolerance"] = float(props.get("tolerance", 1e-6))
+        solve_settings["tolerance"] = float(props.get("tolerance", 1e-4))
         for key in ("margin", "absorbing_layer"):
             if key in props:
                 solve_settings[key] = int(props[key])
