@@ -9,15 +9,17 @@ const ROWS_PER_TASK: usize = 4096;
 const SERIAL_BELOW: usize = 1 << 15;
 
 /// A CSR matrix with 32-bit column indices: 12 instead of 16 bytes per non-zero, which
-/// matters because the products are memory-bound.
-pub struct CompactCsr {
+/// matters because the products are memory-bound. Values are `f64`, or `f32`
+/// ([`CompactCsr::rounded_from_csr`]: 8 bytes per non-zero) for operators only a
+/// preconditioner reads (the multigrid's coarse levels); products accumulate in `f64`.
+pub struct CompactCsr<V = f64> {
     indptr: Vec<usize>,
     indices: Vec<u32>,
-    data: Vec<f64>,
+    data: Vec<V>,
     cols: usize,
 }
 
-impl CompactCsr {
+impl CompactCsr<f64> {
     /// Copies `a` (CSR), or returns `None` when it has more than `u32::MAX` columns.
     pub fn from_csr(a: &CsMat<f64>) -> Option<Self> {
         assert!(a.is_csr(), "CompactCsr needs a CSR matrix");
@@ -32,17 +34,45 @@ impl CompactCsr {
         })
     }
 
+    /// Modelled bytes one product moves ([`csr_product_bytes`] with 4-byte indices).
+    pub fn bytes_per_product(&self) -> u64 {
+        csr_product_bytes(self.data.len(), self.rows(), self.cols, 4)
+    }
+}
+
+impl CompactCsr<f32> {
+    /// `a` with its values rounded to `f32` (relative 6e-8; a symmetric matrix stays exactly
+    /// symmetric, equal entries round alike); `None` when `a` is not CSR, has more than
+    /// `u32::MAX` columns, or has an entry outside `f32`'s range (overflowing, or non-zero
+    /// and flushed to zero).
+    pub fn rounded_from_csr(a: &CsMat<f64>) -> Option<Self> {
+        if !a.is_csr() || a.cols() > u32::MAX as usize {
+            return None;
+        }
+        let data: Vec<f32> = a.data().iter().map(|&v| v as f32).collect();
+        if data
+            .iter()
+            .zip(a.data())
+            .any(|(&f, &d)| !f.is_finite() || (f == 0.0 && d != 0.0))
+        {
+            return None;
+        }
+        Some(Self {
+            indptr: a.indptr().raw_storage().to_vec(),
+            indices: a.indices().iter().map(|&i| i as u32).collect(),
+            data,
+            cols: a.cols(),
+        })
+    }
+}
+
+impl<V: Copy + Into<f64> + Sync> CompactCsr<V> {
     /// Rows.
     pub fn rows(&self) -> usize {
         self.indptr.len() - 1
     }
 
-    /// Modelled bytes one product moves ([`csr_product_bytes`] with 4-byte indices).
-    pub fn bytes_per_product(&self) -> u64 {
-        csr_product_bytes(self.data.len(), self.rows(), self.cols, 4)
-    }
-
-    /// `y = A x`.
+    /// `y = A x`, accumulated in `f64`.
     pub fn mul(&self, x: &[f64], y: &mut [f64]) {
         assert_eq!(self.cols, x.len());
         assert_eq!(self.rows(), y.len());
@@ -57,7 +87,7 @@ impl CompactCsr {
                     *yi = indices[lo..hi]
                         .iter()
                         .zip(&data[lo..hi])
-                        .map(|(&j, &v)| v * x[j as usize])
+                        .map(|(&j, &v)| v.into() * x[j as usize])
                         .sum();
                 }
             });
@@ -260,6 +290,31 @@ mod tests {
         assert!(solve_small_dense(vec![vec![0.0]], vec![1.0], 0.0).is_none());
         assert!(solve_small_dense(vec![vec![1.0]], vec![f64::NAN], 0.0).is_none());
         assert_eq!(solve_small_dense(vec![], vec![], 0.0), Some(vec![]));
+    }
+
+    #[test]
+    fn rounded_products_agree_with_the_double_matrix_to_single_precision() {
+        // [[4, -1, 0], [-1, 4, -1e-3], [0, -1e-3, 2]]
+        let a = CsMat::new(
+            (3, 3),
+            vec![0, 2, 5, 7],
+            vec![0, 1, 0, 1, 2, 1, 2],
+            vec![4.0, -1.0, -1.0, 4.0, -1e-3, -1e-3, 2.0],
+        );
+        let c = CompactCsr::rounded_from_csr(&a).unwrap();
+        let x = [1.0 / 3.0, 2.0, -0.7];
+        let mut y = [0.0; 3];
+        c.mul(&x, &mut y);
+        let mut want = [0.0; 3];
+        spmv(&a, &x, &mut want);
+        for (g, w) in y.iter().zip(&want) {
+            assert!((g - w).abs() <= 1e-7 * w.abs(), "{g} vs {w}");
+        }
+        // Out of f32's range, or flushed to zero: refused.
+        let big = CsMat::new((1, 1), vec![0, 1], vec![0], vec![1e40]);
+        assert!(CompactCsr::rounded_from_csr(&big).is_none());
+        let tiny = CsMat::new((1, 1), vec![0, 1], vec![0], vec![1e-50]);
+        assert!(CompactCsr::rounded_from_csr(&tiny).is_none());
     }
 
     #[test]

@@ -22,7 +22,6 @@
 //! [`super::parity::galerkin`]).
 
 pub mod aggregate;
-pub mod compact;
 pub mod galerkin;
 pub mod smoother;
 pub mod solve;
@@ -30,7 +29,7 @@ pub mod vcycle;
 
 pub use aggregate::Geometry;
 
-use crate::linalg::spmv;
+use crate::linalg::{spmv, CompactCsr};
 use crate::operator::{LinearOperator, Preconditioner};
 use aggregate::{aggregate, Aggregation};
 use smoother::Chebyshev;
@@ -121,7 +120,7 @@ pub struct MgOptions {
     /// How the finest level enters the preconditioner.
     pub fine_cycle: FineCycle,
     /// Keep the coarse levels' operators in double precision instead of the compact
-    /// single-precision storage ([`compact`]; for comparisons).
+    /// single-precision storage ([`LevelOp`]; for comparisons).
     pub double_coarse: bool,
 }
 
@@ -266,16 +265,24 @@ struct Level {
     agg: Aggregation,
 }
 
-/// A coarse level's operator: compact ([`compact::CompactCsr`], single-precision values)
-/// unless its entries do not fit `f32` or [`MgOptions::double_coarse`] asks for `f64`.
+/// A coarse level's operator: CSR with 32-bit columns and `f32` values
+/// ([`CompactCsr::rounded_from_csr`], 8 bytes per entry instead of 16) unless its entries do
+/// not fit `f32` or [`MgOptions::double_coarse`] asks for `f64`.
+///
+/// Only the preconditioner reads the coarse levels: the Krylov method's own products, its
+/// residuals and the stopping test stay in double precision with the finest operator, so the
+/// answer meets the same tolerance; the rounding of the coarse entries only perturbs the
+/// preconditioner (docs/solvers.md, "Coarse levels in single precision"). The V-cycle's
+/// traffic on the coarse levels, which after the stencil `S` (`parity::stencil_s`) is most of
+/// a cycle's, halves.
 enum LevelOp {
-    Compact(compact::CompactCsr),
+    Compact(CompactCsr<f32>),
     Double(CsMat<f64>),
 }
 
 impl LevelOp {
     fn new(a: CsMat<f64>, double: bool) -> Self {
-        match (double, compact::CompactCsr::new(&a)) {
+        match (double, CompactCsr::rounded_from_csr(&a)) {
             (false, Some(c)) => LevelOp::Compact(c),
             _ => LevelOp::Double(a),
         }
@@ -283,7 +290,7 @@ impl LevelOp {
 
     fn apply(&self, x: &[f64], y: &mut [f64]) {
         match self {
-            LevelOp::Compact(c) => c.apply(x, y),
+            LevelOp::Compact(c) => c.mul(x, y),
             LevelOp::Double(a) => spmv(a, x, y),
         }
     }
