@@ -297,8 +297,9 @@ fn eval_into(
     Ok(rhs)
 }
 
-/// `lo..hi` of `i` in `0..n` with `i + d` in `0..m`.
-fn range(n: usize, m: usize, d: i64) -> std::ops::Range<usize> {
+/// `lo..hi` of `i` in `0..n` with `i + d` in `0..m` (also the index ranges of the stencil
+/// `S`, [`crate::solver::parity::stencil_s`]).
+pub(crate) fn range(n: usize, m: usize, d: i64) -> std::ops::Range<usize> {
     let lo = (-d).max(0) as usize;
     let hi = (m as i64 - d).clamp(0, n as i64) as usize;
     lo.min(hi)..hi

@@ -21,6 +21,7 @@
 //! The residual that stops the solve is always computed from the blocks.
 
 use super::split::{BlockMat, Split};
+use crate::matfree::range;
 use crate::solver::multigrid::Geometry;
 use rayon::prelude::*;
 use std::sync::Mutex;
@@ -86,13 +87,6 @@ pub struct StencilReduced {
     c: StencilBlock,
     /// `t = D_o⁻¹ C x`, reused between applications.
     tmp: Mutex<Vec<f64>>,
-}
-
-/// `lo..hi` of `i` in `0..n` with `i + d` in `0..m`.
-fn range(n: usize, m: usize, d: i64) -> std::ops::Range<usize> {
-    let lo = (-d).max(0) as usize;
-    let hi = (m as i64 - d).clamp(0, n as i64) as usize;
-    lo.min(hi)..hi
 }
 
 impl StencilReduced {
