@@ -23,7 +23,7 @@ use pn_runtime::context::RowContext;
 use pn_runtime::layout::Layout;
 use pn_runtime::problem::Problem;
 use pn_runtime::scenes::{builtin, BuiltinOptions};
-use pn_stencil::{InterpretedKernel, StencilKernel};
+use pn_stencil::{InterpretedKernel, StencilKernel, TreeWalk};
 use std::fmt::Write as _;
 use std::time::Instant;
 
@@ -84,28 +84,6 @@ impl KernelRow {
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
     v[v.len() / 2]
-}
-
-/// The interpreter as it was before its flat row programs: every weight's expression tree
-/// walked per row ([`InterpretedKernel::eval_row_tree`]), timed as the third kind.
-struct TreeWalk<'a>(&'a InterpretedKernel);
-
-impl StencilKernel for TreeWalk<'_> {
-    fn name(&self) -> &str {
-        self.0.name()
-    }
-    fn dim(&self) -> Dim {
-        self.0.dim()
-    }
-    fn moments(&self) -> &[pn_stencil::MomentPlacement] {
-        self.0.moments()
-    }
-    fn pattern(&self, row: usize) -> &[pn_stencil::TermPattern] {
-        self.0.pattern(row)
-    }
-    fn eval_row(&self, row: usize, ctx: &dyn pn_stencil::FieldContext, weights: &mut [f64]) -> f64 {
-        self.0.eval_row_tree(row, ctx, weights)
-    }
 }
 
 /// Median seconds of one `eval_row` pass over all rows of `layout` on this thread, and the

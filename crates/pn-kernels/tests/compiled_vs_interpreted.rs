@@ -4,8 +4,8 @@
 use pn_codegen::discretize::{cda_ir, diffusion_ir, pn_ir_for_order, pn_name};
 use pn_kernels::compiled;
 use pn_kernels::{cda_kernel, diffusion_kernel, pn_kernel, Dim, Staggering};
-use pn_stencil::InterpretedKernel;
 use pn_stencil::{FieldContext, FieldRef, HalfOffset, StencilIr, StencilKernel};
+use pn_stencil::{InterpretedKernel, TreeWalk};
 
 /// Deterministic pseudo-random field values per (field, offset, seed) in [0.5, 1.5).
 struct RandomFields(u64);
@@ -154,27 +154,8 @@ fn flat_programs_match_the_tree_walk_beyond_the_compiled_orders() {
             (Dim::Two, Staggering::Collocated),
         ] {
             let k = InterpretedKernel::new(pn_ir_for_order(order, dim, layout).unwrap());
-            let name = k.name().to_string();
-            assert_eq!(k.tree_walked_rows(), 0, "{name}");
-            for r in 0..k.moments().len() {
-                let n = k.pattern(r).len();
-                for seed in 0..2 {
-                    let ctx = RandomFields(seed);
-                    let (mut a, mut b) = (vec![0.0; n], vec![0.0; n]);
-                    let ra = k.eval_row(r, &ctx, &mut a);
-                    let rb = k.eval_row_tree(r, &ctx, &mut b);
-                    for (t, (x, y)) in a.iter().zip(&b).enumerate() {
-                        assert!(
-                            (x - y).abs() <= 1e-13 * (x.abs() + y.abs() + 1e-300),
-                            "{name} row {r} term {t}: flat {x} vs tree {y}"
-                        );
-                    }
-                    assert!(
-                        (ra - rb).abs() <= 1e-13 * (ra.abs() + rb.abs() + 1e-300),
-                        "{name} row {r} rhs: flat {ra} vs tree {rb}"
-                    );
-                }
-            }
+            assert_eq!(k.tree_walked_rows(), 0, "{}", k.name());
+            assert_same_kernel(&TreeWalk(&k), &k);
         }
     }
 }

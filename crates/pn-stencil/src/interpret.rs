@@ -8,8 +8,8 @@
 //! constant times one slot (every transport term, `±c/h`) a single operation. Evaluating a
 //! row then costs one `FieldContext` call per distinct load and a short loop over the
 //! operations, instead of a walk over boxed expression trees with one call per leaf
-//! ([`InterpretedKernel::eval_row_tree`], kept as the reference). `pn bench` times all
-//! three ("Compiled against interpreted stencils").
+//! ([`InterpretedKernel::eval_row_tree`], kept as the reference, [`TreeWalk`]). `pn bench`
+//! times all three ("Compiled against interpreted stencils").
 
 use crate::ir::{
     Dim, FieldContext, FieldRef, HalfOffset, MomentPlacement, StencilIr, StencilKernel,
@@ -319,6 +319,29 @@ impl StencilKernel for InterpretedKernel {
             Some(p) => p.eval(ctx, weights),
             None => self.eval_row_tree(row, ctx, weights),
         }
+    }
+}
+
+/// The interpreter as it was before its flat row programs, as a [`StencilKernel`]: every
+/// weight's expression tree walked per row ([`InterpretedKernel::eval_row_tree`]). The
+/// reference the flat programs are tested against, and the third kind `pn bench` times.
+pub struct TreeWalk<'a>(pub &'a InterpretedKernel);
+
+impl StencilKernel for TreeWalk<'_> {
+    fn name(&self) -> &str {
+        self.0.name()
+    }
+    fn dim(&self) -> Dim {
+        self.0.dim()
+    }
+    fn moments(&self) -> &[MomentPlacement] {
+        self.0.moments()
+    }
+    fn pattern(&self, row: usize) -> &[TermPattern] {
+        self.0.pattern(row)
+    }
+    fn eval_row(&self, row: usize, ctx: &dyn FieldContext, weights: &mut [f64]) -> f64 {
+        self.0.eval_row_tree(row, ctx, weights)
     }
 }
 

@@ -9,7 +9,7 @@
 //! * The IR: [`StencilIr`], [`StencilRow`], [`StencilTerm`], [`Weight`], [`FieldRef`],
 //!   [`MomentPlacement`] and half-cell coordinates ([`HalfOffset`]); see the `ir` module
 //!   documentation below for the coordinate convention (docs/design.md §3).
-//! * Evaluation: [`StencilKernel`], [`FieldContext`], [`TermPattern`], [`InterpretedKernel`].
+//! * Evaluation: [`StencilKernel`], [`FieldContext`], [`TermPattern`], [`InterpretedKernel`] (and its former tree walk, [`TreeWalk`]).
 //! * [`quadrature`]: Gauss–Legendre and sphere quadrature, real spherical harmonics,
 //!   transport matrices and phase-function moments (docs/design.md §2.3).
 //! * [`marshak`]: the half-range Gram matrices and the Marshak vacuum closure derived from
@@ -35,7 +35,7 @@ pub mod marshak;
 pub mod quadrature;
 pub mod robin;
 
-pub use interpret::InterpretedKernel;
+pub use interpret::{InterpretedKernel, TreeWalk};
 pub use ir::{
     Dim, FieldContext, FieldRef, HalfOffset, MomentPlacement, RobinBoundary, RobinCondition,
     StencilError, StencilIr, StencilKernel, StencilRow, StencilTerm, TermPattern, Weight,
