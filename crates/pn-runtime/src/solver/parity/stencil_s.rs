@@ -255,30 +255,48 @@ fn for_slabs(
 
 /// `out = Σ_terms w · src[shifted]` over the in-grid references of x-plane `ix` of row
 /// moment `q` (`src` is the other class's local vector).
+///
+/// In 2D, where every moment has one z position, the plane is one line along y, summed
+/// over all its terms at once ([`fused_line`]): every output value is stored once instead
+/// of being read and written again for each term (71² checkerboard P_5: cycles 0.141 s
+/// against 0.146 s). In 3D the terms are added one by one.
 fn stencil_slab(m: &Moments, terms: &[Term], q: usize, ix: usize, src: &[f64], out: &mut [f64]) {
-    out.fill(0.0);
     let e = m.ext[q];
+    let mut parts: Vec<LinePart> = Vec::with_capacity(terms.len());
+    // The x-plane of moment `p` shifted by `dx`, if it lies in `p`'s grid.
+    let plane_of = |t: &Term| {
+        let ep = m.ext[t.moment];
+        let ixr = ix as i64 + t.delta[0];
+        (ixr >= 0 && ixr < ep[0] as i64)
+            .then(|| m.local_off[t.moment] + ixr as usize * ep[1] * ep[2])
+    };
+    let flat = e[2] == 1 && terms.iter().all(|t| m.ext[t.moment][2] == 1);
+    if flat {
+        // 2D: the plane is one line along y.
+        for t in terms {
+            let Some(plane) = plane_of(t) else { continue };
+            let ys = range(e[1], m.ext[t.moment][1], t.delta[1]);
+            if !ys.is_empty() {
+                parts.push(LinePart {
+                    weight: t.weight,
+                    base: plane as i64 + t.delta[1],
+                    valid: ys,
+                });
+            }
+        }
+        fused_line(out, &parts, src);
+        return;
+    }
+    // 3D: term by term over the plane (a ∂x or ∂y term as one contiguous run). Fusing the
+    // terms line by line, as in 2D, measured slower here (40³ P_5 point source: cycles
+    // 0.67–0.71 s against 0.59 s): the z-lines are short and the ∂x/∂y runs long.
+    out.fill(0.0);
     for t in terms {
+        let Some(plane) = plane_of(t) else { continue };
         let p = t.moment;
         let ep = m.ext[p];
-        let [dx, dy, dz] = t.delta;
-        let ixr = ix as i64 + dx;
-        if ixr < 0 || ixr >= ep[0] as i64 {
-            continue;
-        }
-        let plane = m.local_off[p] + ixr as usize * ep[1] * ep[2];
+        let [_, dy, dz] = t.delta;
         let w = t.weight;
-        if e[2] == 1 && ep[2] == 1 {
-            // One position in z (2D): the slab is contiguous along y.
-            let ys = range(e[1], ep[1], dy);
-            if ys.is_empty() {
-                continue;
-            }
-            let first = (plane as i64 + ys.start as i64 + dy) as usize;
-            let xs = &src[first..first + ys.len()];
-            out[ys].iter_mut().zip(xs).for_each(|(o, x)| *o += w * x);
-            continue;
-        }
         if dz == 0 && ep[2] == e[2] {
             // Same z positions (a ∂x or ∂y term): the y-lines are one contiguous run.
             let ys = range(e[1], ep[1], dy);
@@ -303,6 +321,60 @@ fn stencil_slab(m: &Moments, terms: &[Term], q: usize, ix: usize, src: &[f64], o
             let line = &mut out[iy * e[2] + zs.start..iy * e[2] + zs.end];
             line.iter_mut().zip(xs).for_each(|(o, x)| *o += w * x);
         }
+    }
+}
+
+/// One term's contribution to a line of the output: `out[i] += weight · src[base + i]` for
+/// `i` in `valid` (the positions whose reference lies in the source moment's grid).
+struct LinePart {
+    weight: f64,
+    base: i64,
+    valid: std::ops::Range<usize>,
+}
+
+/// `out[i] = Σ_parts w · src[base + i]` over the parts whose `valid` range holds `i`
+/// (zero where none does). On the positions every part covers (all of an interior line)
+/// the terms are summed in registers, eight values at a time, and each value is stored
+/// once; the few positions at the ends, where a shifted reference leaves its grid, take
+/// the terms one by one.
+#[inline]
+fn fused_line(out: &mut [f64], parts: &[LinePart], src: &[f64]) {
+    let len = out.len();
+    let lo = parts
+        .iter()
+        .map(|p| p.valid.start)
+        .max()
+        .unwrap_or(len)
+        .min(len);
+    let hi = parts.iter().map(|p| p.valid.end).min().unwrap_or(0).max(lo);
+    // The ends: term by term.
+    out[..lo].fill(0.0);
+    out[hi..].fill(0.0);
+    for p in parts {
+        for i in (p.valid.start..lo.min(p.valid.end)).chain(hi.max(p.valid.start)..p.valid.end) {
+            out[i] += p.weight * src[(p.base + i as i64) as usize];
+        }
+    }
+    // The common part: all terms at once.
+    const BLOCK: usize = 8;
+    let mut i = lo;
+    while i + BLOCK <= hi {
+        let mut acc = [0.0f64; BLOCK];
+        for p in parts {
+            let s0 = (p.base + i as i64) as usize;
+            let xs = &src[s0..s0 + BLOCK];
+            for k in 0..BLOCK {
+                acc[k] += p.weight * xs[k];
+            }
+        }
+        out[i..i + BLOCK].copy_from_slice(&acc);
+        i += BLOCK;
+    }
+    for (k, o) in out[i..hi].iter_mut().enumerate() {
+        *o = parts
+            .iter()
+            .map(|p| p.weight * src[(p.base + (i + k) as i64) as usize])
+            .sum();
     }
 }
 
@@ -405,4 +477,73 @@ fn block(
         out.fix_vals.push(v);
     }
     Some(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `fused_line` against the term-by-term sum: parts covering the whole line, parts
+    /// clipped at either end, a part disjoint from the others' common range, none at all.
+    #[test]
+    fn fused_line_equals_term_by_term_sum() {
+        let src: Vec<f64> = (0..200).map(|i| ((i * 37 % 101) as f64) - 50.0).collect();
+        let cases: Vec<Vec<LinePart>> = vec![
+            vec![],
+            vec![
+                LinePart {
+                    weight: 0.5,
+                    base: 10,
+                    valid: 0..29,
+                },
+                LinePart {
+                    weight: -2.0,
+                    base: 40,
+                    valid: 0..29,
+                },
+            ],
+            vec![
+                LinePart {
+                    weight: 1.5,
+                    base: 3,
+                    valid: 1..29,
+                },
+                LinePart {
+                    weight: -0.25,
+                    base: 60,
+                    valid: 0..28,
+                },
+                LinePart {
+                    weight: 3.0,
+                    base: 100,
+                    valid: 2..29,
+                },
+            ],
+            vec![
+                LinePart {
+                    weight: 1.0,
+                    base: 0,
+                    valid: 0..5,
+                },
+                LinePart {
+                    weight: 2.0,
+                    base: 50,
+                    valid: 20..29,
+                },
+            ],
+        ];
+        for parts in &cases {
+            let mut want = vec![0.0; 29];
+            for p in parts {
+                for i in p.valid.clone() {
+                    want[i] += p.weight * src[(p.base + i as i64) as usize];
+                }
+            }
+            let mut out = vec![f64::NAN; 29];
+            fused_line(&mut out, parts, &src);
+            for (o, w) in out.iter().zip(&want) {
+                assert!((o - w).abs() <= 1e-12 * (1.0 + w.abs()), "{o} vs {w}");
+            }
+        }
+    }
 }
