@@ -25,6 +25,11 @@
 //! polynomials of degree 3 per axis. A piece is at most one voxel long (centre to centre),
 //! and the rule's relative error on e^{−σ_t x} across a piece of length ℓ is about
 //! (σ_t ℓ)⁴/4320: 2·10⁻⁴ at σ_t ℓ = 1.
+//!
+//! **Empty cells.** σ_s is a non-negative combination of the voxels that the filter reads at
+//! a point, so a cell none of whose nodes reads a non-zero voxel has weight 0 exactly. Such
+//! cells are found from the voxels alone ([`reads_nonzero_voxel`]) and their nodes are not
+//! evaluated: on the cloud at a 16³ solve grid, 87 % of the 4.1 M nodes lie where σ_s = 0.
 
 use super::light_depth::LightDepth;
 use super::lights::Light;
@@ -49,6 +54,7 @@ pub fn cell_scattering_weights(
 ) -> Vec<Vec<f64>> {
     let [nx, ny, nz] = grid.res;
     let nodes = [0, 1, 2].map(|d| gauss_nodes(density, grid, d));
+    let reach = [0, 1, 2].map(|d| voxels_read(density, &nodes[d], d));
     // One x-slab of cells per task: [light][(j·nz + k)].
     let slabs: Vec<Vec<Vec<f64>>> = (0..nx)
         .into_par_iter()
@@ -56,6 +62,9 @@ pub fn cell_scattering_weights(
             let mut slab = vec![vec![0.0; ny * nz]; lights.len()];
             for j in 0..ny {
                 for k in 0..nz {
+                    if !reads_nonzero_voxel(density, [reach[0][i], reach[1][j], reach[2][k]]) {
+                        continue;
+                    }
                     for &(x, wx) in &nodes[0][i] {
                         for &(y, wy) in &nodes[1][j] {
                             for &(z, wz) in &nodes[2][k] {
@@ -84,6 +93,36 @@ pub fn cell_scattering_weights(
     (0..lights.len())
         .map(|l| slabs.iter().flat_map(|s| s[l].iter().copied()).collect())
         .collect()
+}
+
+/// For each cell along axis `d`, the inclusive range of voxel indices that the density
+/// filter reads with a positive weight at one of the cell's nodes (`nodes[c]`, from
+/// [`gauss_nodes`]); `None` when no node of the cell lies in the density box.
+fn voxels_read(
+    density: &DensityGrid,
+    nodes: &[Vec<(f64, f64)>],
+    d: usize,
+) -> Vec<Option<(usize, usize)>> {
+    nodes
+        .iter()
+        .map(|cell| {
+            cell.iter()
+                .flat_map(|&(x, _)| density.axis_weights(d, x))
+                .filter(|&(_, w)| w > 0.0)
+                .fold(None, |r: Option<(usize, usize)>, (v, _)| {
+                    Some(r.map_or((v, v), |(lo, hi)| (lo.min(v), hi.max(v))))
+                })
+        })
+        .collect()
+}
+
+/// Whether a voxel in the box of the per-axis ranges `reach` is non-zero (a scan that stops
+/// at the first one; empty when an axis has no range).
+fn reads_nonzero_voxel(density: &DensityGrid, reach: [Option<(usize, usize)>; 3]) -> bool {
+    let [Some((x0, x1)), Some((y0, y1)), Some((z0, z1))] = reach else {
+        return false;
+    };
+    (z0..=z1).any(|k| (y0..=y1).any(|j| (x0..=x1).any(|i| density.at(i, j, k) != 0.0)))
 }
 
 #[cfg(test)]
@@ -157,6 +196,66 @@ mod tests {
                     assert!(midpoint < 0.96 * exact, "{midpoint} vs {exact}");
                 }
             }
+        }
+    }
+
+    /// Skipping the cells that read only empty voxels changes nothing: on a medium that is
+    /// empty but for a small blob, both filters, the weights equal the sum over every node
+    /// (σ_s T E at each node, no skipping) to rounding, and the skipped cells are the ones
+    /// where that sum is 0.
+    #[test]
+    fn empty_cells_are_skipped_without_changing_the_weights() {
+        let n = 8;
+        for filter in [DensityFilter::Trilinear, DensityFilter::Nearest] {
+            let mut data = vec![0.0f32; n * n * n];
+            let d0 = DensityGrid::new([n; 3], [-1.0; 3], [1.0; 3], data.clone()).unwrap();
+            for (i, j, k) in [(2, 3, 3), (3, 3, 3), (3, 4, 2)] {
+                data[d0.index(i, j, k)] = 1.5;
+            }
+            let density = DensityGrid::new([n; 3], [-1.0; 3], [1.0; 3], data)
+                .unwrap()
+                .with_filter(filter);
+            let st = 2.0;
+            let ext = Extinction {
+                grid: &density,
+                scale: st,
+            };
+            let spec = medium(&density, st, 0.9);
+            let depth = LightDepth::compute(&ext, &sun());
+            // A solve grid larger than the medium box, cells not aligned with the voxels.
+            let mut grid = test_box_grid([7; 3]);
+            grid.min = [-1.3; 3];
+            grid.max = [1.3; 3];
+            let w = cell_scattering_weights(&density, &spec, &ext, &sun(), &depth, &grid);
+            let nodes = [0, 1, 2].map(|d| gauss_nodes(&density, &grid, d));
+            let (mut skipped, mut lit) = (0, 0);
+            for (c, got) in w[0].iter().enumerate() {
+                let (i, j, k) = (c / 49, (c / 7) % 7, c % 7);
+                let mut full = 0.0;
+                for &(x, wx) in &nodes[0][i] {
+                    for &(y, wy) in &nodes[1][j] {
+                        for &(z, wz) in &nodes[2][k] {
+                            let p = [x, y, z];
+                            let (_, ss) = spec.coefficients_at(&density, p);
+                            let e = sun()[0].incident(p).irradiance;
+                            full += ss * wx * wy * wz * e * (-depth.tau(&ext, 0, p)).exp();
+                        }
+                    }
+                }
+                assert!(
+                    (got - full).abs() <= 1e-14 * full.abs(),
+                    "{filter:?} cell {c}: {got} vs {full}"
+                );
+                if full == 0.0 {
+                    skipped += 1;
+                } else {
+                    lit += 1;
+                }
+            }
+            assert!(
+                skipped > 250 && lit > 0,
+                "{filter:?}: {skipped} empty, {lit} lit"
+            );
         }
     }
 
