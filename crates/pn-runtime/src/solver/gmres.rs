@@ -109,6 +109,10 @@ pub fn gmres_with(
     }
 }
 
+/// Fewest vector entries per parallel task in the basis kernels (as `linalg::dot`'s serial
+/// threshold).
+const MIN_TASK_LEN: usize = 1 << 15;
+
 /// A stored basis entry: `f64`, or `f32` read and accumulated in `f64`.
 trait BasisValue: Copy + Send + Sync {
     fn store(v: f64) -> Self;
@@ -149,7 +153,7 @@ impl BasisValue for f32 {
 fn dot_basis<V: BasisValue>(w: &[f64], v: &[V]) -> f64 {
     w.par_iter()
         .zip(v)
-        .with_min_len(1 << 15)
+        .with_min_len(MIN_TASK_LEN)
         .map(|(a, b)| a * b.load())
         .sum()
 }
@@ -158,14 +162,14 @@ fn dot_basis<V: BasisValue>(w: &[f64], v: &[V]) -> f64 {
 fn axpy_basis<V: BasisValue>(alpha: f64, v: &[V], w: &mut [f64]) {
     w.par_iter_mut()
         .zip(v)
-        .with_min_len(1 << 15)
+        .with_min_len(MIN_TASK_LEN)
         .for_each(|(a, b)| *a += alpha * b.load());
 }
 
 /// `v / s`, stored.
 fn scaled<V: BasisValue>(v: &[f64], s: f64) -> Vec<V> {
     v.par_iter()
-        .with_min_len(1 << 15)
+        .with_min_len(MIN_TASK_LEN)
         .map(|a| V::store(a / s))
         .collect()
 }
@@ -210,7 +214,7 @@ fn run<V: BasisValue>(
                     direction
                         .par_iter_mut()
                         .zip(&basis[k])
-                        .with_min_len(1 << 15)
+                        .with_min_len(MIN_TASK_LEN)
                         .for_each(|(d, b)| *d = b.load());
                     &direction
                 }
