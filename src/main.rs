@@ -88,10 +88,10 @@ fn main() {
     let args = Cli::parse();
     let env = cli::Env::from_process();
     let mut stdout = std::io::stdout();
-    // The whole command runs on a worker of rayon's global pool, as
-    // `pn_runtime::threads::with_threads` explains: its parallel loops then split their work
-    // among the workers instead of each being handed over from this thread.
-    if let Err(err) = rayon::scope(|_| run(&args.command, &env, &mut stdout)) {
+    // The whole command runs on a worker of the global thread pool (`with_threads` says why).
+    let result = pn_runtime::threads::with_threads(None, || run(&args.command, &env, &mut stdout))
+        .and_then(|r| r);
+    if let Err(err) = result {
         if is_broken_pipe(&err) {
             std::process::exit(BROKEN_PIPE_STATUS);
         }

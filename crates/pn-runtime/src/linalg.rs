@@ -201,12 +201,13 @@ pub fn spmv_transpose<I: sprs::SpIndex>(a: &sprs::CsMatI<f64, I, usize>, x: &[f6
     }
 }
 
-/// Euclidean dot product.
-pub fn dot(a: &[f64], b: &[f64]) -> f64 {
+/// Euclidean dot product (`b` in `f64`, or `f32` read as `f64`: GMRES's single-precision
+/// basis).
+pub fn dot<V: Copy + Into<f64> + Sync>(a: &[f64], b: &[V]) -> f64 {
     if a.len() < SERIAL_BELOW {
-        a.iter().zip(b).map(|(x, y)| x * y).sum()
+        a.iter().zip(b).map(|(x, y)| x * (*y).into()).sum()
     } else {
-        a.par_iter().zip(b).map(|(x, y)| x * y).sum()
+        a.par_iter().zip(b).map(|(x, y)| x * (*y).into()).sum()
     }
 }
 
@@ -215,14 +216,16 @@ pub fn norm(a: &[f64]) -> f64 {
     dot(a, a).sqrt()
 }
 
-/// `y += alpha x`.
-pub fn axpy(alpha: f64, x: &[f64], y: &mut [f64]) {
+/// `y += alpha x` (`x` in `f64`, or `f32` read as `f64`).
+pub fn axpy<V: Copy + Into<f64> + Sync>(alpha: f64, x: &[V], y: &mut [f64]) {
     if y.len() < SERIAL_BELOW {
-        y.iter_mut().zip(x).for_each(|(yi, xi)| *yi += alpha * xi);
+        y.iter_mut()
+            .zip(x)
+            .for_each(|(yi, xi)| *yi += alpha * (*xi).into());
     } else {
         y.par_iter_mut()
             .zip(x)
-            .for_each(|(yi, xi)| *yi += alpha * xi);
+            .for_each(|(yi, xi)| *yi += alpha * (*xi).into());
     }
 }
 

@@ -5,8 +5,8 @@
 /// Either way `f` itself runs on a worker of the pool, so that its parallel loops split their
 /// work among the workers directly: a loop started from a thread outside the pool is sent to
 /// the pool and that thread sleeps until it is done, a hand-over that costs more than the
-/// work of a short loop (the 71² checkerboard solve, whose loops are short, took 0.49 s from
-/// outside the pool and 0.38 s on a worker).
+/// work of a short loop (the whole `pn solve checkerboard`, whose loops are short, took
+/// 0.33 s from outside the pool and 0.28 s on a worker; docs/solvers.md, "Short loops").
 pub fn with_threads<R: Send>(
     threads: Option<usize>,
     f: impl FnOnce() -> R + Send,

@@ -18,7 +18,7 @@
 //! caller continues from there if it is not met.
 
 use super::control::{true_residual, Control, Outcome};
-use crate::linalg::{axpy, norm};
+use crate::linalg::{axpy, dot, norm};
 use crate::operator::{LinearOperator, Preconditioner};
 use rayon::prelude::*;
 
@@ -109,14 +109,9 @@ pub fn gmres_with(
     }
 }
 
-/// Fewest vector entries per parallel task in the basis kernels (as `linalg::dot`'s serial
-/// threshold).
-const MIN_TASK_LEN: usize = 1 << 15;
-
-/// A stored basis entry: `f64`, or `f32` read and accumulated in `f64`.
-trait BasisValue: Copy + Send + Sync {
+/// A stored basis entry: `f64`, or `f32` (read as `f64` by `linalg::dot` and `axpy`).
+trait BasisValue: Copy + Into<f64> + Send + Sync {
     fn store(v: f64) -> Self;
-    fn load(self) -> f64;
     /// The slice itself where it is already `f64`.
     fn as_f64(v: &[Self]) -> Option<&[f64]>;
 }
@@ -125,10 +120,6 @@ impl BasisValue for f64 {
     #[inline]
     fn store(v: f64) -> Self {
         v
-    }
-    #[inline]
-    fn load(self) -> f64 {
-        self
     }
     fn as_f64(v: &[Self]) -> Option<&[f64]> {
         Some(v)
@@ -140,38 +131,14 @@ impl BasisValue for f32 {
     fn store(v: f64) -> Self {
         v as f32
     }
-    #[inline]
-    fn load(self) -> f64 {
-        self as f64
-    }
     fn as_f64(_: &[Self]) -> Option<&[f64]> {
         None
     }
 }
 
-/// `Σ w_i v_i` in `f64`.
-fn dot_basis<V: BasisValue>(w: &[f64], v: &[V]) -> f64 {
-    w.par_iter()
-        .zip(v)
-        .with_min_len(MIN_TASK_LEN)
-        .map(|(a, b)| a * b.load())
-        .sum()
-}
-
-/// `w += alpha v`.
-fn axpy_basis<V: BasisValue>(alpha: f64, v: &[V], w: &mut [f64]) {
-    w.par_iter_mut()
-        .zip(v)
-        .with_min_len(MIN_TASK_LEN)
-        .for_each(|(a, b)| *a += alpha * b.load());
-}
-
 /// `v / s`, stored.
 fn scaled<V: BasisValue>(v: &[f64], s: f64) -> Vec<V> {
-    v.par_iter()
-        .with_min_len(MIN_TASK_LEN)
-        .map(|a| V::store(a / s))
-        .collect()
+    v.par_iter().map(|a| V::store(a / s)).collect()
 }
 
 fn run<V: BasisValue>(
@@ -214,8 +181,7 @@ fn run<V: BasisValue>(
                     direction
                         .par_iter_mut()
                         .zip(&basis[k])
-                        .with_min_len(MIN_TASK_LEN)
-                        .for_each(|(d, b)| *d = b.load());
+                        .for_each(|(d, &b)| *d = b.into());
                     &direction
                 }
             };
@@ -224,9 +190,9 @@ fn run<V: BasisValue>(
             ctl.applications += 1;
             let mut col = vec![0.0; k + 2];
             for (i, v) in basis.iter().enumerate() {
-                let hij = dot_basis(&w, v);
+                let hij = dot(&w, v);
                 col[i] = hij;
-                axpy_basis(-hij, v, &mut w);
+                axpy(-hij, v, &mut w);
             }
             let wn = norm(&w);
             col[k + 1] = wn;
@@ -269,7 +235,7 @@ fn run<V: BasisValue>(
         }
         w.iter_mut().for_each(|v| *v = 0.0);
         for (v, yi) in basis.iter().zip(&y) {
-            axpy_basis(*yi, v, &mut w);
+            axpy(*yi, v, &mut w);
         }
         precond.apply(&w, &mut z);
         axpy(1.0, &z, x);
