@@ -5,7 +5,8 @@ A change to the render pipeline (shadow maps, solver, renderer) is judged by the
 command's wall time, measured side by side with the binary before it: each round runs every
 scene with binary A, then with binary B (the order alternating between rounds), so that both
 see the same machine load. Prints one line per run (wall seconds and the phases of
-`report.json`: density, shadow_maps, sources, solve, light_depth, render; solver iterations) and per
+`report.json`: density, light_depth, sources, solve, render; solver iterations; `shadow_maps` in
+reports before 2026-12-05) and per
 scene the medians and the ratio B/A, and writes them to a CSV.
 
 Usage:
@@ -27,7 +28,7 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-PHASES = ["density", "shadow_maps", "sources", "solve", "light_depth", "render"]
+PHASES = ["density", "shadow_maps", "light_depth", "sources", "solve", "render"]
 
 
 def point_args(point: str) -> list:

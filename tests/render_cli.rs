@@ -159,7 +159,7 @@ fn pn_render_writes_images_and_report() {
         serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
     assert_eq!(report["order"], 3);
     assert_eq!(report["spp"], 2);
-    for key in ["shadow_maps", "solve", "render", "total"] {
+    for key in ["light_depth", "sources", "solve", "render", "total"] {
         assert!(report["seconds"][key].as_f64().unwrap() >= 0.0, "{key}");
     }
     assert!(report["unknowns"]["solved"].as_u64().unwrap() > 0);

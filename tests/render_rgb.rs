@@ -186,13 +186,13 @@ fn a_grey_medium_under_coloured_light_is_one_solve_scaled() {
 }
 
 /// An achromatic σ_t with three albedos: three solves (the albedo is in the operator), but G
-/// and B reuse R's deep shadow maps, which depend on σ_t and the lights' geometry only, and
+/// and B reuse R's optical depth to the lights, which depends on σ_t and the lights' geometry only, and
 /// start their iteration from the earlier channels' solutions. Each channel meets the same
 /// residual tolerance (1e-8) as the grey render of its values, from another start: the
 /// images agree to within what that tolerance leaves (bound 1e-6 relative, see below), and
 /// the warm-started channels need fewer iterations.
 #[test]
-fn an_achromatic_sigma_t_shares_the_shadow_maps_and_starts_from_earlier_channels() {
+fn an_achromatic_sigma_t_shares_the_light_depth_and_starts_from_earlier_channels() {
     let text = coloured("6.0", "[0.95, 0.8, 0.6]", "1.0", "10.0");
     let rgb = render_scene(&scene(&text), &one_thread()).unwrap();
     let channels = rgb.rgb.as_ref().unwrap();
@@ -207,7 +207,7 @@ fn an_achromatic_sigma_t_shares_the_shadow_maps_and_starts_from_earlier_channels
         let grey_solver = grey.report.solver.as_ref().unwrap();
         assert!(ch.copied_from.is_none() && solver.converged, "channel {c}");
         let want = (c > 0).then(|| "R".to_string());
-        assert_eq!(ch.shadow_maps_from, want, "channel {c}");
+        assert_eq!(ch.light_depth_from, want, "channel {c}");
         let started: Vec<String> = ["R", "G"][..c].iter().map(|s| s.to_string()).collect();
         assert_eq!(ch.solve_started_from, started, "channel {c}");
         if c == 0 {

@@ -16,13 +16,13 @@ use pn_runtime::memory_estimate;
 use pn_runtime::pipeline::solve_problem_from;
 use pn_runtime::pop::{pop_field, PopReport, PopSettings, ResiduumSettings};
 use pn_runtime::problem::Grid;
-use pn_runtime::render::first_scatter::first_scatter_problem_with_shadows;
+use pn_runtime::render::first_scatter::first_scatter_problem_with_depth;
 use pn_runtime::render::image_io::{write_exr_gray, write_png_tonemapped};
 use pn_runtime::render::light_depth::LightDepth;
 use pn_runtime::render::march::{MarchSettings, Marcher};
 use pn_runtime::render::renderer::{Image, MsField, Renderer};
 use pn_runtime::render::scene::{FldSolver, RenderMethod, RendererKind};
-use pn_runtime::render::shadow::{DeepShadowMaps, Extinction};
+use pn_runtime::render::shadow::Extinction;
 use pn_runtime::render::solve_setup::solve_grid;
 use pn_runtime::render::{Camera, DensityFilter, DensityGrid, RenderScene, SceneOverride};
 use pn_runtime::solver::multigrid::FineCycle;
@@ -31,6 +31,7 @@ use pn_runtime::unstagger::CellMoments;
 use serde::Serialize;
 use std::io::Write;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use std::time::Instant;
 
 pub mod rgb;
@@ -181,16 +182,15 @@ pub struct UnknownStats {
 pub struct Timings {
     /// Building the density grid.
     pub density: f64,
-    /// Deep shadow maps of the first-scatter source (transmittance from every density-voxel
-    /// centre to each light; 0 for method none).
-    pub shadow_maps: f64,
     /// Resampling σ_t, σ_s and projecting the first-scatter source.
     pub sources: f64,
     /// Assembly + linear (or FLD) solve.
     pub solve: f64,
-    /// The deterministic renderer's optical-depth grid to the lights (once for all views;
-    /// taken from the shadow maps when a solve ran, traced for method none; 0 for the
-    /// Monte Carlo renderer).
+    /// The optical depth from the medium to the lights ([`LightDepth`]: light-frame planes
+    /// for directional lights, voxel centres near the medium for point lights), once per
+    /// render: the first-scatter source and the deterministic renderer's camera rays read
+    /// it. 0 when a channel took it over from an earlier one with the same σ_t, and for the
+    /// Monte Carlo renderer without a solve.
     pub light_depth: f64,
     /// Rendering (all views).
     pub render: f64,
@@ -309,9 +309,9 @@ pub struct RenderRun {
     pub rgb: Option<rgb::RgbImages>,
     /// The multiple-scattering solution on its solve grid (grey scenes with a solve).
     pub solution: Option<MsField>,
-    /// The deep shadow maps of the first-scatter source (grey scenes with a P_N, CDA or FLD
-    /// solve).
-    pub shadow_maps: Option<DeepShadowMaps>,
+    /// The optical depth to the lights (grey scenes that computed it: a solve or the
+    /// deterministic renderer).
+    pub light_depth: Option<Arc<LightDepth>>,
     /// The staggered solution vector of a P_N or CDA solve (grey scenes), the start guess
     /// for another channel with the same σ_t ([`pipeline::solve_problem_from`]).
     pub staggered: Option<Vec<f64>>,
@@ -323,8 +323,8 @@ pub struct RenderRun {
 /// σ_t (both depend on σ_t and the lights' geometry only, or serve as a start).
 #[derive(Default)]
 pub(crate) struct SharedWork<'a> {
-    /// The deep shadow maps of the first-scatter source.
-    pub shadows: Option<DeepShadowMaps>,
+    /// The optical depth to the lights.
+    pub light_depth: Option<Arc<LightDepth>>,
     /// Staggered solutions on the same solve grid, to start the iteration from.
     pub guesses: Vec<&'a [f64]>,
 }
@@ -484,15 +484,19 @@ pub fn render_views(
     render_grey_views(scene, options, views, SharedWork::default())
 }
 
-/// [`render_views`] of a grey scene; `shadows`: the deep shadow maps of a scene with the same
-/// σ_t and light geometry, reused instead of computed.
+/// [`render_views`] of a grey scene; `shared`: what a scene with the same σ_t and light
+/// geometry computed (the optical depth to the lights, reused instead of computed; solutions
+/// to start from).
 fn render_grey_views(
     scene: &RenderScene,
     options: &RenderOptions,
     views: usize,
     shared: SharedWork<'_>,
 ) -> Result<RenderRun> {
-    let SharedWork { shadows, guesses } = shared;
+    let SharedWork {
+        light_depth: shared_depth,
+        guesses,
+    } = shared;
     ensure!(
         scene.colours.is_none(),
         "internal: a coloured scene must be rendered channel by channel"
@@ -522,7 +526,7 @@ fn render_grey_views(
     let mut unknowns = None;
     let mut solver = None;
     let mut ms = None;
-    let mut shadow_maps = None;
+    let mut light_depth: Option<Arc<LightDepth>> = None;
     let mut staggered = None;
     let mut pop = None;
     if s.method == RenderMethod::Pop {
@@ -582,9 +586,15 @@ fn render_grey_views(
                 None => 0,
             };
             let fs = pn_runtime::threads::with_threads(threads, || {
-                first_scatter_problem_with_shadows(scene, &density, &grid, max_band, shadows)
+                first_scatter_problem_with_depth(
+                    scene,
+                    &density,
+                    &grid,
+                    max_band,
+                    shared_depth.clone(),
+                )
             })??;
-            timings.shadow_maps = fs.seconds_shadow_maps;
+            timings.light_depth = fs.seconds_light_depth;
             timings.sources = fs.seconds_sources;
             let t1 = Instant::now();
             let (moments, u, report) = pn_runtime::threads::with_threads(threads, || {
@@ -615,7 +625,7 @@ fn render_grey_views(
             });
             ms =
                 Some(MsField::new(grid, moments, scene.phase)?.with_lookup(scene.render.ms_lookup));
-            shadow_maps = Some(fs.shadows);
+            light_depth = Some(fs.depth);
         }
     }
     let mut warnings: Vec<String> = pop.iter().flat_map(|p| p.warnings.clone()).collect();
@@ -630,27 +640,23 @@ fn render_grey_views(
     }
     let r = &scene.render;
     let deterministic = r.renderer == RendererKind::Deterministic;
-    let t_ld = Instant::now();
-    // The solve's deep shadow maps hold T at the voxel centres: τ = −ln T, no new rays.
-    let light_depth = if deterministic {
-        let ext = Extinction {
-            grid: &density,
-            scale: scene.medium.sigma_t_scale,
-        };
-        Some(pn_runtime::threads::with_threads(
-            threads,
-            || match shadow_maps
-                .as_ref()
-                .and_then(|m| LightDepth::from_shadow_maps(&ext, &scene.lights, m))
-            {
-                Some(ld) => ld,
-                None => LightDepth::compute(&ext, &scene.lights),
-            },
-        )?)
-    } else {
-        None
-    };
-    timings.light_depth = t_ld.elapsed().as_secs_f64();
+    // The solve's optical depth to the lights (or an earlier channel's) serves the camera
+    // rays too; a render without a solve computes it here.
+    if deterministic {
+        light_depth = light_depth.or(shared_depth);
+        if light_depth.is_none() {
+            let t_ld = Instant::now();
+            let ext = Extinction {
+                grid: &density,
+                scale: scene.medium.sigma_t_scale,
+            };
+            light_depth = Some(Arc::new(pn_runtime::threads::with_threads(
+                threads,
+                || LightDepth::compute(&ext, &scene.lights),
+            )?));
+            timings.light_depth = t_ld.elapsed().as_secs_f64();
+        }
+    }
     let settings = MarchSettings {
         rays: r.rays,
         step: r.step,
@@ -658,7 +664,8 @@ fn render_grey_views(
         exact_transmittance: r.exact_transmittance,
     };
     let marcher = light_depth
-        .as_ref()
+        .as_deref()
+        .filter(|_| deterministic)
         .map(|ld| Marcher::new(scene, &density, ms.as_ref(), ld, settings));
     let mut images = Vec::with_capacity(views);
     let mut view_reports = Vec::new();
@@ -771,7 +778,7 @@ fn render_grey_views(
         views: if views > 1 { images } else { Vec::new() },
         rgb: None,
         solution: ms,
-        shadow_maps,
+        light_depth,
         staggered,
         report,
     })
@@ -1023,16 +1030,15 @@ pub fn run(a: &RenderRequest, stdout: &mut dyn Write) -> Result<()> {
     };
     writeln!(
         stdout,
-        "{} {what}: {}×{} px, {how}, {} filter; shadow maps {:.3} s, sources {:.3} s, solve \
-         {:.3} s, light depth {:.3} s, render {:.3} s{views} -> {}",
+        "{} {what}: {}×{} px, {how}, {} filter; light depth {:.3} s, sources {:.3} s, solve \
+         {:.3} s, render {:.3} s{views} -> {}",
         r.scene,
         r.width,
         r.height,
         r.filter,
-        r.seconds.shadow_maps,
+        r.seconds.light_depth,
         r.seconds.sources,
         r.seconds.solve,
-        r.seconds.light_depth,
         r.seconds.render,
         out.display()
     )?;

@@ -5,8 +5,8 @@
 //! by one common factor k ([`pn_runtime::render::colour::Colours::light_scale`]): transport is linear in the sources, so
 //! the channel is k × that channel's image (the solve's error scales with it). Equal channels
 //! (k = 1) are copies: they give the grey image exactly, at the cost of one channel. Channels
-//! with the same σ_t scale share the deep shadow maps (transmittance to the lights), which
-//! depend on nothing else, and start their solve from the earlier channels' solutions (the
+//! with the same σ_t scale share the optical depth to the lights, which depends on nothing
+//! else, and start their solve from the earlier channels' solutions (the
 //! albedo enters the operator, so each channel is still its own system; docs/inputs.md).
 
 use super::{
@@ -81,8 +81,8 @@ pub struct ChannelReport {
     pub copied_from: Option<String>,
     /// The factor of that copy (1 for equal channels; None: computed).
     pub copy_scale: Option<f64>,
-    /// The earlier channel whose deep shadow maps this channel's solve reused (same σ_t).
-    pub shadow_maps_from: Option<String>,
+    /// The earlier channel whose optical depth to the lights this channel reused (same σ_t).
+    pub light_depth_from: Option<String>,
     /// Mean pixel value of the channel.
     pub mean_radiance: f64,
     /// The earlier channels (same σ_t) whose solutions started this channel's solve
@@ -107,7 +107,7 @@ pub(super) fn render_views_rgb(
         .context("internal: render_views_rgb needs a coloured scene")?;
     let mut runs: Vec<Option<RenderRun>> = Vec::new();
     let mut copied: [Option<(usize, f64)>; 3] = [None; 3];
-    let mut shadows_from: [Option<usize>; 3] = [None; 3];
+    let mut depth_from: [Option<usize>; 3] = [None; 3];
     let mut warm_from: [Vec<usize>; 3] = Default::default();
     for c in 0..3 {
         // Only computed channels are sources, so a copy never points to a copy.
@@ -118,13 +118,13 @@ pub(super) fn render_views_rgb(
             runs.push(None);
             continue;
         }
-        // The shadow maps depend on σ_t and the lights' geometry only: an earlier channel
-        // with the same σ_t scale has them.
-        shadows_from[c] = (0..c).find(|&p| {
+        // The optical depth to the lights depends on σ_t and the lights' geometry only: an
+        // earlier channel with the same σ_t scale has it.
+        depth_from[c] = (0..c).find(|&p| {
             colours.sigma_t_scale[p] == colours.sigma_t_scale[c]
-                && runs[p].as_ref().is_some_and(|r| r.shadow_maps.is_some())
+                && runs[p].as_ref().is_some_and(|r| r.light_depth.is_some())
         });
-        let shadows = shadows_from[c].and_then(|p| runs[p].as_ref()?.shadow_maps.clone());
+        let light_depth = depth_from[c].and_then(|p| runs[p].as_ref()?.light_depth.clone());
         // Earlier channels with the same σ_t were solved on the same grid and layout: their
         // solutions start this channel's iteration (same tolerance, fewer iterations).
         let same_sigma_t: Vec<usize> = (0..c)
@@ -136,7 +136,10 @@ pub(super) fn render_views_rgb(
             .filter_map(|&p| runs[p].as_ref()?.staggered.as_deref())
             .collect();
         warm_from[c] = same_sigma_t;
-        let shared = SharedWork { shadows, guesses };
+        let shared = SharedWork {
+            light_depth,
+            guesses,
+        };
         let run = render_grey_views(&scene.channel(c), options, views, shared)
             .with_context(|| format!("channel {}", CHANNELS[c]))?;
         runs.push(Some(run));
@@ -192,7 +195,7 @@ pub(super) fn render_views_rgb(
                 light_strength: ch.lights.iter().map(|l| l.strength()).collect(),
                 copied_from: copied[c].map(|(p, _)| CHANNELS[p].to_string()),
                 copy_scale: copied[c].map(|(_, k)| k),
-                shadow_maps_from: shadows_from[c].map(|p| CHANNELS[p].to_string()),
+                light_depth_from: depth_from[c].map(|p| CHANNELS[p].to_string()),
                 solve_started_from: warm_from[c]
                     .iter()
                     .map(|&p| CHANNELS[p].to_string())
@@ -214,7 +217,7 @@ pub(super) fn render_views_rgb(
             views: views_rgb,
         }),
         solution: None,
-        shadow_maps: None,
+        light_depth: None,
         staggered: None,
         report,
     })
@@ -261,7 +264,6 @@ fn sum_timings<'a>(t: impl Iterator<Item = &'a Timings>) -> Timings {
     let mut s = Timings::default();
     for x in t {
         s.density += x.density;
-        s.shadow_maps += x.shadow_maps;
         s.sources += x.sources;
         s.solve += x.solve;
         s.light_depth += x.light_depth;

@@ -13,7 +13,7 @@
 //! point light, whose d and E depend on x). The scalar factor σ_s T E is **averaged exactly
 //! over each solve cell** ([`super::source_quadrature::cell_scattering_weights`]: 2×2×2
 //! Gauss–Legendre on the pieces between the density filter's break points, T = e^{−τ} at
-//! the nodes, τ from the deep shadow maps and the light-frame planes), and d is taken at the
+//! the nodes, τ from the render's optical-depth grid [`LightDepth`]), and d is taken at the
 //! cell centre. σ_t and σ_s are exact cell averages of the filtered medium ([`resample`]).
 //!
 //! **Error.** The quadrature's, about (σ_t ℓ)⁴/4320 on a piece of length ℓ ≤ one voxel, and
@@ -34,8 +34,8 @@ use super::light_depth::LightDepth;
 use super::lights::Light;
 use super::medium::DensityGrid;
 use super::scene::{AbsorberPlacement, RenderScene, SolveBoundary};
+pub use super::shadow::density_as_grid;
 use super::shadow::{cell_centre, DeepShadowMaps, Extinction};
-pub use super::shadow::{density_as_grid, shadow_maps_near_medium};
 use super::solve_setup::{add_absorbing_layer, resample};
 use super::source_quadrature::cell_scattering_weights;
 use crate::field::{Field, VoxelGrid};
@@ -118,68 +118,68 @@ pub fn source_moments_weighted(
     out
 }
 
-/// The problem of a render scene on `grid`, with its deep shadow maps.
+/// The problem of a render scene on `grid`, with the optical depth to its lights.
 pub struct FirstScatterProblem {
     /// Fields and sources on the solve grid; Dirichlet boundary (light leaves);
     /// σ_t threshold from the scene or automatic where vacuum is present.
     pub problem: Problem,
-    /// Transmittance from each density-voxel centre to each light (on [`density_as_grid`]),
-    /// at the voxels near the medium ([`shadow_maps_near_medium`]; 0 elsewhere).
-    pub shadows: DeepShadowMaps,
+    /// The optical depth from the medium to each light ([`LightDepth::compute`]), which the
+    /// source's quadrature read; the renderer's camera rays read the same.
+    pub depth: Arc<LightDepth>,
     /// Whether the σ_t threshold was chosen automatically.
     pub auto_sigma_t_min: bool,
-    /// Seconds spent on the deep shadow maps.
-    pub seconds_shadow_maps: f64,
+    /// Seconds spent computing `depth` (0 when it was given).
+    pub seconds_light_depth: f64,
     /// Seconds spent resampling the coefficients and projecting the source.
     pub seconds_sources: f64,
 }
 
 /// Builds the problem on the solve grid `grid`: σ_t and σ_s are cell averages of the
 /// density read with its filter ([`resample`]); the source moments up to `max_band` are
-/// computed **at the density resolution** — deep shadow maps at the voxel centres,
-/// [`source_moments`] per voxel — and then read with the same filter and volume-averaged
-/// onto the solve cells ([`cell_average`]). `density` is the scene's
-/// [`RenderScene::density_grid`] (it carries the filter). So a coarse
-/// solve grid still receives the exact total first-scatter power of the fine grid
-/// (Σ σ_s T E V over the voxels), instead of sampling T at a coarse cell centre that may
-/// lie several mean free paths deep.
+/// [`source_moments_weighted`] with the weights σ_s T E averaged over each solve cell by
+/// quadrature on the density's own pieces ([`cell_scattering_weights`]), T from the optical
+/// depth to the lights ([`LightDepth::compute`]). `density` is the scene's
+/// [`RenderScene::density_grid`] (it carries the filter). So a coarse solve grid still
+/// receives the total first-scatter power ∫ σ_s T E dx of the medium, instead of sampling T
+/// at a coarse cell centre that may lie several mean free paths deep.
 pub fn first_scatter_problem(
     scene: &RenderScene,
     density: &DensityGrid,
     grid: &Grid,
     max_band: u32,
 ) -> anyhow::Result<FirstScatterProblem> {
-    first_scatter_problem_with_shadows(scene, density, grid, max_band, None)
+    first_scatter_problem_with_depth(scene, density, grid, max_band, None)
 }
 
-/// [`first_scatter_problem`] with the deep shadow maps given, when another scene with the same
-/// σ_t and the same light positions and directions computed them (the channels of a coloured
-/// scene with an achromatic σ_t): they depend on nothing else. `None` computes them.
-pub fn first_scatter_problem_with_shadows(
+/// [`first_scatter_problem`] with the optical depth to the lights given, when another scene
+/// with the same σ_t and the same light positions and directions computed it (the channels
+/// of a coloured scene with an achromatic σ_t): it depends on nothing else. `None` computes
+/// it ([`LightDepth::compute`]).
+pub fn first_scatter_problem_with_depth(
     scene: &RenderScene,
     density: &DensityGrid,
     grid: &Grid,
     max_band: u32,
-    shadows: Option<DeepShadowMaps>,
+    depth: Option<Arc<LightDepth>>,
 ) -> anyhow::Result<FirstScatterProblem> {
     let t0 = std::time::Instant::now();
     let ext = Extinction {
         grid: density,
         scale: scene.medium.sigma_t_scale,
     };
-    let vgrid = density_as_grid(density);
-    let shadows = match shadows {
-        Some(s) => {
+    let depth = match depth {
+        Some(d) => {
             anyhow::ensure!(
-                s.maps.len() == scene.lights.len()
-                    && s.maps.iter().all(|m| m.len() == vgrid.cells()),
-                "internal: the given shadow maps do not fit the lights and the density grid"
+                d.lights() == scene.lights.len(),
+                "internal: the given optical-depth grid has {} lights, the scene {}",
+                d.lights(),
+                scene.lights.len()
             );
-            s
+            d
         }
-        None => shadow_maps_near_medium(&ext, &scene.lights),
+        None => Arc::new(LightDepth::compute(&ext, &scene.lights)),
     };
-    let seconds_shadow_maps = t0.elapsed().as_secs_f64();
+    let seconds_light_depth = t0.elapsed().as_secs_f64();
     let t1 = std::time::Instant::now();
     let (mut sigma_t, sigma_s) = resample(density, &scene.medium, grid);
     if scene.solve.absorber == AbsorberPlacement::Hull {
@@ -187,9 +187,6 @@ pub fn first_scatter_problem_with_shadows(
     }
     add_absorbing_layer(grid, scene.solve.layer_cells(), &mut sigma_t);
     // σ_s·T·E per solve cell and light, averaged exactly over the cell (module docs).
-    let depth = LightDepth::from_shadow_maps(&ext, &scene.lights, &shadows).ok_or_else(|| {
-        anyhow::anyhow!("internal: the shadow maps do not fit the density grid and the lights")
-    })?;
     let weights =
         cell_scattering_weights(density, &scene.medium, &ext, &scene.lights, &depth, grid);
     let voxel = |data: Vec<f64>| -> anyhow::Result<Field> {
@@ -226,9 +223,9 @@ pub fn first_scatter_problem_with_shadows(
     problem.validate()?;
     Ok(FirstScatterProblem {
         problem,
-        shadows,
+        depth,
         auto_sigma_t_min: auto.is_some(),
-        seconds_shadow_maps,
+        seconds_light_depth,
         seconds_sources: t1.elapsed().as_secs_f64(),
     })
 }

@@ -3,9 +3,10 @@
 //!
 //! The nodes are the **density-voxel centres**; at each node the optical depth τ to the
 //! light is the exact integral of [`Extinction::optical_depth`] (traversal of the filter's
-//! lattice, [`super::shadow`]) — the same rays as the first-scatter source's deep shadow maps,
-//! so a render that solved first takes τ = −ln T from those ([`LightDepth::from_shadow_maps`])
-//! instead of tracing them again (point lights; directional ones use planes, below). Between the nodes τ is interpolated trilinearly (clamped
+//! lattice, [`super::shadow`]), traced only near the medium ([`LightDepth::compute`]) for
+//! point lights; directional ones use planes, below. One grid serves a whole render: the
+//! first-scatter source's quadrature ([`super::source_quadrature`]) and the camera rays
+//! ([`super::march`]) read the same. Between the nodes τ is interpolated trilinearly (clamped
 //! to the outermost centres in the outer half voxel) and the transmittance is `exp(−τ)`:
 //! interpolating τ rather than T keeps the interpolant exact for a τ linear in x (a
 //! homogeneous slab lit along an axis) and avoids the bias of interpolating a convex
@@ -40,7 +41,7 @@
 use super::lights::Light;
 use super::medium::floor_fast;
 use super::medium::DensityGrid;
-use super::shadow::{DeepShadowMaps, Extinction};
+use super::shadow::{near_medium_mask, Extinction};
 use rayon::prelude::*;
 
 /// Largest stored optical depth: e^{−745} is the smallest positive f64, so deeper is black
@@ -211,7 +212,8 @@ pub struct LightDepth {
     h: [f64; 3],
     /// Nodes per axis (the density resolution).
     res: [usize; 3],
-    /// `tau[light][(i·ny + j)·nz + k]` (x slowest, the order of [`DeepShadowMaps`]).
+    /// `tau[light][(i·ny + j)·nz + k]` (x slowest, the order of
+    /// [`super::shadow::DeepShadowMaps`]).
     tau: Vec<Vec<f64>>,
     /// Light-frame planes per light (directional lights; `None`: the voxel-centre grid).
     planes: Vec<Option<PlaneDepth>>,
@@ -220,9 +222,21 @@ pub struct LightDepth {
 impl LightDepth {
     /// The grids for every light: light-frame planes ([`PlaneDepth`]) for directional
     /// lights, the voxel-centre grid ([`Self::compute_voxel_centres`]) for point lights.
+    ///
+    /// A point light's grid is traced only at the voxel centres within one voxel (the
+    /// 26-neighbourhood) of a non-empty voxel: a lookup at a point of non-zero density
+    /// (either filter) reads only the 8 centres around it, which all lie there, so every value
+    /// read equals [`Self::compute_voxel_centres`]'s; the others hold 0. This is the one
+    /// optical-depth grid of a render: the first-scatter source and the camera rays read it.
     pub fn compute(ext: &Extinction, lights: &[Light]) -> Self {
-        let mut ld =
-            Self::compute_voxel_centres_where(ext, lights, |l| matches!(l, Light::Point { .. }));
+        let g = ext.grid;
+        let near = near_medium_mask(g);
+        let mut ld = Self::compute_voxel_centres_where(
+            ext,
+            lights,
+            |l| matches!(l, Light::Point { .. }),
+            |c| near[c],
+        );
         ld.planes = Self::planes(ext, lights);
         ld
     }
@@ -246,13 +260,16 @@ impl LightDepth {
     /// inside the density's support reaches); the others hold 0. Kept to measure the
     /// light-frame planes against (module docs).
     pub fn compute_voxel_centres(ext: &Extinction, lights: &[Light]) -> Self {
-        Self::compute_voxel_centres_where(ext, lights, |_| true)
+        Self::compute_voxel_centres_where(ext, lights, |_| true, |_| true)
     }
 
+    /// τ at the voxel centres for the lights where `traced` holds, at the nodes (linear
+    /// index `(i·ny + j)·nz + k`) within one voxel of an occupied voxel where `node` holds.
     fn compute_voxel_centres_where(
         ext: &Extinction,
         lights: &[Light],
         traced: impl Fn(&Light) -> bool,
+        node: impl Fn(usize) -> bool + Sync,
     ) -> Self {
         let g = ext.grid;
         let mut ld = Self::empty(g, lights.len());
@@ -274,6 +291,9 @@ impl LightDepth {
                 .for_each(|(i, plane)| {
                     for j in first[1]..=last[1] {
                         for k in first[2]..=last[2] {
+                            if !node((i * ny + j) * nz + k) {
+                                continue;
+                            }
                             let x = [
                                 centres[0] + i as f64 * h[0],
                                 centres[1] + j as f64 * h[1],
@@ -291,40 +311,6 @@ impl LightDepth {
                 });
         }
         ld
-    }
-
-    /// τ = −ln T from deep shadow maps computed at the voxel centres of `density` (as
-    /// [`super::first_scatter::first_scatter_problem`] does), one map per light, for the
-    /// point lights; directional lights get their light-frame planes as in
-    /// [`Self::compute`]. `None` when the maps do not have one value per voxel and light.
-    pub fn from_shadow_maps(
-        ext: &Extinction,
-        lights: &[Light],
-        maps: &DeepShadowMaps,
-    ) -> Option<Self> {
-        let density = ext.grid;
-        let n: usize = density.res.iter().product();
-        if maps.maps.len() != lights.len() || maps.maps.iter().any(|m| m.len() != n) {
-            return None;
-        }
-        let mut ld = Self::empty(density, maps.maps.len());
-        ld.tau = maps
-            .maps
-            .iter()
-            .map(|m| {
-                m.iter()
-                    .map(|t| {
-                        if *t > 0.0 {
-                            (-t.ln()).min(MAX_TAU)
-                        } else {
-                            MAX_TAU
-                        }
-                    })
-                    .collect()
-            })
-            .collect();
-        ld.planes = Self::planes(ext, lights);
-        Some(ld)
     }
 
     fn empty(g: &DensityGrid, lights: usize) -> Self {
@@ -396,14 +382,13 @@ impl LightDepth {
 mod tests {
     use super::*;
 
-    /// The maps near the medium equal the full maps at every voxel within one voxel of a
-    /// non-empty one, hold 0 elsewhere, and give the same τ at any point of non-zero density
-    /// through the voxel-centre interpolation of `LightDepth` (both filters, a point light so
-    /// that the voxel-centre grid is what the renderer reads).
+    /// [`LightDepth::compute`] traces a point light's voxel-centre grid only near the
+    /// medium: there it equals the grid traced at every centre of the occupied box
+    /// ([`LightDepth::compute_voxel_centres`]), elsewhere it holds 0, and both give the same
+    /// τ at any point of non-zero density (both filters).
     #[test]
-    fn shadow_maps_near_the_medium_agree_where_they_are_read() {
+    fn the_grid_near_the_medium_agrees_where_it_is_read() {
         use crate::render::medium::DensityFilter;
-        use crate::render::shadow::{density_as_grid, shadow_maps_near_medium};
         // A 9³ grid with two blobs of density and empty space between them and the faces.
         let n = 9;
         let mut data = vec![0.0f32; n * n * n];
@@ -432,35 +417,28 @@ mod tests {
                 grid: &g,
                 scale: 3.0,
             };
-            let full = DeepShadowMaps::compute(&ext, &density_as_grid(&g), &lights);
-            let near = shadow_maps_near_medium(&ext, &lights);
-            let mut skipped = 0;
-            for (f, m) in full.maps.iter().zip(&near.maps) {
-                for c in 0..f.len() {
-                    let (i, j, k) = (c / (n * n), (c / n) % n, c % n);
-                    let close = (0..n * n * n).any(|o| {
-                        let (a, b, d) = (o % n, (o / n) % n, o / (n * n));
-                        g.at(a, b, d) > 0.0
-                            && a.abs_diff(i) <= 1
-                            && b.abs_diff(j) <= 1
-                            && d.abs_diff(k) <= 1
-                    });
-                    if close {
-                        assert_eq!(m[c], f[c], "{filter:?} voxel ({i}, {j}, {k})");
-                    } else {
-                        assert_eq!(m[c], 0.0);
-                        skipped += 1;
-                    }
+            let full = LightDepth::compute_voxel_centres(&ext, &lights[..1]);
+            let near = LightDepth::compute(&ext, &lights);
+            assert!(near.planes[0].is_none() && near.planes[1].is_some());
+            let (mut skipped, mut shadowed) = (0, 0);
+            for c in 0..n * n * n {
+                let (i, j, k) = (c / (n * n), (c / n) % n, c % n);
+                let close = (0..n * n * n).any(|o| {
+                    let (a, b, d) = (o % n, (o / n) % n, o / (n * n));
+                    g.at(a, b, d) > 0.0
+                        && a.abs_diff(i) <= 1
+                        && b.abs_diff(j) <= 1
+                        && d.abs_diff(k) <= 1
+                });
+                if close {
+                    assert_eq!(near.tau[0][c], full.tau[0][c], "{filter:?} ({i}, {j}, {k})");
+                    shadowed += usize::from(near.tau[0][c] > 0.0);
+                } else {
+                    assert_eq!(near.tau[0][c], 0.0);
+                    skipped += 1;
                 }
             }
-            assert!(skipped > 1000, "{skipped}");
-            let point_light_depth = |m: &DeepShadowMaps| {
-                let maps = DeepShadowMaps {
-                    maps: vec![m.maps[0].clone()],
-                };
-                LightDepth::from_shadow_maps(&ext, &lights[..1], &maps).unwrap()
-            };
-            let (a, b) = (point_light_depth(&full), point_light_depth(&near));
+            assert!(skipped > 500 && shadowed > 10, "{skipped} {shadowed}");
             let mut read = 0;
             // A lattice three times finer than the voxels, off the voxel planes.
             for s in 0..27 * 27 * 27 {
@@ -468,7 +446,11 @@ mod tests {
                     [s % 27, (s / 27) % 27, s / 729].map(|a| -1.0 + 2.0 * (a as f64 + 0.37) / 27.0);
                 if ext.sigma_t(x) > 0.0 {
                     read += 1;
-                    assert_eq!(a.tau(&ext, 0, x), b.tau(&ext, 0, x), "{filter:?} {x:?}");
+                    assert_eq!(
+                        near.tau(&ext, 0, x),
+                        full.tau(&ext, 0, x),
+                        "{filter:?} {x:?}"
+                    );
                 }
             }
             assert!(read > 20, "{read}");
@@ -509,15 +491,6 @@ mod tests {
         let inc = p.incident(x);
         let exact = ext.optical_depth(x, inc.travel.map(|c| -c), inc.distance);
         assert!((ld.tau(&ext, 0, x) - exact).abs() < 1e-12);
-        // The same from the deep shadow maps' transmittance (τ = −ln T).
-        let maps = DeepShadowMaps::compute(
-            &ext,
-            &crate::render::shadow::density_as_grid(&g),
-            std::slice::from_ref(&p),
-        );
-        let from_maps =
-            LightDepth::from_shadow_maps(&ext, std::slice::from_ref(&p), &maps).unwrap();
-        assert!((from_maps.tau(&ext, 0, x) - exact).abs() < 1e-12);
     }
 
     #[test]

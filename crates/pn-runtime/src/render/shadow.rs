@@ -18,7 +18,9 @@
 //! Transmittance T = exp(−optical depth).
 //!
 //! A deep shadow map (docs/design.md §6, "T is the transmittance to the light") stores T from
-//! every solve-cell centre to each light; it is computed in parallel with rayon.
+//! every solve-cell centre to each light; it is computed in parallel with rayon. It serves the
+//! cell-centre source [`super::first_scatter::source_moments`]; a render reads its optical
+//! depth from [`super::light_depth::LightDepth`], computed once for the source and the camera.
 
 use super::lights::Light;
 use super::medium::floor_fast;
@@ -364,23 +366,31 @@ pub fn density_as_grid(density: &DensityGrid) -> Grid {
     }
 }
 
-/// Deep shadow maps at the voxel centres of `ext`'s density grid (the cells of
-/// [`density_as_grid`]), computed only where they can be read: at voxels within one voxel
-/// (the 26-neighbourhood) of a voxel with non-zero density; elsewhere they hold 0. The
-/// first-scatter source reads T only at voxels with σ_s > 0, and a trilinear read of τ at a
-/// point of non-zero density (either filter; [`super::light_depth::LightDepth`] for point
-/// lights) only reads the 8 voxel centres around it, which all lie within one voxel of a
-/// non-empty voxel; so every value that is used equals [`DeepShadowMaps::compute`]'s, and
-/// the rays from the empty space around the medium are not traced.
-pub fn shadow_maps_near_medium(ext: &Extinction, lights: &[Light]) -> DeepShadowMaps {
-    let g = ext.grid;
+/// Whether each voxel of `g` (linear index `(i·ny + j)·nz + k`, x slowest) lies within one
+/// voxel (the 26-neighbourhood) of a voxel with non-zero density. A trilinear read of a
+/// voxel-centre grid at a point of non-zero density (either filter) reads only the 8
+/// centres around it, which all lie there ([`super::light_depth::LightDepth::compute`]).
+pub(crate) fn near_medium_mask(g: &DensityGrid) -> Vec<bool> {
     let [nx, ny, nz] = g.res;
-    let occupied = |i: usize, j: usize, k: usize| g.data[g.index(i, j, k)] != 0.0;
-    let near = |[i, j, k]: [usize; 3]| {
-        let span = |c: usize, n: usize| c.saturating_sub(1)..=(c + 1).min(n - 1);
-        span(i, nx).any(|a| span(j, ny).any(|b| span(k, nz).any(|c| occupied(a, b, c))))
-    };
-    DeepShadowMaps::compute_where(ext, &density_as_grid(g), lights, near)
+    let mut near = vec![false; nx * ny * nz];
+    let span = |c: usize, n: usize| c.saturating_sub(1)..=(c + 1).min(n - 1);
+    for k in 0..nz {
+        for j in 0..ny {
+            for i in 0..nx {
+                if g.at(i, j, k) == 0.0 {
+                    continue;
+                }
+                for a in span(i, nx) {
+                    for b in span(j, ny) {
+                        for c in span(k, nz) {
+                            near[(a * ny + b) * nz + c] = true;
+                        }
+                    }
+                }
+            }
+        }
+    }
+    near
 }
 
 /// World position of the centre of cell (i, j, k) of `grid`.
