@@ -85,6 +85,10 @@ fn is_broken_pipe(err: &anyhow::Error) -> bool {
 const BROKEN_PIPE_STATUS: i32 = 141;
 
 fn main() {
+    if let Some(message) = pn_runtime::cpu::missing_features() {
+        eprintln!("error: {message}");
+        std::process::exit(1);
+    }
     let args = Cli::parse();
     let env = cli::Env::from_process();
     let mut stdout = std::io::stdout();

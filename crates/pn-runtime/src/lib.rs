@@ -53,6 +53,7 @@ pub mod assemble_split;
 pub mod bandwidth;
 pub mod context;
 pub mod convergence;
+pub mod cpu;
 pub mod energy;
 pub mod field;
 pub mod layout;

@@ -424,6 +424,9 @@ fn builtin_scenes<'py>(py: Python<'py>) -> PyResult<Bound<'py, PyList>> {
 /// The module `pnsolver._pnsolver`.
 #[pymodule]
 fn _pnsolver(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    if let Some(message) = pn_runtime::cpu::missing_features() {
+        return Err(pyo3::exceptions::PyImportError::new_err(message));
+    }
     m.add_class::<Scene>()?;
     m.add_function(wrap_pyfunction!(render, m)?)?;
     m.add_function(wrap_pyfunction!(solve, m)?)?;
