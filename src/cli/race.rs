@@ -41,7 +41,7 @@ pub struct RaceArgs {
     /// (pop@20: POP with a 20-cell grid, 20 iterations and a 20-cell solve grid; a text PDE
     /// as FILE.pde@RES[:NAME=VALUE…], e.g. pdes/sp3.pde@16, pdes/fpn.pde@16:N=5)
     /// (default cda, P_1, P_3 at
-    /// 16,24,32,48 and P_5 at 16,24,32; p1@16 with --quick).
+    /// 16,24,32,48, P_5 at 16,24,32 and P_7 at 16,24; p1@16 with --quick).
     #[arg(long)]
     pub pn_points: Option<String>,
     /// Extra `pn render` arguments for every pn render, in one string (e.g. "--spp 16").

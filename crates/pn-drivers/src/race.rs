@@ -50,7 +50,7 @@ use table::{num, Table};
 
 /// The pn points of a full race.
 pub const DEFAULT_PN_POINTS: &str = "cda@16,cda@24,cda@32,cda@48,p1@16,p1@24,p1@32,p1@48,\
-                                     p3@16,p3@24,p3@32,p3@48,p5@16,p5@24,p5@32";
+                                     p3@16,p3@24,p3@32,p3@48,p5@16,p5@24,p5@32,p7@16,p7@24";
 /// The per-scene folder of the images, exports and renders (removed at the end of a scene
 /// unless `keep_work`).
 pub const WORK: &str = "work";
@@ -882,7 +882,7 @@ mod tests {
         let r = RaceRequest::default();
         let p = Plan::new(&r).unwrap();
         assert_eq!((p.reference_spp, p.target_spp, p.turntable), (4096, 64, 16));
-        assert_eq!(p.pn_points.len(), 15);
+        assert_eq!(p.pn_points.len(), 17);
         let q = Plan::new(&RaceRequest {
             quick: true,
             ..r.clone()
