@@ -90,11 +90,11 @@ pub struct MgOptions {
     /// Chebyshev degree on the coarse levels (they are cheap).
     pub coarse_degree: usize,
     /// Chebyshev degree on the coarse levels where aggregation coarsens by at most 4 per
-    /// level (2D grids), so that the coarse levels are relatively larger and the cycle
-    /// leans on them more. On the 71² checkerboard (GMRES, to 1e-10) degree 3 instead of 2
-    /// saves 3 iterations at P_5 (50 vs 53, 261 vs 276 applications of `S`) and P_3 (39 vs
-    /// 42); on the 3D point source it saved none (40³ P_3 11, 32³ P_5 12) while adding
-    /// coarse work, so 3D keeps `coarse_degree`.
+    /// level (2D grids), where the coarse levels are relatively larger. Degree 3 saves 3
+    /// iterations on the 71² checkerboard P_5 (GMRES to 1e-10: 50 vs 53) but costs more
+    /// time than they save: the whole `pn solve checkerboard`, 10 alternating runs on the
+    /// x86-64-v3 build (2026-12-05), median 0.256 s with 3 against 0.244 s with 2 (P_3:
+    /// 0.165 / 0.163 s, 99 iterations either way). So the default is 2, as in 3D.
     pub coarse_degree_2d: usize,
     /// The smoother damps `[λ_max/ratio, λ_max]` of `D⁻¹A` (degree ≥ 2).
     pub ratio: f64,
@@ -172,7 +172,7 @@ impl Default for MgOptions {
         Self {
             fine_degree: 2,
             coarse_degree: 2,
-            coarse_degree_2d: 3,
+            coarse_degree_2d: 2,
             ratio: 10.0,
             fine_ratio: 15.0,
             power_steps: 8,
