@@ -79,6 +79,10 @@ pub struct RaceArgs {
     /// Worker threads of the pn renders (default: all cores).
     #[arg(long, allow_negative_numbers = true)]
     pub threads: Option<usize>,
+    /// Time every Mitsuba and pn point K times and keep the run with the median wall time
+    /// (the images are the same each time): steadier numbers on a shared machine.
+    #[arg(long, default_value_t = 1, value_name = "K")]
+    pub repeat: usize,
     /// Only rewrite results.md from the CSV files in --out.
     #[arg(long)]
     pub markdown_only: bool,
@@ -128,6 +132,7 @@ impl RaceArgs {
             ablation_study: self.ablation_study.clone(),
             quick: self.quick,
             threads: self.threads,
+            repeat: self.repeat,
             markdown_only: self.markdown_only,
             keep_work: self.keep_work,
         })

@@ -55,6 +55,23 @@ pub const DEFAULT_PN_POINTS: &str = "cda@16,cda@24,cda@32,cda@48,p1@16,p1@24,p1@
 /// unless `keep_work`).
 pub const WORK: &str = "work";
 
+/// Most timed runs per point (`--repeat`).
+pub const MAX_REPEAT: usize = 15;
+
+/// Runs `run` `k` times (at least once) and returns the run with the median of `wall`
+/// (the lower middle one for even `k`). The race's points are deterministic (a fixed seed,
+/// a deterministic solver), so every run gives the same image; only the time varies with
+/// what else the machine is doing.
+fn median_run<T>(
+    k: usize,
+    wall: impl Fn(&T) -> f64,
+    mut run: impl FnMut() -> Result<T>,
+) -> Result<T> {
+    let mut runs = (0..k.max(1)).map(|_| run()).collect::<Result<Vec<T>>>()?;
+    runs.sort_by(|a, b| wall(a).total_cmp(&wall(b)));
+    Ok(runs.swap_remove((runs.len() - 1) / 2))
+}
+
 /// Mitsuba's spp ladder of a full race.
 pub const DEFAULT_MITSUBA_SPP: &[usize] = &[1, 4, 16, 64, 256];
 
@@ -100,6 +117,8 @@ pub struct RaceRequest {
     pub quick: bool,
     /// `--threads` for the pn renders.
     pub threads: Option<usize>,
+    /// Timed runs per Mitsuba and pn point; the run with the median wall time is kept.
+    pub repeat: usize,
     /// Only regenerate `results.md` from the CSV files in `out`.
     pub markdown_only: bool,
     /// Keep `<out>/<scene>/work/` (exports, images, renders) after the scene.
@@ -128,6 +147,7 @@ impl Default for RaceRequest {
             ablation_study: None,
             quick: false,
             threads: None,
+            repeat: 1,
             markdown_only: false,
             keep_work: false,
         }
@@ -182,6 +202,11 @@ impl Plan {
             None => parse_points(DEFAULT_PN_POINTS)?,
         };
         ensure!(!pn_points.is_empty(), "--pn-points is empty");
+        ensure!(
+            (1..=MAX_REPEAT).contains(&r.repeat),
+            "--repeat must lie in 1..={MAX_REPEAT}, got {}",
+            r.repeat
+        );
         ensure!(
             pn_points.iter().all(|p| p.family != Family::None),
             "--pn-points: single scattering (none) is its own comparison, not a race point"
@@ -275,13 +300,21 @@ pub fn run(req: &RaceRequest, stdout: &mut dyn Write) -> Result<()> {
     writeln!(
         stdout,
         "pn race: Mitsuba {} ({}), reference {} spp, Mitsuba spp {:?}, {} pn points, \
-         turntable {} views",
+         turntable {} views{}",
         mitsuba.version,
         mitsuba.python.display(),
         plan.reference_spp,
         plan.mitsuba_spp,
         plan.pn_points.len(),
-        plan.turntable
+        plan.turntable,
+        if req.repeat > 1 {
+            format!(
+                ", each point timed {} times (the median run kept)",
+                req.repeat
+            )
+        } else {
+            String::new()
+        }
     )?;
     let ctx = Ctx {
         req,
@@ -336,16 +369,22 @@ fn mitsuba_points(
                 "{}_{spp:05}.exr",
                 if denoise { "oidn" } else { "plain" }
             ));
-            let r = mitsuba_side::render(
-                ctx.mitsuba,
-                &MitsubaJob {
-                    export: &export,
-                    spp,
-                    seed: 1 + k as u64,
-                    max_depth: -1,
-                    denoise,
-                    out: &out,
-                    views: None,
+            let r = median_run(
+                ctx.req.repeat,
+                |r: &mitsuba_side::MitsubaResult| r.wall,
+                || {
+                    mitsuba_side::render(
+                        ctx.mitsuba,
+                        &MitsubaJob {
+                            export: &export,
+                            spp,
+                            seed: 1 + k as u64,
+                            max_depth: -1,
+                            denoise,
+                            out: &out,
+                            views: None,
+                        },
+                    )
                 },
             )?;
             let e = errors(&read_gray(&out)?, reference)?;
@@ -474,7 +513,11 @@ fn race_scene(
     let mut pn_errors = vec![];
     for p in &plan.pn_points {
         let out = dir.join(WORK).join("pn").join(p.folder());
-        let r = runner.render(p, &out, &[])?;
+        let r = median_run(
+            ctx.req.repeat,
+            |r: &PnResult| r.wall,
+            || runner.render(p, &out, &[]),
+        )?;
         let e = errors(&read_gray(&r.images[0])?, &reference.image)?;
         let (solve, render, _) = pn_split(&r);
         writeln!(
@@ -877,6 +920,41 @@ mod tests {
         assert!((v[2][0][2] + 4.0).abs() < 1e-12);
     }
 
+    /// `median_run` keeps the run with the median time: the middle one for odd k, the lower
+    /// middle for even k, the only one for k = 1 (also for k = 0), and stops at an error.
+    #[test]
+    fn median_run_keeps_the_median_time() {
+        let times = [0.9, 0.3, 0.5, 2.0, 0.4];
+        let pick = |k: usize| {
+            let mut i = 0;
+            median_run(
+                k,
+                |t: &f64| *t,
+                || {
+                    i += 1;
+                    Ok(times[i - 1])
+                },
+            )
+            .unwrap()
+        };
+        assert_eq!(pick(5), 0.5);
+        assert_eq!(pick(4), 0.5);
+        assert_eq!(pick(2), 0.3);
+        assert_eq!(pick(1), 0.9);
+        assert_eq!(pick(0), 0.9);
+        let mut calls = 0;
+        let failed = median_run(
+            3,
+            |t: &f64| *t,
+            || {
+                calls += 1;
+                anyhow::ensure!(calls < 2, "run {calls} failed");
+                Ok(1.0)
+            },
+        );
+        assert!(failed.is_err() && calls == 2);
+    }
+
     #[test]
     fn plan_defaults_and_refusals() {
         let r = RaceRequest::default();
@@ -904,6 +982,14 @@ mod tests {
             },
             RaceRequest {
                 pn_points: Some(vec![PnPoint::parse("none").unwrap()]),
+                ..r.clone()
+            },
+            RaceRequest {
+                repeat: 0,
+                ..r.clone()
+            },
+            RaceRequest {
+                repeat: MAX_REPEAT + 1,
                 ..r.clone()
             },
         ] {
