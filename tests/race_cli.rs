@@ -94,6 +94,8 @@ fn quick_race_writes_tables_plot_and_markdown_and_caches_the_reference() {
         "race",
         scene.to_str().unwrap(),
         "--quick",
+        "--repeat",
+        "2",
         "--pn-points",
         &points,
         "--ablation-study",
@@ -135,6 +137,8 @@ fn quick_race_writes_tables_plot_and_markdown_and_caches_the_reference() {
         ]
     );
     for r in &rows {
+        // Every point was timed twice (`--repeat 2`), the median run kept.
+        assert_eq!(r["runs"], "2", "{r:?}");
         let e: f64 = r["rel_rmse"].parse().unwrap();
         let s: f64 = r["seconds"].parse().unwrap();
         assert!(e > 0.0 && e.is_finite() && s > 0.0, "{r:?}");

@@ -410,6 +410,7 @@ fn mitsuba_points(
                 ("rel_rmse_excess", num(Some(excess(e.rel_rmse, noise)))),
                 ("rel_bias", num(Some(e.rel_bias))),
                 ("mean", num(Some(e.mean))),
+                ("runs", ctx.req.repeat.max(1).to_string()),
             ])?;
         }
     }
@@ -531,7 +532,9 @@ fn race_scene(
             100.0 * e.rel_bias,
             if r.converged { "" } else { " (solver NOT converged)" }
         )?;
-        table.push(&pn_row(&name, p, &ctx.req.render_args, &r, &e, noise))?;
+        let mut row = pn_row(&name, p, &ctx.req.render_args, &r, &e, noise);
+        row.push(("runs", ctx.req.repeat.max(1).to_string()));
+        table.push(&row)?;
         pn_errors.push((p.clone(), r, e));
     }
     analysis::derive(&mut table, noise);

@@ -34,6 +34,7 @@ pub const POINT_COLUMNS: &[&str] = &[
     "speedup_vs_mitsuba",
     "oidn_equal_error_seconds",
     "speedup_vs_oidn",
+    "runs",
 ];
 
 /// One point as read from a record.
