@@ -10,7 +10,7 @@
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArrayDyn, PyUntypedArrayMethods};
 use pn_drivers::render::{render_views, RenderOptions, RenderRun};
 use pn_runtime::render::RenderScene;
-use pyo3::exceptions::{PyRuntimeError, PyValueError};
+use pyo3::exceptions::{PyImportError, PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
@@ -425,7 +425,7 @@ fn builtin_scenes<'py>(py: Python<'py>) -> PyResult<Bound<'py, PyList>> {
 #[pymodule]
 fn _pnsolver(m: &Bound<'_, PyModule>) -> PyResult<()> {
     if let Some(message) = pn_runtime::cpu::missing_features() {
-        return Err(pyo3::exceptions::PyImportError::new_err(message));
+        return Err(PyImportError::new_err(message));
     }
     m.add_class::<Scene>()?;
     m.add_function(wrap_pyfunction!(render, m)?)?;

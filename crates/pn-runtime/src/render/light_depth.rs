@@ -229,14 +229,14 @@ impl LightDepth {
     /// read equals [`Self::compute_voxel_centres`]'s; the others hold 0. This is the one
     /// optical-depth grid of a render: the first-scatter source and the camera rays read it.
     pub fn compute(ext: &Extinction, lights: &[Light]) -> Self {
-        let g = ext.grid;
-        let near = near_medium_mask(g);
-        let mut ld = Self::compute_voxel_centres_where(
-            ext,
-            lights,
-            |l| matches!(l, Light::Point { .. }),
-            |c| near[c],
-        );
+        let point = |l: &Light| matches!(l, Light::Point { .. });
+        // Only point lights trace the voxel centres: no mask without one.
+        let near = if lights.iter().any(point) {
+            near_medium_mask(ext.grid)
+        } else {
+            Vec::new()
+        };
+        let mut ld = Self::compute_voxel_centres_where(ext, lights, point, |c| near[c]);
         ld.planes = Self::planes(ext, lights);
         ld
     }
@@ -263,8 +263,9 @@ impl LightDepth {
         Self::compute_voxel_centres_where(ext, lights, |_| true, |_| true)
     }
 
-    /// τ at the voxel centres for the lights where `traced` holds, at the nodes (linear
-    /// index `(i·ny + j)·nz + k`) within one voxel of an occupied voxel where `node` holds.
+    /// τ at the voxel centres for the lights where `traced` holds: at the nodes of the
+    /// occupied box grown by one voxel where `node` (of the linear index
+    /// `(i·ny + j)·nz + k`) holds; 0 at the others.
     fn compute_voxel_centres_where(
         ext: &Extinction,
         lights: &[Light],
