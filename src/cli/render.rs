@@ -41,6 +41,11 @@ pub struct RenderArgs {
     /// flight, in (0, 1) (default 1e-3).
     #[arg(long)]
     pub pop_epsilon_l: Option<f64>,
+    /// Transport sweeps after the solve: source iterations of the transport equation started
+    /// from the solution, which correct its error at the medium's vacuum boundary (default:
+    /// the scene's [solve] sweeps, else 2; 0 renders the solution as solved; not for pop).
+    #[arg(long, allow_negative_numbers = true)]
+    pub sweeps: Option<usize>,
     /// The renderer: deterministic (default; noise-free ray marching) or montecarlo (delta
     /// tracking, --spp samples per pixel).
     #[arg(long)]
@@ -121,6 +126,7 @@ impl RenderArgs {
             pop_residuum: self.pop_residuum,
             pop_epsilon_a: self.pop_epsilon_a,
             pop_epsilon_l: self.pop_epsilon_l,
+            sweeps: self.sweeps,
             spp: self.spp,
             renderer: self.renderer,
             rays: self.rays,

@@ -24,6 +24,7 @@ use pn_runtime::render::renderer::{Image, MsField, Renderer};
 use pn_runtime::render::scene::{FldSolver, RenderMethod, RendererKind};
 use pn_runtime::render::shadow::Extinction;
 use pn_runtime::render::solve_setup::solve_grid;
+use pn_runtime::render::transport_sweep::{transport_sweeps, SweepSettings};
 use pn_runtime::render::{Camera, DensityFilter, DensityGrid, RenderScene, SceneOverride};
 use pn_runtime::solver::multigrid::FineCycle;
 use pn_runtime::solver::{SolverKind, SolverOptions, SolverTuning};
@@ -57,6 +58,8 @@ pub struct RenderRequest {
     pub pop_epsilon_a: Option<f64>,
     /// Method pop, residuum: ε_L (default: the scene's `[solve] pop_epsilon_l`).
     pub pop_epsilon_l: Option<f64>,
+    /// Transport sweeps after the solve (default: the scene's `[solve] sweeps`).
+    pub sweeps: Option<usize>,
     /// Samples per pixel of the Monte Carlo renderer (default: the scene's).
     pub spp: Option<usize>,
     /// The renderer (default: the scene's, deterministic unless it says otherwise).
@@ -104,6 +107,7 @@ impl Default for RenderRequest {
             pop_residuum: false,
             pop_epsilon_a: None,
             pop_epsilon_l: None,
+            sweeps: None,
             spp: None,
             renderer: None,
             rays: None,
@@ -186,6 +190,8 @@ pub struct Timings {
     pub sources: f64,
     /// Assembly + linear (or FLD) solve.
     pub solve: f64,
+    /// The transport sweeps after the solve ([`RenderReport::sweeps`]).
+    pub sweeps: f64,
     /// The optical depth from the medium to the lights ([`LightDepth`]: light-frame planes
     /// for directional lights, voxel centres near the medium for point lights), once per
     /// render: the first-scatter source and the deterministic renderer's camera rays read
@@ -259,6 +265,9 @@ pub struct RenderReport {
     pub unknowns: Option<UnknownStats>,
     /// Solver statistics.
     pub solver: Option<SolverReport>,
+    /// Transport sweeps applied to the solution before rendering
+    /// (`pn_runtime::render::transport_sweep`; 0 without a solve and for method pop).
+    pub sweeps: usize,
     /// Method pop: settings, per-light energy bookkeeping per iteration, seconds per stage
     /// (`seconds.sources` is its medium sampling + initialisation, `seconds.solve` its
     /// propagation + resampling).
@@ -387,6 +396,9 @@ pub fn apply_overrides(scene: &mut RenderScene, a: &RenderRequest) -> Result<()>
     }
     if let Some(i) = a.pop_iterations {
         scene.solve.pop_iterations = i;
+    }
+    if let Some(k) = a.sweeps {
+        scene.solve.sweeps = k;
     }
     if let Some(s) = a.spp {
         scene.render.spp = s;
@@ -529,6 +541,7 @@ fn render_grey_views(
     let mut light_depth: Option<Arc<LightDepth>> = None;
     let mut staggered = None;
     let mut pop = None;
+    let mut sweeps_done = 0;
     if s.method == RenderMethod::Pop {
         // No linear system: POP's moments of the collided radiance go onto the solve grid.
         if let Some(sg) = solve_grid(&density, s.resolution, s.padding(), true)? {
@@ -616,6 +629,21 @@ fn render_grey_views(
                 p.zero_auxiliary(&mut moments);
             }
             timings.solve = t1.elapsed().as_secs_f64();
+            if s.sweeps > 0 {
+                let t2 = Instant::now();
+                moments = pn_runtime::threads::with_threads(threads, || {
+                    transport_sweeps(
+                        &fs.problem,
+                        &moments,
+                        SweepSettings {
+                            sweeps: s.sweeps,
+                            n_mu: s.sweep_quadrature,
+                        },
+                    )
+                })??;
+                timings.sweeps = t2.elapsed().as_secs_f64();
+                sweeps_done = s.sweeps;
+            }
             solver = Some(SolverReport {
                 sigma_t_min: (s.method != RenderMethod::Fld)
                     .then_some(fs.problem.sigma_t_min)
@@ -762,6 +790,7 @@ fn render_grey_views(
         .into(),
         unknowns,
         solver,
+        sweeps: sweeps_done,
         pop,
         seconds: timings,
         mean_radiance: mean(&image.data),
@@ -1031,7 +1060,7 @@ pub fn run(a: &RenderRequest, stdout: &mut dyn Write) -> Result<()> {
     writeln!(
         stdout,
         "{} {what}: {}×{} px, {how}, {} filter; light depth {:.3} s, sources {:.3} s, solve \
-         {:.3} s, render {:.3} s{views} -> {}",
+         {:.3} s, {}render {:.3} s{views} -> {}",
         r.scene,
         r.width,
         r.height,
@@ -1039,6 +1068,11 @@ pub fn run(a: &RenderRequest, stdout: &mut dyn Write) -> Result<()> {
         r.seconds.light_depth,
         r.seconds.sources,
         r.seconds.solve,
+        if r.sweeps > 0 {
+            format!("{} sweeps {:.3} s, ", r.sweeps, r.seconds.sweeps)
+        } else {
+            String::new()
+        },
         r.seconds.render,
         out.display()
     )?;

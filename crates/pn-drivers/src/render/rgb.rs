@@ -266,6 +266,7 @@ fn sum_timings<'a>(t: impl Iterator<Item = &'a Timings>) -> Timings {
         s.density += x.density;
         s.sources += x.sources;
         s.solve += x.solve;
+        s.sweeps += x.sweeps;
         s.light_depth += x.light_depth;
         s.render += x.render;
         s.total += x.total;

@@ -21,7 +21,7 @@
 //! τ = [`super::solve_setup::ABSORBER_OPTICAL_DEPTH_PER_CELL`].
 //!
 //! **The ramp is fixed in space, not in cells** ([`super::scene::SolveSettings::ramp_cells`],
-//! default 1/12 of the solve cells across the medium box). The continuous P_N equations with
+//! default 1/6 of the solve cells across the medium box). The continuous P_N equations with
 //! a pure absorber reflect nothing in 1-D; their staggered discretization does: a jump of
 //! σ_t·h between two cells reflects part of the light that reaches it, by the same share at
 //! every N (about 0.14 per unit jump of σ_t·h, `scripts/absorber-reflection.py`:

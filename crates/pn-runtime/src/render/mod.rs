@@ -10,6 +10,8 @@
 //! * [`shadow`]: exact optical depth (traversal of the filter's lattice), deep shadow maps;
 //! * [`solve_setup`], [`first_scatter`]: the cropped solve grid, resampled coefficients and
 //!   the first-scatter source moments (a [`crate::problem::Problem`]);
+//! * [`transport_sweep`]: source iterations of the transport equation started from the
+//!   solution, which the renderer reads instead of it;
 //! * [`renderer`]: delta tracking, next-event estimation and the solution lookup;
 //! * [`image_io`]: EXR (write and read back) and tone-mapped PNG;
 //! * `mitsuba`, `compare`: the Mitsuba 3 export and image comparison (helper "mitsuba").
@@ -31,6 +33,7 @@ pub mod scene_override;
 pub mod shadow;
 pub mod solve_setup;
 pub mod source_quadrature;
+pub mod transport_sweep;
 
 pub use camera::Camera;
 pub use lights::Light;

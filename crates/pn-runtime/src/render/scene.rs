@@ -42,9 +42,9 @@
 //! pop_epsilon_a = 0.1       # "pop" residuum: anisotropy threshold of the switch (Eq. 10)
 //! pop_epsilon_l = 1e-3      # "pop" residuum: stop when this fraction is still in flight
 //! resolution = [32, 32, 32] # solve grid over the medium box (may be coarser)
-//! margin = 2                # empty cells kept around the cropped medium
-//! absorber_width = 0.0833   # the absorber's ramp: this fraction of the solve cells across
-//!                           # the medium box (1/12: 1 cell at 12³, 2 at 24³, 4 at 48³)
+//! margin = 0                # empty cells kept around the cropped medium
+//! absorber_width = 0.1667   # the absorber's ramp: this fraction of the solve cells across
+//!                           # the medium box (1/6: 2 cells at 12³, 4 at 24³, 8 at 48³)
 //! absorbing_layer = 2       # optional: the ramp in cells instead, at every resolution (0 = none)
 //! absorber = "hull"         # where it starts: "hull" (outside the medium's convex hull,
 //!                           # default) | "box" (only the outermost cells, beyond the margin)
@@ -53,6 +53,8 @@
 //! tolerance = 1e-3         # DEFAULT_RENDER_TOLERANCE
 //! sigma_t_min = 0.0         # 0 or absent: automatic where vacuum is present
 //! fld_solver = "picard"     # "fld": "picard" (default) | "gs" (nonlinear Gauss–Seidel)
+//! sweeps = 2                # transport sweeps after the solve (0 = none; not for "pop")
+//! sweep_quadrature = 8      # the sweeps' directions: n Gauss nodes in cos θ × 2n in φ
 //! [render]
 //! renderer = "deterministic" # or "montecarlo"
 //! rays = 4                  # deterministic: camera rays per pixel, k² (a k×k pattern)
@@ -256,7 +258,29 @@ pub struct SolveSettings {
     /// Method pop, residuum: ε_L, the fraction of the injected power still in flight at
     /// which the isotropic iteration stops.
     pub pop_epsilon_l: f64,
+    /// Transport sweeps after the solve ([`super::transport_sweep`]; methods pn, cda, fld
+    /// and text PDEs; 0: the solution as solved). [`DEFAULT_SWEEPS`].
+    pub sweeps: usize,
+    /// Gauss–Legendre nodes in μ of the sweeps' directions (`n × 2n` directions,
+    /// [`DEFAULT_SWEEP_QUADRATURE`]).
+    pub sweep_quadrature: usize,
 }
+
+/// Default number of transport sweeps after a render's solve (`[solve] sweeps`). Each is one
+/// source iteration of the transport equation started from the solution, which removes most
+/// of what P_N gets wrong at the medium's vacuum boundary: on the five scenes of issue 17's
+/// study at 24³ the P_5 bias against Mitsuba went from −5.2…−0.5 % to −0.3…+0.9 % with two
+/// sweeps (P_3: −10.3…+3.8 % to −2.5…+2.4 %), for 2–15 % of the solve's time
+/// (docs/vacuum.md, "Transport sweeps").
+pub const DEFAULT_SWEEPS: usize = 2;
+
+/// Default Gauss–Legendre nodes in μ of the sweeps' angular rule (`[solve]
+/// sweep_quadrature`): 8 × 16 = 128 directions, exact for the moments up to l = 7; on the
+/// cloud at P_3 @ 24³ the image moves by 0.08 % of its mean (0.3 % RMS) from 8 to 16 nodes.
+pub const DEFAULT_SWEEP_QUADRATURE: usize = 8;
+
+/// Most transport sweeps a scene may ask for.
+pub const MAX_SWEEPS: usize = 100;
 
 /// Default relative residual of a render's solve (`[solve] tolerance`). The image needs far
 /// less than the solver can give: on the cloud (P_7 @ 32³), the cumulus and the nebula
@@ -514,6 +538,8 @@ struct SolveToml {
     pop_residuum: Option<bool>,
     pop_epsilon_a: Option<f64>,
     pop_epsilon_l: Option<f64>,
+    sweeps: Option<usize>,
+    sweep_quadrature: Option<usize>,
 }
 
 #[derive(Deserialize, Debug)]
@@ -1101,12 +1127,14 @@ fn build(t: SceneToml, base: &Path) -> anyhow::Result<RenderScene> {
         pop_residuum: None,
         pop_epsilon_a: None,
         pop_epsilon_l: None,
+        sweeps: None,
+        sweep_quadrature: None,
     });
     let solve = SolveSettings {
         method: s.method.unwrap_or(RenderMethod::Pn),
         order: s.order.unwrap_or(3),
         resolution: s.resolution.unwrap_or([32; 3]),
-        margin: s.margin.unwrap_or(2),
+        margin: s.margin.unwrap_or(DEFAULT_MARGIN),
         absorber_width: s.absorber_width.unwrap_or(DEFAULT_ABSORBER_WIDTH),
         absorbing_layer: s.absorbing_layer,
         absorber: s.absorber.unwrap_or_default(),
@@ -1119,6 +1147,8 @@ fn build(t: SceneToml, base: &Path) -> anyhow::Result<RenderScene> {
         pop_residuum: s.pop_residuum.unwrap_or(false),
         pop_epsilon_a: s.pop_epsilon_a.unwrap_or(POP_DEFAULT_EPSILON_A),
         pop_epsilon_l: s.pop_epsilon_l.unwrap_or(POP_DEFAULT_EPSILON_L),
+        sweeps: s.sweeps.unwrap_or(DEFAULT_SWEEPS),
+        sweep_quadrature: s.sweep_quadrature.unwrap_or(DEFAULT_SWEEP_QUADRATURE),
     };
     solve.validate().context("[solve]")?;
     let r = t.render.unwrap_or(RenderToml {
@@ -1155,13 +1185,22 @@ fn build(t: SceneToml, base: &Path) -> anyhow::Result<RenderScene> {
 }
 
 /// Default width of the absorber's ramp, as a fraction of the solve cells across the medium
-/// box ([`SolveSettings::absorber_width`]): one cell at a 12-cell grid, the coarsest grids
-/// renders use, where it is the 1-cell ramp that shorter ramps cannot undercut; from there it
-/// keeps its size in space (2 cells at 24³, 4 at 48³). A ramp fixed in cells reflects the
-/// same share of the light at every h and N, so the image stops converging (docs/vacuum.md,
-/// "The absorber must shrink in space, not in cells"); one fixed in space is resolved as
-/// h → 0 and converges, to transport as N → ∞ as well.
-pub const DEFAULT_ABSORBER_WIDTH: f64 = 1.0 / 12.0;
+/// box ([`SolveSettings::absorber_width`]): 2 cells at 12³, 4 at 24³, 8 at 48³. A ramp fixed
+/// in cells reflects the same share of the light at every h and N, so the image stops
+/// converging (docs/vacuum.md, "The absorber must shrink in space, not in cells"); one fixed
+/// in space is resolved as h → 0 and converges, to transport as N → ∞ as well. At a given
+/// grid a wider ramp reflects less (a 2-cell ramp 0.125 of the amplitude, a 4-cell one 0.058,
+/// `scripts/absorber-reflection.py`): the former 1/12 left the cumulus' +2 % offset of
+/// issue 17, which 1/6 removes (docs/vacuum.md, "Transport sweeps"). With the empty margin
+/// gone ([`DEFAULT_MARGIN`]) the solve grid at 24³ has as many cells as with 1/12 and a
+/// 2-cell margin.
+pub const DEFAULT_ABSORBER_WIDTH: f64 = 1.0 / 6.0;
+
+/// Default empty margin around the cropped medium (`[solve] margin`), in cells. The hull
+/// absorber starts at the medium's convex hull, so the cells of a margin only lengthen the
+/// absorber's full-strength tail; they change no image (0.00 pp on five scenes,
+/// docs/vacuum.md) and cost unknowns.
+pub const DEFAULT_MARGIN: usize = 0;
 
 impl SolveSettings {
     /// The absorber's ramp in solve cells: [`Self::absorbing_layer`] when set, else
@@ -1244,6 +1283,16 @@ impl SolveSettings {
                 "{name} must lie in (0, 1), got {v}"
             );
         }
+        ensure!(
+            self.sweeps <= MAX_SWEEPS,
+            "sweeps must be at most {MAX_SWEEPS}, got {}",
+            self.sweeps
+        );
+        ensure!(
+            (1..=64).contains(&self.sweep_quadrature),
+            "sweep_quadrature must lie in 1..=64 (Gauss nodes in cos θ), got {}",
+            self.sweep_quadrature
+        );
         if self.boundary == SolveBoundary::Marshak {
             ensure!(
                 self.method == RenderMethod::Pn && self.order % 2 == 1,
@@ -1519,12 +1568,12 @@ height = 8
         }
     }
 
-    /// The default ramp keeps its size in space: 1 cell at 12³, 2 at 24³, 4 at 48³ (the
+    /// The default ramp keeps its size in space: 2 cells at 12³, 4 at 24³, 8 at 48³ (the
     /// padding rounds it up); `absorbing_layer` fixes it in cells instead.
     #[test]
     fn the_absorber_ramp_is_fixed_in_space_unless_given_in_cells() {
         let with = |r: &str| format!("{MINIMAL}[solve]\n{r}\n");
-        for (res, cells) in [(12, 1.0), (24, 2.0), (48, 4.0), (32, 32.0 / 12.0)] {
+        for (res, cells) in [(12, 2.0), (24, 4.0), (48, 8.0), (32, 32.0 / 6.0)] {
             let s = parse(&with(&format!("resolution = [{res}, {res}, {res}]"))).unwrap();
             assert!((s.solve.ramp_cells() - cells).abs() < 1e-12, "{res}");
             assert_eq!(s.solve.padding(), s.solve.margin + cells.ceil() as usize);

@@ -1,0 +1,456 @@
+//! Transport sweeps after the P_N solve: source iterations of the transport equation that
+//! start from the P_N solution (docs/design.md §6, docs/vacuum.md "Transport sweeps").
+//!
+//! The P_N solution L of the collided radiance is accurate where the radiance is smooth in
+//! angle and poor where it is not: near the medium's surface, whose outgoing radiance has no
+//! incoming counterpart (the vacuum boundary), and across the near-vacuum of concavities.
+//! One **sweep** solves the transport equation with the scattering source taken from L,
+//!
+//! ```text
+//! ω·∇L'(x,ω) + σ_t L'(x,ω) = Σ_{l,m} [Q_l^m(x) + σ_s(x) λ_l p_l L_l^m(x)] Y_l^m(ω),
+//! ```
+//!
+//! in discrete directions ω_k (a Gauss–Legendre × uniform product rule), and projects L' back
+//! onto the moments, `L'_l^m = Σ_k w_k L'(ω_k) Y_l^m(ω_k)` (l ≤ N). This is one step of source
+//! iteration, the fixed-point iteration of the transport equation, so its error is the
+//! P_N solution's error after one more scattering event: the angular structure of the
+//! radiance, the vacuum boundary (nothing enters from outside the grid) and the transport
+//! across near-vacuum are exact up to the discretization of the sweep. Repeated sweeps
+//! converge to the discrete-ordinates solution of the transport equation (for albedo < 1),
+//! whatever the starting point; starting from P_N they need few. As the directions, the
+//! grid and N are refined, the result converges to transport.
+//!
+//! **Discretization** (one cell per unknown, the solve grid's cell centres): the upwind
+//! step scheme
+//!
+//! ```text
+//! L'_c = (S_c(ω) + Σ_d a_d L'_{up_d(c)}) / (σ_t,c + Σ_d a_d),   a_d = |ω_d| / h_d,
+//! ```
+//!
+//! with `up_d(c)` the neighbour of c on the side ω comes from along axis d (0 outside the
+//! grid: vacuum). It is first order in h, positive, and exact for a constant state; its
+//! numerical diffusion spreads beams across directions in optically thin cells.
+//!
+//! The source moments Q and the coefficients are those of the [`Problem`] the P_N system
+//! solved (the σ_t threshold and the absorber included).
+
+use crate::field::Field;
+use crate::problem::{Grid, Problem, Scattering};
+use crate::unstagger::CellMoments;
+use anyhow::{bail, ensure, Result};
+use pn_stencil::quadrature::{real_sh, SphereQuadrature};
+use rayon::prelude::*;
+
+/// Number of sweeps and the angular rule.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SweepSettings {
+    /// Source iterations after the solve (0: none).
+    pub sweeps: usize,
+    /// Gauss–Legendre nodes in μ = cos θ; `2 × n_mu` uniform nodes in φ.
+    pub n_mu: usize,
+}
+
+impl SweepSettings {
+    /// The angular rule: `n_mu × 2 n_mu` directions, weights summing to 4π.
+    pub fn quadrature(&self) -> SphereQuadrature {
+        SphereQuadrature::new(self.n_mu, 2 * self.n_mu)
+    }
+}
+
+/// `sweeps` source iterations starting from `moments` (the un-staggered P_N solution of
+/// `problem`); returns the moments of the last sweep's radiance, l ≤ the input's lmax.
+pub fn transport_sweeps(
+    problem: &Problem,
+    moments: &CellMoments,
+    settings: SweepSettings,
+) -> Result<CellMoments> {
+    let grid = &problem.grid;
+    ensure!(
+        moments.res == grid.res,
+        "internal: moments of {:?} cells do not fit the grid {:?}",
+        moments.res,
+        grid.res
+    );
+    ensure!(settings.n_mu >= 1, "the sweep needs at least one direction");
+    let pc = moments.per_cell;
+    let lmax = (pc as f64).sqrt().round() as usize - 1;
+    let [nx, ny, nz] = grid.res;
+    let n = nx * ny * nz;
+    // Moments the renderer and the scattering source read: λ_l p_l ≠ 0.
+    let factor: Vec<f64> = (0..=lmax).map(|l| problem.phase.moment(l as u32)).collect();
+    let active: Vec<(usize, usize)> = (0..=lmax)
+        .filter(|&l| factor[l] != 0.0)
+        .flat_map(|l| {
+            (-(l as i64)..=l as i64).map(move |m| (l, (l as i64 * (l as i64 + 1) + m) as usize))
+        })
+        .collect();
+
+    // Coefficients as the assembly reads them at the cell centres (threshold included).
+    let raw_t = cell_values(&problem.sigma_t, grid);
+    let sigma_t: Vec<f64> = raw_t
+        .iter()
+        .map(|&t| problem.sigma_t_min.map_or(t, |m| t.max(m)))
+        .collect();
+    let sigma_s: Vec<f64> = match &problem.scattering {
+        Scattering::SigmaS(f) => cell_values(f, grid),
+        Scattering::Albedo(f) => cell_values(f, grid)
+            .iter()
+            .zip(&raw_t)
+            .map(|(a, t)| a * t)
+            .collect(),
+    };
+    if let Some(c) = (0..n).find(|&c| {
+        !(sigma_t[c].is_finite()
+            && sigma_s[c].is_finite()
+            && sigma_t[c] >= 0.0
+            && sigma_s[c] >= 0.0)
+    }) {
+        bail!(
+            "transport sweep: invalid coefficients in cell {c}: σ_t = {}, σ_s = {}",
+            sigma_t[c],
+            sigma_s[c]
+        );
+    }
+    let mut q = vec![0.0; n * active.len()];
+    for src in &problem.sources {
+        let l = src.l as usize;
+        let idx = (l as i64 * (l as i64 + 1) + src.m as i64) as usize;
+        let Some(a) = active.iter().position(|&(l2, i2)| l2 == l && i2 == idx) else {
+            continue;
+        };
+        for (c, v) in cell_values(&src.field, grid).into_iter().enumerate() {
+            q[c * active.len() + a] += v;
+        }
+    }
+
+    let quad = settings.quadrature();
+    let na = active.len();
+    let h = [0, 1, 2].map(|d| grid.h(d));
+    // The directions by octant: within one, every direction has the same sweep order and
+    // the same upwind neighbours, so a cell's emission and moment accumulator are read once
+    // per octant for all its directions (the sweep is compute-bound, not memory-bound).
+    let octants: Vec<Octant> = (0..8)
+        .map(|o| {
+            let sign = [o & 1 != 0, o & 2 != 0, o & 4 != 0];
+            let mut oct = Octant {
+                positive: sign,
+                y: Vec::new(),
+                weight: Vec::new(),
+                a: Vec::new(),
+                ell: Vec::new(),
+            };
+            for ((dir, mu, phi), w) in quad.points.iter().zip(&quad.weights) {
+                if (0..3).any(|d| (dir[d] >= 0.0) != sign[d]) {
+                    continue;
+                }
+                let a = [0, 1, 2].map(|d| dir[d].abs() / h[d]);
+                oct.a.push(a);
+                oct.ell.push(1.0 / (a[0] + a[1] + a[2]));
+                oct.weight.push(*w);
+                oct.y.extend(active.iter().map(|&(l, idx)| {
+                    let m = idx as i64 - (l as i64 * (l as i64 + 1));
+                    real_sh(l, m, *mu, *phi)
+                }));
+            }
+            oct
+        })
+        .filter(|o| !o.weight.is_empty())
+        .collect();
+
+    // L on the active moments.
+    let mut l_act: Vec<f64> = (0..n)
+        .flat_map(|c| {
+            active
+                .iter()
+                .map(move |&(_, idx)| moments.data[c * pc + idx])
+        })
+        .collect();
+    let sweep_grid = SweepGrid {
+        res: grid.res,
+        sigma_t: &sigma_t,
+        na,
+    };
+    for _ in 0..settings.sweeps {
+        // Emission moments E = Q + σ_s λ_l p_l L.
+        let e: Vec<f64> = (0..n * na)
+            .map(|i| {
+                let (c, a) = (i / na, i % na);
+                q[i] + sigma_s[c] * factor[active[a].0] * l_act[i]
+            })
+            .collect();
+        l_act = octants
+            .par_iter()
+            .map(|oct| sweep_grid.sweep_octant(oct, &e))
+            .reduce(
+                || vec![0.0; n * na],
+                |mut a, b| {
+                    for (x, y) in a.iter_mut().zip(&b) {
+                        *x += y;
+                    }
+                    a
+                },
+            );
+    }
+    let mut out = CellMoments {
+        res: moments.res,
+        per_cell: pc,
+        data: vec![0.0; n * pc],
+    };
+    for c in 0..n {
+        for (a, &(_, idx)) in active.iter().enumerate() {
+            out.data[c * pc + idx] = l_act[c * na + a];
+        }
+    }
+    Ok(out)
+}
+
+/// The directions of one octant of the sphere.
+struct Octant {
+    /// Whether ω_x, ω_y, ω_z are ≥ 0.
+    positive: [bool; 3],
+    /// `Y_l^m(ω_k)` of the active moments, one row of `na` per direction.
+    y: Vec<f64>,
+    /// Quadrature weights.
+    weight: Vec<f64>,
+    /// `a_d = |ω_d| / h_d` per direction.
+    a: Vec<[f64; 3]>,
+    /// `ℓ = 1 / Σ_d a_d`: the distance along ω from the upwind neighbours' weighted mean.
+    ell: Vec<f64>,
+}
+
+/// What every octant's sweep reads.
+struct SweepGrid<'a> {
+    res: [usize; 3],
+    sigma_t: &'a [f64],
+    /// Active moments per cell.
+    na: usize,
+}
+
+impl SweepGrid<'_> {
+    /// Sweeps the directions of `oct` with the emission moments `e` (`na` per cell) and
+    /// returns their contribution `Σ_k w_k L'(ω_k) Y(ω_k)` to the moments.
+    fn sweep_octant(&self, oct: &Octant, e: &[f64]) -> Vec<f64> {
+        let [nx, ny, nz] = self.res;
+        let na = self.na;
+        let nd = oct.weight.len();
+        let mut acc = vec![0.0; nx * ny * nz * na];
+        let mut psi = vec![0.0; nx * ny * nz * nd];
+        let mut wv = vec![0.0; nd];
+        let order = |len: usize, positive: bool| -> Vec<usize> {
+            if positive {
+                (0..len).collect()
+            } else {
+                (0..len).rev().collect()
+            }
+        };
+        // The neighbour on the side the light comes from, None at the inflow face (vacuum).
+        let upwind = |i: usize, len: usize, positive: bool| -> Option<usize> {
+            if positive {
+                i.checked_sub(1)
+            } else {
+                (i + 1 < len).then_some(i + 1)
+            }
+        };
+        let [px, py, pz] = oct.positive;
+        for i in order(nx, px) {
+            let ui = upwind(i, nx, px);
+            for j in order(ny, py) {
+                let uj = upwind(j, ny, py);
+                for k in order(nz, pz) {
+                    let uk = upwind(k, nz, pz);
+                    let c = (i * ny + j) * nz + k;
+                    let up = [
+                        ui.map(|u| (u * ny + j) * nz + k),
+                        uj.map(|u| (i * ny + u) * nz + k),
+                        uk.map(|u| (i * ny + j) * nz + u),
+                    ];
+                    let ec = &e[c * na..(c + 1) * na];
+                    let st = self.sigma_t[c];
+                    for d in 0..nd {
+                        let yd = &oct.y[d * na..(d + 1) * na];
+                        let s: f64 = ec.iter().zip(yd).map(|(a, b)| a * b).sum();
+                        let a = oct.a[d];
+                        let mut inflow = 0.0;
+                        for (ax, u) in up.iter().enumerate() {
+                            if let Some(u) = u {
+                                inflow += a[ax] * psi[u * nd + d];
+                            }
+                        }
+                        // ψ_in e^{−σℓ} + S/σ (1 − e^{−σℓ}) with ψ_in = Σ_d a_d ψ_up,d · ℓ.
+                        let ell = oct.ell[d];
+                        let tau = st * ell;
+                        let att = (-tau).exp();
+                        let frac = if tau > 1e-8 { (1.0 - att) / st } else { ell };
+                        let v = inflow * ell * att + s * frac;
+                        psi[c * nd + d] = v;
+                        wv[d] = oct.weight[d] * v;
+                    }
+                    let ac = &mut acc[c * na..(c + 1) * na];
+                    for (yd, &w) in oct.y.chunks_exact(na).zip(&wv) {
+                        for (x, y) in ac.iter_mut().zip(yd) {
+                            *x += w * y;
+                        }
+                    }
+                }
+            }
+        }
+        acc
+    }
+}
+
+/// `field` at the cell centres of `grid` (x slowest): voxel data on the grid's own cells is
+/// read as is, anything else evaluated at the centres.
+fn cell_values(field: &Field, grid: &Grid) -> Vec<f64> {
+    match field {
+        Field::Constant(v) => vec![*v; grid.cells()],
+        Field::Scaled(f, inner) => cell_values(inner, grid)
+            .into_iter()
+            .map(|v| f * v)
+            .collect(),
+        Field::Voxel(v) if v.dims == grid.res && v.min == grid.min && v.max == grid.max => {
+            v.data.clone()
+        }
+        _ => {
+            let [_, ny, nz] = grid.res;
+            (0..grid.cells())
+                .map(|c| {
+                    let x =
+                        super::shadow::cell_centre(grid, [c / (ny * nz), (c / nz) % ny, c % nz]);
+                    field.eval(x)
+                })
+                .collect()
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::field::Field;
+    use crate::problem::{Boundary, Phase, Scattering, SourceTerm};
+    use pn_stencil::quadrature::SphereQuadrature;
+
+    const Y00: f64 = 0.282_094_791_773_878_14; // 1/√(4π)
+
+    fn cube(res: usize, sigma_t: f64, sigma_s: f64, phase: Phase, q00: f64) -> Problem {
+        Problem {
+            grid: crate::render::test_box_grid([res; 3]),
+            sigma_t: Field::Constant(sigma_t),
+            scattering: Scattering::SigmaS(Field::Constant(sigma_s)),
+            phase,
+            sources: vec![SourceTerm {
+                l: 0,
+                m: 0,
+                field: Field::Constant(q00),
+            }],
+            boundary: Boundary::Dirichlet,
+            sigma_t_min: None,
+        }
+    }
+
+    fn zeros(res: usize, lmax: usize) -> CellMoments {
+        let pc = (lmax + 1) * (lmax + 1);
+        CellMoments {
+            res: [res; 3],
+            per_cell: pc,
+            data: vec![0.0; res * res * res * pc],
+        }
+    }
+
+    /// A homogeneous pure absorber (σ_t = 1) filling [−1, 1]³ with uniform isotropic
+    /// emission, vacuum outside: one sweep is the transport solution, and the scalar flux at
+    /// the centre must approach `∫ S (1 − e^{−d(ω)}) dω` (d the distance to the box along −ω)
+    /// at first order in h: measured −1.6 / −0.84 / −0.50 % at 15 / 31 / 63 cells (the step
+    /// scheme's interpolation), bounds 2.5 / 1.3 / 0.7 %, and the error must shrink.
+    #[test]
+    fn one_sweep_of_an_emitting_absorber_converges_to_transport() {
+        let s = Y00; // S = Q_0^0 Y_0^0 with Q_0^0 = 1
+        let quad = SphereQuadrature::new(200, 400);
+        let exact: f64 = quad
+            .points
+            .iter()
+            .zip(&quad.weights)
+            .map(|((dir, _, _), w)| {
+                let d = (0..3)
+                    .map(|a| 1.0 / dir[a].abs())
+                    .fold(f64::INFINITY, f64::min);
+                w * s * (1.0 - (-d).exp())
+            })
+            .sum();
+        let mut last = f64::INFINITY;
+        for (res, bound) in [(15usize, 0.025), (31, 0.013), (63, 0.007)] {
+            let problem = cube(res, 1.0, 0.0, Phase::Isotropic, 1.0);
+            let settings = SweepSettings { sweeps: 1, n_mu: 8 };
+            let out = transport_sweeps(&problem, &zeros(res, 0), settings).unwrap();
+            let c = res / 2;
+            let err = (out.get(c, c, c, 0) / Y00 / exact - 1.0).abs();
+            assert!(
+                err < bound && err < last,
+                "{res} cells: relative error {err}"
+            );
+            last = err;
+        }
+    }
+
+    /// Source iteration converges to the fixed point of the discrete transport equation, and
+    /// a sweep of that fixed point returns it: HG g = 0.5, albedo 0.6 in a 9³ cube, l ≤ 3.
+    /// From zero, 60 sweeps contract the error by about 0.6⁶⁰; one more sweep must change
+    /// every moment by less than 1e-9 of the largest.
+    #[test]
+    fn sweeps_reach_a_fixed_point_and_keep_it() {
+        let problem = cube(9, 2.0, 1.2, Phase::HenyeyGreenstein(0.5), 1.0);
+        let settings = |sweeps| SweepSettings { sweeps, n_mu: 6 };
+        let fixed = transport_sweeps(&problem, &zeros(9, 3), settings(60)).unwrap();
+        let again = transport_sweeps(&problem, &fixed, settings(1)).unwrap();
+        let scale = fixed.data.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        assert!(scale > 0.1, "no radiance: {scale}");
+        let worst = fixed
+            .data
+            .iter()
+            .zip(&again.data)
+            .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+        assert!(worst < 1e-9 * scale, "{worst} against {scale}");
+        // Scattering adds light: the fixed point is brighter than the first sweep.
+        let first = transport_sweeps(&problem, &zeros(9, 3), settings(1)).unwrap();
+        assert!(fixed.get(4, 4, 4, 0) > 1.3 * first.get(4, 4, 4, 0));
+        // The anisotropic moments are carried: an off-centre cell has a net flux outward.
+        assert!(fixed.get(8, 4, 4, 3) != 0.0 || fixed.get(8, 4, 4, 1) != 0.0);
+    }
+
+    /// Deep inside an optically thick homogeneous cube (half-width 20 mean free paths) the
+    /// converged sweeps give the infinite-medium flux φ = 4π S / (σ_t − σ_s) for any phase
+    /// function (the step scheme is exact for a constant state), to 1e-6 after 120 sweeps
+    /// at albedo 0.6 (error ~0.6¹²⁰).
+    #[test]
+    fn converged_sweeps_give_the_infinite_medium_flux() {
+        let problem = cube(11, 20.0, 12.0, Phase::HenyeyGreenstein(0.5), 1.0);
+        let out = transport_sweeps(
+            &problem,
+            &zeros(11, 2),
+            SweepSettings {
+                sweeps: 120,
+                n_mu: 4,
+            },
+        )
+        .unwrap();
+        let phi = out.get(5, 5, 5, 0) / Y00;
+        let want = 4.0 * std::f64::consts::PI * Y00 / (20.0 - 12.0);
+        assert!((phi / want - 1.0).abs() < 1e-6, "{phi} vs {want}");
+    }
+
+    /// Moments a phase function does not see (λ_l p_l = 0) are dropped; invalid
+    /// coefficients are an error, not a NaN image.
+    #[test]
+    fn isotropic_scattering_keeps_only_the_scalar_moment_and_nan_is_refused() {
+        let problem = cube(5, 1.0, 0.5, Phase::Isotropic, 1.0);
+        let mut start = zeros(5, 1);
+        start.data.iter_mut().for_each(|v| *v = 1.0);
+        let out = transport_sweeps(&problem, &start, SweepSettings { sweeps: 1, n_mu: 4 }).unwrap();
+        assert!(out.data.chunks(4).all(|c| c[0] > 0.0 && c[1..] == [0.0; 3]));
+        let bad = cube(5, f64::NAN, 0.5, Phase::Isotropic, 1.0);
+        let e = transport_sweeps(&bad, &start, SweepSettings { sweeps: 1, n_mu: 4 })
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("invalid coefficients"), "{e}");
+    }
+}
