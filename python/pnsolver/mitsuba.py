@@ -35,8 +35,8 @@ not solve again.
 Integrator properties: `method` ("pn", "cda", "fld"; default "pn"; "none": single scattering
 only), `order` (3),
 `resolution` (solve cells per axis: an integer or "nx,ny,nz"; default 32), `tolerance`
-(1e-4), `margin`, `absorber_width`, `absorbing_layer` (the `[solve]` keys of a pn render scene; defaults as
-there), `threads` (default: all cores).
+(1e-4), `margin`, `absorber_width`, `absorbing_layer`, `sweeps` (the `[solve]` keys of a pn render
+scene; defaults as there: 2 transport sweeps after the solve), `threads` (default: all cores).
 """
 
 from __future__ import annotations
@@ -481,7 +481,7 @@ class PnIntegrator:
             res = [int(res)] * 3
         solve_settings["resolution"] = res
         solve_settings["tolerance"] = float(props.get("tolerance", 1e-4))
-        for key in ("margin", "absorbing_layer"):
+        for key in ("margin", "absorbing_layer", "sweeps"):
             if key in props:
                 solve_settings[key] = int(props[key])
         if "absorber_width" in props:
