@@ -20,16 +20,20 @@
 //! whatever the starting point; starting from P_N they need few. As the directions, the
 //! grid and N are refined, the result converges to transport.
 //!
-//! **Discretization** (one cell per unknown, the solve grid's cell centres): the upwind
-//! step scheme
+//! **Discretization** (one value per cell and direction, at the solve grid's cell centres):
+//! an upwind step scheme with exact attenuation,
 //!
 //! ```text
-//! L'_c = (S_c(ω) + Σ_d a_d L'_{up_d(c)}) / (σ_t,c + Σ_d a_d),   a_d = |ω_d| / h_d,
+//! L'_c = L_in e^{−σ_t,c ℓ} + S_c(ω)/σ_t,c (1 − e^{−σ_t,c ℓ}),
+//! L_in = ℓ Σ_d a_d L'_{up_d(c)},   a_d = |ω_d| / h_d,   ℓ = 1 / Σ_d a_d,
 //! ```
 //!
 //! with `up_d(c)` the neighbour of c on the side ω comes from along axis d (0 outside the
-//! grid: vacuum). It is first order in h, positive, and exact for a constant state; its
-//! numerical diffusion spreads beams across directions in optically thin cells.
+//! grid: vacuum). L_in is the radiance at the weighted mean of the upwind centres, which lies
+//! ℓ behind c along ω. The scheme is first order in h (the interpolation spreads beams across
+//! directions), positive, exact for a constant state and for attenuation along the axes;
+//! the plain step scheme `(S + Σ a_d L'_up)/(σ_t + Σ a_d)` under-attenuates cells of optical
+//! thickness ~1 (1/(1+τ) instead of e^{−τ}) and left the sphere's image 1.7 pp darker at P_5 @ 24³.
 //!
 //! The source moments Q and the coefficients are those of the [`Problem`] the P_N system
 //! solved (the σ_t threshold and the absorber included).
@@ -87,6 +91,12 @@ pub fn transport_sweeps(
 
     // Coefficients as the assembly reads them at the cell centres (threshold included).
     let raw_t = cell_values(&problem.sigma_t, grid);
+    if let Some(c) = raw_t.iter().position(|t| !(t.is_finite() && *t >= 0.0)) {
+        bail!(
+            "transport sweep: invalid coefficients in cell {c}: σ_t = {}",
+            raw_t[c]
+        );
+    }
     let sigma_t: Vec<f64> = raw_t
         .iter()
         .map(|&t| problem.sigma_t_min.map_or(t, |m| t.max(m)))
@@ -452,5 +462,14 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("invalid coefficients"), "{e}");
+        // A threshold must not hide it (f64::max would turn NaN into the threshold).
+        let bad = Problem {
+            sigma_t_min: Some(0.1),
+            ..cube(5, f64::NAN, 0.5, Phase::Isotropic, 1.0)
+        };
+        let e = transport_sweeps(&bad, &start, SweepSettings { sweeps: 1, n_mu: 4 })
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("σ_t = NaN"), "{e}");
     }
 }
