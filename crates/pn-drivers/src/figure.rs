@@ -249,7 +249,7 @@ fn write_tables(out: &Path, entries: &[Entry], reference: Option<&Path>) -> Resu
     );
     for e in entries {
         let r = &e.run.report;
-        let solve = r.seconds.light_depth + r.seconds.sources + r.seconds.solve;
+        let solve = r.seconds.light_depth + r.seconds.sources + r.seconds.solve + r.seconds.sweeps;
         let unknowns = r.unknowns.as_ref().map_or(0, |u| u.solved);
         let iterations = r.solver.as_ref().map_or(0, |s| s.iterations);
         let m = e.metrics.as_ref();
@@ -340,7 +340,7 @@ fn write_figure(path: &Path, entries: &[Entry], reference: Option<&GrayImage>) -
     };
     for (c, e) in entries.iter().enumerate() {
         let r = &e.run.report;
-        let solve = r.seconds.light_depth + r.seconds.sources + r.seconds.solve;
+        let solve = r.seconds.light_depth + r.seconds.sources + r.seconds.solve + r.seconds.sweeps;
         let sub = format!("solve {solve:.1} s, render {:.1} s", r.seconds.render);
         let data = &e.run.image.data;
         draw_panel(c, 0, &|i| tone(data[i] as f64), e.label, &sub)?;
