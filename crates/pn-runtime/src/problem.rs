@@ -436,17 +436,30 @@ pub enum CoefficientError {
 impl Problem {
     /// σ_t and σ_s at `p`, with the threshold applied and the values checked.
     pub fn coefficients(&self, p: Point) -> Result<Coefficients, CoefficientError> {
+        let scattering = match &self.scattering {
+            Scattering::SigmaS(f) | Scattering::Albedo(f) => f.eval(p),
+        };
+        self.coefficients_from(self.sigma_t.eval(p), scattering, p)
+    }
+
+    /// [`Self::coefficients`] from values already read at `p`: `raw_t` of [`Self::sigma_t`]
+    /// and `scattering` of the [`Self::scattering`] field (σ_s or the albedo, as that says).
+    pub fn coefficients_from(
+        &self,
+        raw_t: f64,
+        scattering: f64,
+        p: Point,
+    ) -> Result<Coefficients, CoefficientError> {
         let [x, y, z] = p;
-        let raw_t = self.sigma_t.eval(p);
         check("σ_t", raw_t, p)?;
         let sigma_s = match &self.scattering {
-            Scattering::SigmaS(f) => {
-                let s = f.eval(p);
+            Scattering::SigmaS(_) => {
+                let s = scattering;
                 check("σ_s", s, p)?;
                 s
             }
-            Scattering::Albedo(f) => {
-                let a = f.eval(p);
+            Scattering::Albedo(_) => {
+                let a = scattering;
                 check("albedo", a, p)?;
                 if a > 1.0 + 1e-12 {
                     return Err(CoefficientError::ScatteringExceedsExtinction {

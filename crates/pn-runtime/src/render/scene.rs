@@ -269,8 +269,8 @@ pub struct SolveSettings {
 /// Default number of transport sweeps after a render's solve (`[solve] sweeps`). Each is one
 /// source iteration of the transport equation started from the solution, which removes most
 /// of what P_N gets wrong at the medium's vacuum boundary: on the five scenes of issue 17's
-/// study at 24³ the P_5 bias against Mitsuba went from −5.2…−0.5 % to −0.3…+0.9 % with two
-/// sweeps (P_3: −10.3…+3.8 % to −2.5…+2.4 %), for 6–18 % of the solve's time
+/// study at 24³ the P_5 bias against Mitsuba went from −4.9…−0.2 % to −0.1…+1.0 % with two
+/// sweeps (P_3: −10.0…+3.8 % to −2.3…+2.6 %), for 6–18 % of the solve's time
 /// (docs/vacuum.md, "Transport sweeps").
 pub const DEFAULT_SWEEPS: usize = 2;
 

@@ -41,7 +41,7 @@
 use crate::field::Field;
 use crate::problem::{Grid, Problem, Scattering};
 use crate::unstagger::CellMoments;
-use anyhow::{bail, ensure, Result};
+use anyhow::{anyhow, ensure, Result};
 use pn_stencil::quadrature::{real_sh, SphereQuadrature};
 use rayon::prelude::*;
 
@@ -89,37 +89,29 @@ pub fn transport_sweeps(
         })
         .collect();
 
-    // Coefficients as the assembly reads them at the cell centres (threshold included).
+    // Coefficients as the assembly reads them at the cell centres: the problem's own
+    // threshold and checks, on the voxel values read once per field.
     let raw_t = cell_values(&problem.sigma_t, grid);
-    if let Some(c) = raw_t.iter().position(|t| !(t.is_finite() && *t >= 0.0)) {
-        bail!(
-            "transport sweep: invalid coefficients in cell {c}: σ_t = {}",
-            raw_t[c]
-        );
-    }
-    let sigma_t: Vec<f64> = raw_t
-        .iter()
-        .map(|&t| problem.sigma_t_min.map_or(t, |m| t.max(m)))
-        .collect();
-    let sigma_s: Vec<f64> = match &problem.scattering {
-        Scattering::SigmaS(f) => cell_values(f, grid),
-        Scattering::Albedo(f) => cell_values(f, grid)
-            .iter()
-            .zip(&raw_t)
-            .map(|(a, t)| a * t)
-            .collect(),
-    };
-    if let Some(c) = (0..n).find(|&c| {
-        !(sigma_t[c].is_finite()
-            && sigma_s[c].is_finite()
-            && sigma_t[c] >= 0.0
-            && sigma_s[c] >= 0.0)
-    }) {
-        bail!(
-            "transport sweep: invalid coefficients in cell {c}: σ_t = {}, σ_s = {}",
-            sigma_t[c],
-            sigma_s[c]
-        );
+    let scattering = cell_values(
+        match &problem.scattering {
+            Scattering::SigmaS(f) | Scattering::Albedo(f) => f,
+        },
+        grid,
+    );
+    let mut sigma_t = vec![0.0; n];
+    let mut sigma_s = vec![0.0; n];
+    for c in 0..n {
+        let x = super::shadow::cell_centre(grid, [c / (ny * nz), (c / nz) % ny, c % nz]);
+        let co = problem
+            .coefficients_from(raw_t[c], scattering[c], x)
+            .map_err(|e| {
+                anyhow!(
+                    "transport sweep: invalid coefficients in cell {c}: σ_t = {}: {e}",
+                    raw_t[c]
+                )
+            })?;
+        sigma_t[c] = co.sigma_t;
+        sigma_s[c] = co.sigma_s;
     }
     let mut q = vec![0.0; n * active.len()];
     for src in &problem.sources {
