@@ -59,6 +59,17 @@ pub fn build_rows(
     n_cols: usize,
     row: impl Fn(usize, &mut RowAccumulator) + Sync,
 ) -> CsMat<f64> {
+    build_rows_with(n_rows, n_cols, || (), |i, acc, _| row(i, acc))
+}
+
+/// [`build_rows`] with a scratch value per parallel task, made by `scratch` and handed to
+/// every row of the task (`row(i, acc, scratch)`).
+pub fn build_rows_with<T>(
+    n_rows: usize,
+    n_cols: usize,
+    scratch: impl Fn() -> T + Sync,
+    row: impl Fn(usize, &mut RowAccumulator, &mut T) + Sync,
+) -> CsMat<f64> {
     let tasks = (4 * rayon::current_num_threads()).clamp(1, n_rows.max(1));
     let per = n_rows.div_ceil(tasks).max(1);
     let chunks: Vec<(Vec<usize>, Vec<usize>, Vec<f64>)> = (0..n_rows.div_ceil(per))
@@ -66,8 +77,9 @@ pub fn build_rows(
         .map(|c| {
             let (mut nnz, mut cols, mut vals) = (Vec::new(), Vec::new(), Vec::new());
             let mut acc = RowAccumulator::new(n_cols);
+            let mut own = scratch();
             for i in c * per..((c + 1) * per).min(n_rows) {
-                row(i, &mut acc);
+                row(i, &mut acc, &mut own);
                 let start = cols.len();
                 acc.drain(&mut cols, &mut vals);
                 nnz.push(cols.len() - start);

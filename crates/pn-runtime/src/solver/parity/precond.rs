@@ -201,11 +201,20 @@ impl Built {
             coords: split.even.iter().map(|&g| geometry.coords[g]).collect(),
         };
         let apply = |x: &[f64], y: &mut [f64]| fine.apply(x, y);
+        // From the stencils where `S` is applied from them (no pass over the blocks).
+        let stencil = fine.stencil();
+        let diag = match stencil {
+            Some(st) => st.diagonal(split),
+            None => diagonal(split),
+        };
         let mg = Multigrid::build(
             &apply,
-            &diagonal(split),
+            &diag,
             &even,
-            |agg| super::galerkin::coarse_from_split(split, agg),
+            |agg| match stencil {
+                Some(st) => st.coarse(split, agg),
+                None => super::galerkin::coarse_from_split(split, agg),
+            },
             opts,
         )?;
         Ok(Built::Multigrid(mg))

@@ -64,6 +64,11 @@ impl<'a> ReducedOperator<'a> {
         self
     }
 
+    /// The stencils `S` is applied from, if any ([`ReducedOperator::with_stencil`]).
+    pub fn stencil(&self) -> Option<&StencilReduced> {
+        self.stencil.as_ref()
+    }
+
     /// Whether `S` is applied from the blocks' stencils.
     pub fn is_stencil(&self) -> bool {
         self.stencil.is_some()

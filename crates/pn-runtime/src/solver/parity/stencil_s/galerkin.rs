@@ -1,0 +1,345 @@
+//! The multigrid setup's products from the stencils: `diag(S)` and the first Galerkin
+//! operator `Pᵀ S P` (issue 19: "Galerkin products from the matrix-free stencil").
+//!
+//! Both read the rows of `B` and of `C̃ = D_o⁻¹ C` as their moment's stencil restricted
+//! to the grid plus the row's corrections ([`StencilBlock`]), never the blocks' stored
+//! entries, and give the same values as the block routes
+//! ([`crate::solver::parity::precond::diagonal`],
+//! [`crate::solver::parity::galerkin::coarse_from_split`]) up to the order of the
+//! additions (`crates/pn-runtime/tests/stencil_s.rs`).
+//!
+//! * `diag(S)_i = D_e,i − Σ_k B_ik C̃_ki`: for a row whose `B` row and the `C` entries that
+//!   reference it are all stencil entries, the sum runs over the row's stencil terms with
+//!   each term's matching `C` weight found once per moment; the few other rows (the
+//!   corrections' rows and columns) sum over their actual entries.
+//! * `Pᵀ S P = Pᵀ D_e P − (Pᵀ B)(C̃ P)`: each coarse row adds its members' `B` rows into a
+//!   small dense window over the odd positions they can reach (instead of sorting them),
+//!   then scatters each reached row of `C̃` to the aggregates of its columns.
+
+use super::{Moments, StencilBlock, StencilReduced, Term};
+use crate::solver::multigrid::aggregate::Aggregation;
+use crate::solver::multigrid::galerkin::build_rows_with;
+use crate::solver::parity::split::Split;
+use rayon::prelude::*;
+use sprs::CsMat;
+
+impl Moments {
+    /// The moments of the class `kept`, in local order (for [`Moments::locate`]).
+    fn class(&self, kept: bool) -> Vec<usize> {
+        (0..self.ext.len())
+            .filter(|&q| self.kept[q] == kept)
+            .collect()
+    }
+
+    /// Moment and grid position of local row `r` of the class whose moments are `class`
+    /// ([`Moments::class`]).
+    #[inline]
+    fn locate(&self, class: &[usize], r: usize) -> (usize, [i64; 3]) {
+        let at = class.partition_point(|&q| self.local_off[q] <= r);
+        let q = class[at.max(1) - 1];
+        let e = self.ext[q];
+        let l = r - self.local_off[q];
+        let (yz, z) = (l / e[2], l % e[2]);
+        (q, [(yz / e[1]) as i64, (yz % e[1]) as i64, z as i64])
+    }
+
+    /// Local index of moment `p` at `idx`, if `idx` lies in `p`'s grid.
+    #[inline]
+    fn index(&self, p: usize, idx: [i64; 3]) -> Option<usize> {
+        let e = self.ext[p];
+        (0..3)
+            .all(|d| idx[d] >= 0 && idx[d] < e[d] as i64)
+            .then(|| self.local_off[p] + self.linear(p, idx.map(|v| v as usize)))
+    }
+}
+
+/// One term of a row moment's stencil with its column as `offset + x·sx + y·sy + z` of the
+/// row's position (valid inside [`Interior`]'s box).
+#[derive(Clone, Copy)]
+struct FlatTerm {
+    offset: i64,
+    sx: i64,
+    sy: i64,
+    moment: usize,
+    delta: [i64; 3],
+    weight: f64,
+}
+
+/// A row moment's stencil for the positions where every term lies inside the grid.
+struct Interior {
+    lo: [i64; 3],
+    hi: [i64; 3],
+    terms: Vec<FlatTerm>,
+}
+
+/// The rows of one block: stencil terms and corrections, with a fast path for the rows
+/// whose stencil lies inside the grid.
+struct Rows<'a> {
+    block: &'a StencilBlock,
+    m: &'a Moments,
+    interior: Vec<Interior>,
+    /// Corrections of row `r`: `fix_ptr[r]..fix_ptr[r + 1]` (CSR style).
+    fix_ptr: Vec<u32>,
+}
+
+impl<'a> Rows<'a> {
+    /// The rows of `block`, which has `n_rows` rows.
+    fn new(block: &'a StencilBlock, m: &'a Moments, n_rows: usize) -> Self {
+        let mut fix_ptr = vec![0u32; n_rows + 1];
+        for &r in &block.fix_rows {
+            fix_ptr[r as usize + 1] += 1;
+        }
+        for r in 0..n_rows {
+            fix_ptr[r + 1] += fix_ptr[r];
+        }
+        let interior = block
+            .terms
+            .iter()
+            .map(|terms| {
+                let (mut lo, mut hi) = ([0i64; 3], [i64::MAX; 3]);
+                let flat = terms
+                    .iter()
+                    .map(|t| {
+                        let e = m.ext[t.moment].map(|v| v as i64);
+                        for d in 0..3 {
+                            lo[d] = lo[d].max(-t.delta[d]);
+                            hi[d] = hi[d].min(e[d] - t.delta[d]);
+                        }
+                        let (sy, sx) = (e[2], e[1] * e[2]);
+                        FlatTerm {
+                            offset: m.local_off[t.moment] as i64
+                                + t.delta[0] * sx
+                                + t.delta[1] * sy
+                                + t.delta[2],
+                            sx,
+                            sy,
+                            moment: t.moment,
+                            delta: t.delta,
+                            weight: t.weight,
+                        }
+                    })
+                    .collect();
+                Interior {
+                    lo,
+                    hi,
+                    terms: flat,
+                }
+            })
+            .collect();
+        Self {
+            block,
+            m,
+            interior,
+            fix_ptr,
+        }
+    }
+
+    /// Calls `f(column, place, weight)` for every entry of local row `r` (moment `q` at
+    /// `pos`): the stencil terms inside the grid with their column's moment and position as
+    /// `place`, then the corrections with `place` `None` (a column may come twice).
+    #[inline]
+    fn for_row(
+        &self,
+        q: usize,
+        pos: [i64; 3],
+        r: usize,
+        mut f: impl FnMut(usize, Option<(usize, [i64; 3])>, f64),
+    ) {
+        let inner = &self.interior[q];
+        if (0..3).all(|d| pos[d] >= inner.lo[d] && pos[d] < inner.hi[d]) {
+            for t in &inner.terms {
+                let c = t.offset + pos[0] * t.sx + pos[1] * t.sy + pos[2];
+                f(c as usize, Some((t.moment, add(pos, t.delta))), t.weight);
+            }
+        } else {
+            for t in &self.block.terms[q] {
+                let idx = add(pos, t.delta);
+                if let Some(c) = self.m.index(t.moment, idx) {
+                    f(c, Some((t.moment, idx)), t.weight);
+                }
+            }
+        }
+        for k in self.fix_ptr[r] as usize..self.fix_ptr[r + 1] as usize {
+            f(
+                self.block.fix_cols[k] as usize,
+                None,
+                self.block.fix_vals[k],
+            );
+        }
+    }
+}
+
+#[inline]
+fn add(a: [i64; 3], b: [i64; 3]) -> [i64; 3] {
+    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
+}
+
+/// The weight of the term of moment `q` at shift `delta` in `terms`, 0 if none.
+fn weight_of(terms: &[Term], q: usize, delta: [i64; 3]) -> f64 {
+    terms
+        .iter()
+        .filter(|t| t.moment == q && t.delta == delta)
+        .map(|t| t.weight)
+        .sum()
+}
+
+impl StencilReduced {
+    /// `diag(S)` (kept-local order), from the stencils.
+    pub fn diagonal(&self, split: &Split) -> Vec<f64> {
+        let m = &self.moments;
+        let (b, c) = (&self.b, &self.c);
+        let b_rows = Rows::new(b, m, split.even.len());
+        let c_rows = Rows::new(c, m, split.odd.len());
+        // For each kept moment q and each of its B terms, the C weight back to q.
+        let back: Vec<Vec<f64>> = (0..m.ext.len())
+            .map(|q| {
+                b.terms[q]
+                    .iter()
+                    .map(|t| weight_of(&c.terms[t.moment], q, t.delta.map(|v| -v)))
+                    .collect()
+            })
+            .collect();
+        // Rows whose sum is not the stencil's: a correction in their B row, or a C
+        // correction in their column.
+        let mut irregular = vec![false; split.even.len()];
+        for &r in &b.fix_rows {
+            irregular[r as usize] = true;
+        }
+        for &col in &c.fix_cols {
+            irregular[col as usize] = true;
+        }
+        let d_o = &split.d_o;
+        let (kept, elim) = (m.class(true), m.class(false));
+        (0..split.even.len())
+            .into_par_iter()
+            .with_min_len(4096)
+            .map(|i| {
+                let (q, pos) = m.locate(&kept, i);
+                let mut s = split.d_e[i];
+                if !irregular[i] {
+                    for (t, w) in b.terms[q].iter().zip(&back[q]) {
+                        if let Some(k) = m.index(t.moment, add(pos, t.delta)) {
+                            s -= t.weight * w / d_o[k];
+                        }
+                    }
+                    return s;
+                }
+                b_rows.for_row(q, pos, i, |k, place, bw| {
+                    let (r, pk) = place.unwrap_or_else(|| m.locate(&elim, k));
+                    let delta = [0, 1, 2].map(|d| pos[d] - pk[d]);
+                    let mut cw = weight_of(&c.terms[r], q, delta);
+                    for f in c_rows.fix_ptr[k] as usize..c_rows.fix_ptr[k + 1] as usize {
+                        if c.fix_cols[f] as usize == i {
+                            cw += c.fix_vals[f];
+                        }
+                    }
+                    s -= bw * cw / d_o[k];
+                });
+                s
+            })
+            .collect()
+    }
+
+    /// The first Galerkin operator `Pᵀ S P` of the aggregation `ag` of the kept unknowns
+    /// (kept-local order), from the stencils.
+    pub fn coarse(&self, split: &Split, ag: &Aggregation) -> CsMat<f64> {
+        let m = &self.moments;
+        let (b, c) = (&self.b, &self.c);
+        let (b_rows, c_rows) = (
+            Rows::new(b, m, split.even.len()),
+            Rows::new(c, m, split.odd.len()),
+        );
+        let nm = m.ext.len();
+        // The window: odd positions within the B terms' reach of a 2×2×2 aggregate.
+        let (mut lo, mut hi) = ([0i64; 3], [0i64; 3]);
+        for t in b.terms.iter().flatten() {
+            for d in 0..3 {
+                lo[d] = lo[d].min(t.delta[d]);
+                hi[d] = hi[d].max(t.delta[d]);
+            }
+        }
+        let w = [0, 1, 2].map(|d| (hi[d] - lo[d] + 2) as usize);
+        let per_moment = w[0] * w[1] * w[2];
+        let d_o = &split.d_o;
+        let (kept, elim) = (m.class(true), m.class(false));
+        let scratch = || Window {
+            sums: vec![0.0; nm * per_moment],
+            touched: Vec::new(),
+            spill: Vec::new(),
+        };
+        build_rows_with(
+            ag.coarse_len(),
+            ag.coarse_len(),
+            scratch,
+            |row, acc, scr| {
+                let Window {
+                    sums: win,
+                    touched,
+                    spill,
+                } = scr;
+                let members = &ag.members[ag.ptr[row]..ag.ptr[row + 1]];
+                let (q, corner) = m.locate(&kept, members[0] as usize);
+                let base = add(corner, lo);
+                for &i in members {
+                    let i = i as usize;
+                    acc.add(row as u32, split.d_e[i]);
+                    let (_, pos) = m.locate(&kept, i);
+                    b_rows.for_row(q, pos, i, |k, place, v| {
+                        let (r, pk) = place.unwrap_or_else(|| m.locate(&elim, k));
+                        let o = [0, 1, 2].map(|d| pk[d] - base[d]);
+                        if (0..3).all(|d| o[d] >= 0 && (o[d] as usize) < w[d]) {
+                            let s = r * per_moment
+                                + (o[0] as usize * w[1] + o[1] as usize) * w[2]
+                                + o[2] as usize;
+                            if win[s] == 0.0 {
+                                touched.push(s as u32);
+                            }
+                            win[s] += v;
+                            // A sum that cancels to exactly 0 would be pushed again: harmless,
+                            // the slot is read once and cleared below.
+                        } else {
+                            spill.push((k, v));
+                        }
+                    });
+                }
+                // Scatter the reached rows of C̃ = D_o⁻¹ C to the aggregates of their columns.
+                let mut scatter = |k: usize, r: usize, pk: [i64; 3], v: f64| {
+                    let f = -v / d_o[k];
+                    c_rows.for_row(r, pk, k, |j, _, cw| acc.add(ag.agg[j], f * cw));
+                };
+                for &s in touched.iter() {
+                    let s = s as usize;
+                    let v = std::mem::take(&mut win[s]);
+                    if v == 0.0 {
+                        continue;
+                    }
+                    let r = s / per_moment;
+                    let o = s % per_moment;
+                    let pk = add(
+                        base,
+                        [
+                            (o / (w[1] * w[2])) as i64,
+                            ((o / w[2]) % w[1]) as i64,
+                            (o % w[2]) as i64,
+                        ],
+                    );
+                    let k = m.local_off[r] + m.linear(r, pk.map(|v| v as usize));
+                    scatter(k, r, pk, v);
+                }
+                touched.clear();
+                for (k, v) in spill.drain(..) {
+                    let (r, pk) = m.locate(&elim, k);
+                    scatter(k, r, pk, v);
+                }
+            },
+        )
+    }
+}
+
+/// The scratch of one task of [`StencilReduced::coarse`]: the window's sums (zero between
+/// rows), the slots touched in the current row, and the entries outside the window.
+struct Window {
+    sums: Vec<f64>,
+    touched: Vec<u32>,
+    spill: Vec<(usize, f64)>,
+}
