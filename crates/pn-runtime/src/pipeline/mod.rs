@@ -8,7 +8,7 @@
 pub mod matrix_free;
 
 use crate::assemble::assemble;
-use crate::assemble_split::{assemble_split, has_parity_structure};
+use crate::assemble_split::{assemble_split, assemble_split_stencil, has_parity_structure};
 use crate::energy::{energy_balance, EnergyBalance};
 use crate::layout::Layout;
 use crate::problem::Problem;
@@ -151,7 +151,19 @@ fn solve_split_system(
     guesses: &[&[f64]],
 ) -> anyhow::Result<Option<Solved>> {
     let t0 = Instant::now();
-    let system = match assemble_split(problem, kernel, layout)? {
+    // Systems the multigrid solves (from MG_MIN_NONZEROS entries on) apply `S` from its
+    // stencils: assemble straight into them, without storing B and C̃. Smaller systems
+    // (ILU forms `S` from the blocks) and `PN_PARITY_BLOCKS` keep the blocks.
+    let entries: usize = (0..layout.moments.len())
+        .map(|q| (layout.offsets[q + 1] - layout.offsets[q]) * kernel.pattern(q).len())
+        .sum();
+    let stencil = !opts.tuning.block_operator && entries >= crate::solver::parity::MG_MIN_NONZEROS;
+    let assembled = if stencil {
+        assemble_split_stencil(problem, kernel, layout)?
+    } else {
+        assemble_split(problem, kernel, layout)?
+    };
+    let system = match assembled {
         Ok(s) => s,
         Err(_) => return Ok(None),
     };

@@ -42,6 +42,7 @@
 //! P_3–P_5). Preconditioner applications are not counted: Jacobi and block-Jacobi cost a
 //! fraction of an `S` application, ILU(0) about one (compare seconds for those).
 
+pub mod block_mat;
 pub mod coloring;
 pub mod fallback;
 pub mod galerkin;

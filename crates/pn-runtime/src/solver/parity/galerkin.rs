@@ -14,11 +14,15 @@ pub fn coarse_from_split(split: &Split, ag: &Aggregation) -> CsMat<f64> {
     let nc = ag.coarse_len();
     // C̃'s columns are mapped to aggregates on the fly: materialising C̃ P would hold
     // about as many entries as C̃ (2.6 GB at 80³ P_5) for a saving of a few adds.
-    let c = &split.c_scaled;
+    if let Some(st) = &split.stencil {
+        return st.coarse(&split.d_e, &split.d_o, ag);
+    }
+    let (b, c) = split.blocks();
+    let c = &*c;
     let cp = c.indptr();
     let cp = cp.raw_storage();
     let (ci, cv) = (c.indices(), c.data());
-    let b = &split.b;
+    let b = &*b;
     let bp = b.indptr();
     let bp = bp.raw_storage();
     let (bi, bv) = (b.indices(), b.data());

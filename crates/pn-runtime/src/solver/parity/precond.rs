@@ -204,7 +204,7 @@ impl Built {
         // From the stencils where `S` is applied from them (no pass over the blocks).
         let stencil = fine.stencil();
         let diag = match stencil {
-            Some(st) => st.diagonal(split),
+            Some(st) => st.diagonal(&split.d_e, &split.d_o),
             None => diagonal(split),
         };
         let mg = Multigrid::build(
@@ -212,7 +212,7 @@ impl Built {
             &diag,
             &even,
             |agg| match stencil {
-                Some(st) => st.coarse(split, agg),
+                Some(st) => st.coarse(&split.d_e, &split.d_o, agg),
                 None => super::galerkin::coarse_from_split(split, agg),
             },
             opts,
@@ -305,14 +305,19 @@ impl Preconditioner for Ilu0 {
     }
 }
 
-/// Exact `diag(S)`.
+/// Exact `diag(S)` (from the stencils when the split holds them,
+/// [`super::stencil_s::StencilReduced::diagonal`]).
 pub fn diagonal(split: &Split) -> Vec<f64> {
-    let bp = split.b.indptr();
+    if let Some(st) = &split.stencil {
+        return st.diagonal(&split.d_e, &split.d_o);
+    }
+    let (b, c) = split.blocks();
+    let bp = b.indptr();
     let bp = bp.raw_storage();
-    let (bi, bv) = (split.b.indices(), split.b.data());
-    let cp = split.c_scaled.indptr();
+    let (bi, bv) = (b.indices(), b.data());
+    let cp = c.indptr();
     let cp = cp.raw_storage();
-    let (ci, cv) = (split.c_scaled.indices(), split.c_scaled.data());
+    let (ci, cv) = (c.indices(), c.data());
     (0..split.even.len())
         .into_par_iter()
         .map(|i| {
@@ -348,12 +353,13 @@ fn block_inverses(split: &Split, block_of: &[usize]) -> Result<Built, ParityErro
             pos_in_block[i] = (bid, p);
         }
     }
-    let bp = split.b.indptr();
+    let (b, c) = split.blocks();
+    let bp = b.indptr();
     let bp = bp.raw_storage();
-    let (bi, bv) = (split.b.indices(), split.b.data());
-    let cp = split.c_scaled.indptr();
+    let (bi, bv) = (b.indices(), b.data());
+    let cp = c.indptr();
     let cp = cp.raw_storage();
-    let (ci, cv) = (split.c_scaled.indices(), split.c_scaled.data());
+    let (ci, cv) = (c.indices(), c.data());
     let inverses: Result<Vec<Vec<f64>>, ParityError> = members
         .par_iter()
         .enumerate()

@@ -18,6 +18,24 @@ use crate::operator::LinearOperator;
 use crate::solver::multigrid::Geometry;
 use rayon::prelude::*;
 use sprs::CsMat;
+use std::sync::Arc;
+
+impl StencilReduced {
+    /// Recovers the stencils of `split`'s blocks, with `geometry` the class (moment) and
+    /// grid position of every global unknown ([`Geometry::from_layout`]): see
+    /// [`StencilReduced::from_blocks`]. A split assembled as stencils
+    /// ([`Split::stencil`]) has no blocks to recover them from.
+    pub fn build(split: &Split, geometry: &Geometry) -> Option<Self> {
+        Self::from_blocks(
+            &split.b,
+            &split.c_scaled,
+            &split.even,
+            &split.odd,
+            &split.d_o,
+            geometry,
+        )
+    }
+}
 
 /// How `S` is applied.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -34,7 +52,7 @@ pub enum ReducedMode {
 pub struct ReducedOperator<'a> {
     split: &'a Split,
     formed: Option<CsMat<f64>>,
-    stencil: Option<StencilReduced>,
+    stencil: Option<Arc<StencilReduced>>,
     tmp: std::sync::Mutex<Vec<f64>>,
 }
 
@@ -47,8 +65,13 @@ impl<'a> ReducedOperator<'a> {
         };
         Self {
             split,
+            // A split assembled as stencils is applied from them (it holds no blocks).
+            stencil: if formed.is_none() {
+                split.stencil.clone()
+            } else {
+                None
+            },
             formed,
-            stencil: None,
             tmp: std::sync::Mutex::new(vec![0.0; split.odd.len()]),
         }
     }
@@ -58,15 +81,15 @@ impl<'a> ReducedOperator<'a> {
     /// lets them be recovered; unchanged when `S` is formed or the blocks are not
     /// stencil-like.
     pub fn with_stencil(mut self, geometry: &Geometry) -> Self {
-        if self.formed.is_none() {
-            self.stencil = StencilReduced::build(self.split, geometry);
+        if self.formed.is_none() && self.stencil.is_none() {
+            self.stencil = StencilReduced::build(self.split, geometry).map(Arc::new);
         }
         self
     }
 
     /// The stencils `S` is applied from, if any ([`ReducedOperator::with_stencil`]).
     pub fn stencil(&self) -> Option<&StencilReduced> {
-        self.stencil.as_ref()
+        self.stencil.as_deref()
     }
 
     /// Whether `S` is applied from the blocks' stencils.
@@ -132,7 +155,7 @@ impl<'a> ReducedOperator<'a> {
             return;
         }
         if let Some(st) = &self.stencil {
-            st.apply(self.split, x, y);
+            st.apply(&self.split.d_e, &self.split.d_o, x, y);
             return;
         }
         let mut t = self.tmp.lock().unwrap_or_else(|e| e.into_inner());
@@ -148,7 +171,10 @@ impl<'a> ReducedOperator<'a> {
         let s = self.split;
         let scaled: Vec<f64> = b_o.iter().zip(&s.d_o).map(|(b, d)| b / d).collect();
         let mut f = vec![0.0; b_e.len()];
-        spmv(&s.b, &scaled, &mut f);
+        match &s.stencil {
+            Some(st) => st.apply_b(&scaled, &mut f),
+            None => spmv(&s.b, &scaled, &mut f),
+        }
         f.iter_mut().zip(b_e).for_each(|(fi, bi)| *fi = bi - *fi);
         f
     }
@@ -157,7 +183,10 @@ impl<'a> ReducedOperator<'a> {
     pub fn recover_odd(&self, u_e: &[f64], b_o: &[f64]) -> Vec<f64> {
         let s = self.split;
         let mut u_o = vec![0.0; b_o.len()];
-        spmv(&s.c_scaled, u_e, &mut u_o);
+        match &s.stencil {
+            Some(st) => st.apply_c_scaled(&s.d_o, u_e, &mut u_o),
+            None => spmv(&s.c_scaled, u_e, &mut u_o),
+        }
         u_o.iter_mut()
             .zip(b_o.iter().zip(&s.d_o))
             .for_each(|(u, (b, d))| *u = b / d - *u);
@@ -204,8 +233,9 @@ impl LinearOperator for ReducedOperator<'_> {
             return;
         }
         let mut t = vec![0.0; self.split.odd.len()];
-        spmv_transpose(&self.split.b, x, &mut t);
-        spmv_transpose(&self.split.c_scaled, &t, y);
+        let (b, c) = self.split.blocks();
+        spmv_transpose(&b, x, &mut t);
+        spmv_transpose(&c, &t, y);
         y.iter_mut()
             .zip(x.iter().zip(&self.split.d_e))
             .for_each(|(yi, (xi, di))| *yi = di * xi - *yi);
@@ -224,12 +254,13 @@ const FORM_CHUNK: usize = 1024;
 /// row by row in parallel: row i is `D_e,ii e_i − Σ_k B_ik C̃_k,:`.
 pub fn form(split: &Split) -> CsMat<f64> {
     let n = split.even.len();
-    let bp = split.b.indptr();
+    let (b, c) = split.blocks();
+    let bp = b.indptr();
     let bp = bp.raw_storage();
-    let (bi, bv) = (split.b.indices(), split.b.data());
-    let cp = split.c_scaled.indptr();
+    let (bi, bv) = (b.indices(), b.data());
+    let cp = c.indptr();
     let cp = cp.raw_storage();
-    let (ci, cv) = (split.c_scaled.indices(), split.c_scaled.data());
+    let (ci, cv) = (c.indices(), c.data());
     let chunks: Vec<(Vec<usize>, Vec<usize>, Vec<f64>)> = (0..n.div_ceil(FORM_CHUNK))
         .into_par_iter()
         .map(|c| {

@@ -6,9 +6,11 @@
 //! `C̃ = D_o⁻¹ C` (odd rows × even columns, already scaled so that the reduced operator is
 //! two plain sparse products).
 
+use super::stencil_s::StencilReduced;
 use crate::linalg::spmv;
 use rayon::prelude::*;
 use sprs::CsMat;
+use std::borrow::Cow;
 
 /// Why the parity elimination does not apply to a matrix.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -96,10 +98,7 @@ pub enum ParityError {
     },
 }
 
-/// CSR with 32-bit column indices: the blocks are read once per application of `S`, and the
-/// products are memory-bound, so 12 instead of 16 bytes per entry saves a quarter of the
-/// traffic (and 0.9 GB at 80³ P_5). Row pointers stay `usize` (entries may exceed 2³²).
-pub type BlockMat = sprs::CsMatI<f64, u32, usize>;
+pub use super::block_mat::BlockMat;
 
 /// Checks that both parity classes fit [`BlockMat`]'s 32-bit column indices.
 pub fn check_index_range(even: usize, odd: usize) -> Result<(), ParityError> {
@@ -155,12 +154,18 @@ pub struct Split {
     pub d_e: Vec<f64>,
     /// Diagonal of the odd–odd block.
     pub d_o: Vec<f64>,
-    /// Even rows × odd columns (CSR, 32-bit columns).
+    /// Even rows × odd columns (CSR, 32-bit columns); empty when [`Split::stencil`] holds
+    /// the blocks ([`Split::blocks`] gives them either way).
     pub b: BlockMat,
-    /// `D_o⁻¹ C`: odd rows × even columns (CSR, 32-bit columns).
+    /// `D_o⁻¹ C`: odd rows × even columns (CSR, 32-bit columns); empty when
+    /// [`Split::stencil`] holds the blocks.
     pub c_scaled: BlockMat,
     /// Stored non-zeros of the original matrix.
     pub nnz_a: usize,
+    /// `B` and `C` as per-moment stencils plus corrections, when the system was assembled
+    /// straight into them ([`crate::assemble_split::assemble_split_stencil`]): then `b` and
+    /// `c_scaled` are not stored.
+    pub stencil: Option<std::sync::Arc<StencilReduced>>,
 }
 
 /// Splits `a` (CSR) by the parity mask `even` (`true` for the unknowns kept in the
@@ -300,6 +305,7 @@ pub fn split(a: &CsMat<f64>, even: &[bool]) -> Result<Split, ParityError> {
         b,
         c_scaled,
         nnz_a: a.nnz(),
+        stencil: None,
     })
 }
 
@@ -326,9 +332,7 @@ impl Split {
     pub fn residual_norm(&self, u_e: &[f64], u_o: &[f64], b_e: &[f64], b_o: &[f64]) -> f64 {
         // Σ r² over one parity: `coupling` times the other parity's unknowns gives `t`;
         // the odd rows hold C̃ = D_o⁻¹C, so their coupling is scaled by the diagonal too.
-        let part = |coupling: &BlockMat, other: &[f64], b: &[f64], d: &[f64], u: &[f64], scaled| {
-            let mut t = vec![0.0; b.len()];
-            spmv(coupling, other, &mut t);
+        let part = |t: Vec<f64>, b: &[f64], d: &[f64], u: &[f64], scaled| {
             (t.par_iter(), b.par_iter(), d.par_iter(), u.par_iter())
                 .into_par_iter()
                 .map(|(t, b, d, u)| {
@@ -341,9 +345,30 @@ impl Split {
                 })
                 .sum::<f64>()
         };
-        (part(&self.b, u_o, b_e, &self.d_e, u_e, false)
-            + part(&self.c_scaled, u_e, b_o, &self.d_o, u_o, true))
-        .sqrt()
+        let (mut bt, mut ct) = (vec![0.0; b_e.len()], vec![0.0; b_o.len()]);
+        match &self.stencil {
+            Some(st) => {
+                st.apply_b(u_o, &mut bt);
+                st.apply_c_scaled(&self.d_o, u_e, &mut ct);
+            }
+            None => {
+                spmv(&self.b, u_o, &mut bt);
+                spmv(&self.c_scaled, u_e, &mut ct);
+            }
+        }
+        (part(bt, b_e, &self.d_e, u_e, false) + part(ct, b_o, &self.d_o, u_o, true)).sqrt()
+    }
+
+    /// `B` and `C̃`: the stored blocks, or built from [`Split::stencil`] (for the routes
+    /// that read the blocks entry by entry: ILU, block-Jacobi, the block Galerkin product).
+    pub fn blocks(&self) -> (Cow<'_, BlockMat>, Cow<'_, BlockMat>) {
+        match &self.stencil {
+            Some(st) => {
+                let (b, c) = st.to_blocks(&self.d_o);
+                (Cow::Owned(b), Cow::Owned(c))
+            }
+            None => (Cow::Borrowed(&self.b), Cow::Borrowed(&self.c_scaled)),
+        }
     }
 
     /// Gathers the even and odd parts of a global vector.

@@ -22,7 +22,7 @@
 
 mod galerkin;
 
-use super::split::{BlockMat, Split};
+use super::block_mat::BlockMat;
 use crate::matfree::range;
 use crate::solver::multigrid::Geometry;
 use rayon::prelude::*;
@@ -48,7 +48,7 @@ pub const SAME_WEIGHT: f64 = 1e-12;
 
 /// One stencil term: the referenced moment, the index shift and the weight.
 #[derive(Clone, Copy, Debug, PartialEq)]
-struct Term {
+pub(crate) struct Term {
     moment: usize,
     delta: [i64; 3],
     weight: f64,
@@ -56,7 +56,7 @@ struct Term {
 
 /// One block as per-moment stencils plus corrections.
 #[derive(Clone, Debug, Default)]
-struct StencilBlock {
+pub(crate) struct StencilBlock {
     /// Terms of each row moment (empty for moments not in the block's rows).
     terms: Vec<Vec<Term>>,
     /// Corrections `(row, column, value)` in local indices, sorted by row.
@@ -67,7 +67,7 @@ struct StencilBlock {
 
 /// The moment grids: extents, and where each moment starts in its class's local vector.
 #[derive(Clone, Debug)]
-struct Moments {
+pub(crate) struct Moments {
     ext: Vec<[usize; 3]>,
     /// Whether each moment is kept (in `S`'s unknowns).
     kept: Vec<bool>,
@@ -76,13 +76,49 @@ struct Moments {
 }
 
 impl Moments {
+    /// The grid extent of moment `q`.
+    pub(crate) fn extent(&self, q: usize) -> [usize; 3] {
+        self.ext[q]
+    }
+
     fn linear(&self, q: usize, idx: [usize; 3]) -> usize {
         let e = self.ext[q];
         (idx[0] * e[1] + idx[1]) * e[2] + idx[2]
     }
+
+    /// The moment grids of `layout` (stored moment by moment, x slowest), with the moments
+    /// `kept[q]` in the reduced system.
+    pub(crate) fn from_layout(layout: &crate::layout::Layout, kept: Vec<bool>) -> Self {
+        let nm = layout.moments.len();
+        let ext: Vec<[usize; 3]> = (0..nm)
+            .map(|q| {
+                let n = layout.offsets[q + 1] - layout.offsets[q];
+                let e = if n == 0 {
+                    [0, 0, 0]
+                } else {
+                    layout.locate(layout.offsets[q + 1] - 1).1.map(|v| v + 1)
+                };
+                debug_assert_eq!(e.iter().product::<usize>(), n);
+                e
+            })
+            .collect();
+        let mut local_off = vec![0; nm];
+        let (mut kept_at, mut elim_at) = (0, 0);
+        for q in 0..nm {
+            let at = if kept[q] { &mut kept_at } else { &mut elim_at };
+            local_off[q] = *at;
+            *at += ext[q].iter().product::<usize>();
+        }
+        Self {
+            ext,
+            kept,
+            local_off,
+        }
+    }
 }
 
 /// `S` applied from per-moment stencils (see the module documentation).
+#[derive(Debug)]
 pub struct StencilReduced {
     moments: Moments,
     b: StencilBlock,
@@ -92,12 +128,22 @@ pub struct StencilReduced {
 }
 
 impl StencilReduced {
-    /// Recovers the stencils of `split`'s blocks, with `geometry` the class (moment) and
-    /// grid position of every global unknown ([`Geometry::from_layout`]). `None` when the
-    /// unknowns are not whole moment grids stored moment by moment, x slowest, or a
-    /// block is not stencil-like (see the module documentation).
-    pub fn build(split: &Split, geometry: &Geometry) -> Option<Self> {
-        let n = split.even.len() + split.odd.len();
+    /// Recovers the stencils of the blocks `b` (rows `even`, columns `odd`: global indices)
+    /// and `c_scaled` (`C̃ = D_o⁻¹ C`, rows `odd`, columns `even`), with `geometry` the class
+    /// (moment) and grid position of every global unknown ([`Geometry::from_layout`]).
+    /// `None` when the unknowns are not whole moment grids stored moment by moment, x
+    /// slowest, or a block is not stencil-like (see the module documentation). The usual
+    /// entry is [`StencilReduced::build`] (module `reduced`), from a
+    /// [`super::split::Split`].
+    pub fn from_blocks(
+        b: &BlockMat,
+        c_scaled: &BlockMat,
+        even: &[usize],
+        odd: &[usize],
+        d_o: &[f64],
+        geometry: &Geometry,
+    ) -> Option<Self> {
+        let n = even.len() + odd.len();
         if geometry.len() != n || n == 0 {
             return None;
         }
@@ -120,7 +166,7 @@ impl StencilReduced {
             global_off[q + 1] = global_off[q] + count[q];
         }
         let mut kept = vec![false; nm];
-        for &g in &split.even {
+        for &g in even {
             kept[geometry.class[g] as usize] = true;
         }
         let mut moments = Moments {
@@ -133,8 +179,7 @@ impl StencilReduced {
             let c = geometry.coords[g].map(|v| v as usize);
             g == global_off[q] + moments.linear(q, c)
         });
-        let whole = split
-            .odd
+        let whole = odd
             .par_iter()
             .all(|&g| !moments.kept[geometry.class[g] as usize]);
         if !ordered || !whole {
@@ -150,21 +195,50 @@ impl StencilReduced {
             moments.local_off[q] = *at;
             *at += n_q;
         }
-        let b = block(&split.b, &split.even, &split.odd, None, geometry, &moments)?;
-        let c = block(
-            &split.c_scaled,
-            &split.odd,
-            &split.even,
-            Some(&split.d_o),
-            geometry,
-            &moments,
-        )?;
+        let b = block(b, even, odd, None, geometry, &moments)?;
+        let c = block(c_scaled, odd, even, Some(d_o), geometry, &moments)?;
         Some(Self {
             moments,
             b,
             c,
-            tmp: Mutex::new(vec![0.0; split.odd.len()]),
+            tmp: Mutex::new(vec![0.0; odd.len()]),
         })
+    }
+
+    /// The operator from its parts (the stencil assembly,
+    /// [`crate::assemble_split::assemble_split_stencil`]), for `n_odd` eliminated unknowns.
+    pub(crate) fn from_parts(
+        moments: Moments,
+        b: StencilBlock,
+        c: StencilBlock,
+        n_odd: usize,
+    ) -> Self {
+        Self {
+            moments,
+            b,
+            c,
+            tmp: Mutex::new(vec![0.0; n_odd]),
+        }
+    }
+
+    /// `t = C̃ x = D_o⁻¹ C x` (kept-local `x`, eliminated-local `t`).
+    pub fn apply_c_scaled(&self, d_o: &[f64], x: &[f64], t: &mut [f64]) {
+        let m = &self.moments;
+        for_slabs(m, false, t, |q, ix, start, ts| {
+            stencil_slab(m, &self.c.terms[q], q, ix, x, ts);
+            self.c.correct(start, ts, x);
+            let d = &d_o[start..start + ts.len()];
+            ts.iter_mut().zip(d).for_each(|(v, d)| *v /= d);
+        });
+    }
+
+    /// `y = B t` (eliminated-local `t`, kept-local `y`).
+    pub fn apply_b(&self, t: &[f64], y: &mut [f64]) {
+        let m = &self.moments;
+        for_slabs(m, true, y, |q, ix, start, ys| {
+            stencil_slab(m, &self.b.terms[q], q, ix, t, ys);
+            self.b.correct(start, ys, t);
+        });
     }
 
     /// Number of corrections (entries where a row differs from its moment's stencil).
@@ -181,15 +255,15 @@ impl StencilReduced {
         (32 * n_e + 24 * n_o + 16 * self.corrections()) as u64
     }
 
-    /// `y = S x = D_e x − B D_o⁻¹ C x` (kept-local vectors).
-    pub fn apply(&self, split: &Split, x: &[f64], y: &mut [f64]) {
+    /// `y = S x = D_e x − B D_o⁻¹ C x` (kept-local vectors; `d_e`, `d_o` the diagonals).
+    pub fn apply(&self, d_e: &[f64], d_o: &[f64], x: &[f64], y: &mut [f64]) {
         let mut t = self.tmp.lock().unwrap_or_else(|e| e.into_inner());
         let m = &self.moments;
         // t = D_o⁻¹ (C x), slab by slab.
         for_slabs(m, false, &mut t, |q, ix, start, ts| {
             stencil_slab(m, &self.c.terms[q], q, ix, x, ts);
             self.c.correct(start, ts, x);
-            let d = &split.d_o[start..start + ts.len()];
+            let d = &d_o[start..start + ts.len()];
             ts.iter_mut().zip(d).for_each(|(v, d)| *v /= d);
         });
         let t = &*t;
@@ -197,10 +271,7 @@ impl StencilReduced {
         for_slabs(m, true, y, |q, ix, start, ys| {
             stencil_slab(m, &self.b.terms[q], q, ix, t, ys);
             self.b.correct(start, ys, t);
-            let (xs, d) = (
-                &x[start..start + ys.len()],
-                &split.d_e[start..start + ys.len()],
-            );
+            let (xs, d) = (&x[start..start + ys.len()], &d_e[start..start + ys.len()]);
             ys.iter_mut()
                 .zip(xs.iter().zip(d))
                 .for_each(|(v, (x, d))| *v = d * x - *v);
@@ -390,7 +461,6 @@ fn block(
     geometry: &Geometry,
     m: &Moments,
 ) -> Option<StencilBlock> {
-    let nm = m.ext.len();
     let pos = |g: usize| {
         (
             geometry.class[g] as usize,
@@ -403,70 +473,24 @@ fn block(
         let s = scale.map_or(1.0, |s| s[r]);
         range.map(move |j| (mat.indices()[j] as usize, s * mat.data()[j]))
     };
-    // Each row moment's stencil, from its row nearest the middle of its grid.
-    let mut terms = vec![Vec::new(); nm];
-    for q in (0..nm).filter(|&q| m.kept[q] == row_kept) {
-        let e = m.ext[q];
-        let mid = e.map(|v| v / 2);
-        let r = m.local_off[q] + m.linear(q, mid);
-        let (rq, ri) = pos(rows[r]);
-        debug_assert_eq!(rq, q);
-        terms[q] = entries(r)
-            .map(|(c, w)| {
-                let (p, pi) = pos(cols[c]);
-                Term {
-                    moment: p,
-                    delta: [0, 1, 2].map(|d| pi[d] - ri[d]),
-                    weight: w,
-                }
-            })
-            .collect();
-    }
-    // Corrections: what each row has that its stencil (within the grid) does not; rows in
-    // chunks, so that nothing is allocated per row.
+    let terms = stencil_terms(m, row_kept, |q| {
+        let r = m.local_off[q] + m.linear(q, m.ext[q].map(|v| v / 2));
+        (
+            pos(rows[r]).1,
+            entries(r).map(|(c, w)| (pos(cols[c]), w)).collect(),
+        )
+    });
+    // Corrections: rows in chunks, so that nothing is allocated per row.
     let per_chunk: Vec<Vec<(u32, u32, f64)>> = (0..rows.len().div_ceil(FIX_CHUNK))
         .into_par_iter()
         .map(|k| {
             let mut fixes = Vec::new();
-            let mut implied: Vec<(usize, f64, bool)> = Vec::new();
+            let mut implied = Vec::new();
             let first = k * FIX_CHUNK;
             let chunk = &rows[first..(first + FIX_CHUNK).min(rows.len())];
             for (r, &g) in (first..).zip(chunk) {
                 let (q, ri) = pos(g);
-                implied.clear();
-                implied.extend(terms[q].iter().filter_map(|t| {
-                    let ep = m.ext[t.moment];
-                    let idx = [0, 1, 2].map(|d| ri[d] + t.delta[d]);
-                    let inside = (0..3).all(|d| idx[d] >= 0 && idx[d] < ep[d] as i64);
-                    inside.then(|| {
-                        let c = m.local_off[t.moment] + m.linear(t.moment, idx.map(|v| v as usize));
-                        (c, t.weight, false)
-                    })
-                }));
-                // Most rows hold exactly their stencil, in the stencil's order: one pass.
-                let same = entries(r).len() == implied.len()
-                    && entries(r).zip(&implied).all(|((c, w), &(ic, wt, _))| {
-                        c == ic && (w - wt).abs() <= SAME_WEIGHT * wt.abs()
-                    });
-                if same {
-                    continue;
-                }
-                for (c, w) in entries(r) {
-                    match implied.iter_mut().find(|(ic, _, _)| *ic == c) {
-                        Some((_, wt, seen)) => {
-                            *seen = true;
-                            if (w - *wt).abs() > SAME_WEIGHT * wt.abs() {
-                                fixes.push((r as u32, c as u32, w - *wt));
-                            }
-                        }
-                        None => fixes.push((r as u32, c as u32, w)),
-                    }
-                }
-                for &(c, wt, seen) in &implied {
-                    if !seen {
-                        fixes.push((r as u32, c as u32, -wt));
-                    }
-                }
+                row_fixes(m, &terms[q], r, ri, entries(r), &mut implied, &mut fixes);
             }
             fixes
         })
@@ -475,18 +499,99 @@ fn block(
     if n_fix as f64 > MAX_CORRECTION_SHARE * mat.nnz().max(1) as f64 {
         return None;
     }
-    let mut out = StencilBlock {
-        terms,
-        fix_rows: Vec::with_capacity(n_fix),
-        fix_cols: Vec::with_capacity(n_fix),
-        fix_vals: Vec::with_capacity(n_fix),
-    };
-    for (r, c, v) in per_chunk.into_iter().flatten() {
-        out.fix_rows.push(r);
-        out.fix_cols.push(c);
-        out.fix_vals.push(v);
+    Some(StencilBlock::from_fixes(terms, per_chunk))
+}
+
+/// Each row moment's stencil (of the class `row_kept`) from one of its rows: `row_of(q)`
+/// gives that row's position and its entries as `((column moment, column position),
+/// weight)`.
+pub(crate) fn stencil_terms(
+    m: &Moments,
+    row_kept: bool,
+    row_of: impl Fn(usize) -> ([i64; 3], Vec<((usize, [i64; 3]), f64)>),
+) -> Vec<Vec<Term>> {
+    let nm = m.ext.len();
+    let mut terms = vec![Vec::new(); nm];
+    for q in (0..nm).filter(|&q| m.kept[q] == row_kept) {
+        let (ri, entries) = row_of(q);
+        terms[q] = entries
+            .into_iter()
+            .map(|((p, pi), w)| Term {
+                moment: p,
+                delta: [0, 1, 2].map(|d| pi[d] - ri[d]),
+                weight: w,
+            })
+            .collect();
     }
-    Some(out)
+    terms
+}
+
+/// Appends to `fixes` the corrections `(row, column, value)` of local row `r` (position
+/// `ri`, entries `(local column, weight)`) against its moment's stencil `terms` restricted
+/// to the grid. `implied` is scratch space.
+pub(crate) fn row_fixes(
+    m: &Moments,
+    terms: &[Term],
+    r: usize,
+    ri: [i64; 3],
+    entries: impl ExactSizeIterator<Item = (usize, f64)> + Clone,
+    implied: &mut Vec<(usize, f64, bool)>,
+    fixes: &mut Vec<(u32, u32, f64)>,
+) {
+    implied.clear();
+    implied.extend(terms.iter().filter_map(|t| {
+        let ep = m.ext[t.moment];
+        let idx = [0, 1, 2].map(|d| ri[d] + t.delta[d]);
+        let inside = (0..3).all(|d| idx[d] >= 0 && idx[d] < ep[d] as i64);
+        inside.then(|| {
+            let c = m.local_off[t.moment] + m.linear(t.moment, idx.map(|v| v as usize));
+            (c, t.weight, false)
+        })
+    }));
+    // Most rows hold exactly their stencil, in the stencil's order: one pass.
+    let same = entries.len() == implied.len()
+        && entries
+            .clone()
+            .zip(implied.iter())
+            .all(|((c, w), &(ic, wt, _))| c == ic && (w - wt).abs() <= SAME_WEIGHT * wt.abs());
+    if same {
+        return;
+    }
+    for (c, w) in entries {
+        match implied.iter_mut().find(|(ic, _, _)| *ic == c) {
+            Some((_, wt, seen)) => {
+                *seen = true;
+                if (w - *wt).abs() > SAME_WEIGHT * wt.abs() {
+                    fixes.push((r as u32, c as u32, w - *wt));
+                }
+            }
+            None => fixes.push((r as u32, c as u32, w)),
+        }
+    }
+    for &(c, wt, seen) in implied.iter() {
+        if !seen {
+            fixes.push((r as u32, c as u32, -wt));
+        }
+    }
+}
+
+impl StencilBlock {
+    /// A block from its stencils and its corrections, given in row order (chunk by chunk).
+    pub(crate) fn from_fixes(terms: Vec<Vec<Term>>, chunks: Vec<Vec<(u32, u32, f64)>>) -> Self {
+        let n_fix: usize = chunks.iter().map(Vec::len).sum();
+        let mut out = StencilBlock {
+            terms,
+            fix_rows: Vec::with_capacity(n_fix),
+            fix_cols: Vec::with_capacity(n_fix),
+            fix_vals: Vec::with_capacity(n_fix),
+        };
+        for (r, c, v) in chunks.into_iter().flatten() {
+            out.fix_rows.push(r);
+            out.fix_cols.push(c);
+            out.fix_vals.push(v);
+        }
+        out
+    }
 }
 
 #[cfg(test)]

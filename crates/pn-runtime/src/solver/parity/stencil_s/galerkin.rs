@@ -19,7 +19,7 @@
 use super::{Moments, StencilBlock, StencilReduced, Term};
 use crate::solver::multigrid::aggregate::Aggregation;
 use crate::solver::multigrid::galerkin::build_rows_with;
-use crate::solver::parity::split::Split;
+use crate::solver::parity::block_mat::BlockMat;
 use rayon::prelude::*;
 use sprs::CsMat;
 
@@ -185,11 +185,12 @@ fn weight_of(terms: &[Term], q: usize, delta: [i64; 3]) -> f64 {
 
 impl StencilReduced {
     /// `diag(S)` (kept-local order), from the stencils.
-    pub fn diagonal(&self, split: &Split) -> Vec<f64> {
+    pub fn diagonal(&self, d_e: &[f64], d_o: &[f64]) -> Vec<f64> {
+        let (n_e, n_o) = (d_e.len(), d_o.len());
         let m = &self.moments;
         let (b, c) = (&self.b, &self.c);
-        let b_rows = Rows::new(b, m, split.even.len());
-        let c_rows = Rows::new(c, m, split.odd.len());
+        let b_rows = Rows::new(b, m, n_e);
+        let c_rows = Rows::new(c, m, n_o);
         // For each kept moment q and each of its B terms, the C weight back to q.
         let back: Vec<Vec<f64>> = (0..m.ext.len())
             .map(|q| {
@@ -201,21 +202,20 @@ impl StencilReduced {
             .collect();
         // Rows whose sum is not the stencil's: a correction in their B row, or a C
         // correction in their column.
-        let mut irregular = vec![false; split.even.len()];
+        let mut irregular = vec![false; n_e];
         for &r in &b.fix_rows {
             irregular[r as usize] = true;
         }
         for &col in &c.fix_cols {
             irregular[col as usize] = true;
         }
-        let d_o = &split.d_o;
         let (kept, elim) = (m.class(true), m.class(false));
-        (0..split.even.len())
+        (0..n_e)
             .into_par_iter()
             .with_min_len(4096)
             .map(|i| {
                 let (q, pos) = m.locate(&kept, i);
-                let mut s = split.d_e[i];
+                let mut s = d_e[i];
                 if !irregular[i] {
                     for (t, w) in b.terms[q].iter().zip(&back[q]) {
                         if let Some(k) = m.index(t.moment, add(pos, t.delta)) {
@@ -242,13 +242,11 @@ impl StencilReduced {
 
     /// The first Galerkin operator `Pᵀ S P` of the aggregation `ag` of the kept unknowns
     /// (kept-local order), from the stencils.
-    pub fn coarse(&self, split: &Split, ag: &Aggregation) -> CsMat<f64> {
+    pub fn coarse(&self, d_e: &[f64], d_o: &[f64], ag: &Aggregation) -> CsMat<f64> {
+        let (n_e, n_o) = (d_e.len(), d_o.len());
         let m = &self.moments;
         let (b, c) = (&self.b, &self.c);
-        let (b_rows, c_rows) = (
-            Rows::new(b, m, split.even.len()),
-            Rows::new(c, m, split.odd.len()),
-        );
+        let (b_rows, c_rows) = (Rows::new(b, m, n_e), Rows::new(c, m, n_o));
         let nm = m.ext.len();
         // The window: odd positions within the B terms' reach of a 2×2×2 aggregate.
         let (mut lo, mut hi) = ([0i64; 3], [0i64; 3]);
@@ -260,7 +258,6 @@ impl StencilReduced {
         }
         let w = [0, 1, 2].map(|d| (hi[d] - lo[d] + 2) as usize);
         let per_moment = w[0] * w[1] * w[2];
-        let d_o = &split.d_o;
         let (kept, elim) = (m.class(true), m.class(false));
         let scratch = || Window {
             sums: vec![0.0; nm * per_moment],
@@ -282,7 +279,7 @@ impl StencilReduced {
                 let base = add(corner, lo);
                 for &i in members {
                     let i = i as usize;
-                    acc.add(row as u32, split.d_e[i]);
+                    acc.add(row as u32, d_e[i]);
                     let (_, pos) = m.locate(&kept, i);
                     b_rows.for_row(q, pos, i, |k, place, v| {
                         let (r, pk) = place.unwrap_or_else(|| m.locate(&elim, k));
@@ -342,4 +339,57 @@ struct Window {
     sums: Vec<f64>,
     touched: Vec<u32>,
     spill: Vec<(usize, f64)>,
+}
+
+impl StencilReduced {
+    /// `B` and `C̃ = D_o⁻¹ C` as CSR blocks, from the stencils and corrections (columns
+    /// sorted, repeated columns summed, exact zeros dropped), for the routes that read the
+    /// blocks entry by entry.
+    pub fn to_blocks(&self, d_o: &[f64]) -> (BlockMat, BlockMat) {
+        let m = &self.moments;
+        let n_e: usize = (0..m.ext.len())
+            .filter(|&q| m.kept[q])
+            .map(|q| m.ext[q].iter().product::<usize>())
+            .sum();
+        let n_o = d_o.len();
+        let (kept, elim) = (m.class(true), m.class(false));
+        let block =
+            |rows: &Rows, class: &[usize], n_rows: usize, n_cols: usize, scale: Option<&[f64]>| {
+                let per_row: Vec<Vec<(u32, f64)>> = (0..n_rows)
+                    .into_par_iter()
+                    .with_min_len(4096)
+                    .map(|r| {
+                        let (q, pos) = m.locate(class, r);
+                        let mut e: Vec<(u32, f64)> = Vec::new();
+                        rows.for_row(q, pos, r, |c, _, w| e.push((c as u32, w)));
+                        e.sort_unstable_by_key(|x| x.0);
+                        let mut out: Vec<(u32, f64)> = Vec::with_capacity(e.len());
+                        for (c, w) in e {
+                            match out.last_mut() {
+                                Some(last) if last.0 == c => last.1 += w,
+                                _ => out.push((c, w)),
+                            }
+                        }
+                        let s = scale.map_or(1.0, |d| 1.0 / d[r]);
+                        out.retain(|x| x.1 != 0.0);
+                        out.iter_mut().for_each(|x| x.1 *= s);
+                        out
+                    })
+                    .collect();
+                let mut indptr = Vec::with_capacity(n_rows + 1);
+                indptr.push(0usize);
+                let (mut idx, mut val) = (Vec::new(), Vec::new());
+                for row in per_row {
+                    for (c, w) in row {
+                        idx.push(c);
+                        val.push(w);
+                    }
+                    indptr.push(idx.len());
+                }
+                BlockMat::new((n_rows, n_cols), indptr, idx, val)
+            };
+        let b = block(&Rows::new(&self.b, m, n_e), &kept, n_e, n_o, None);
+        let c = block(&Rows::new(&self.c, m, n_o), &elim, n_o, n_e, Some(d_o));
+        (b, c)
+    }
 }
