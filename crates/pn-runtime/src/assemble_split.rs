@@ -12,7 +12,9 @@
 //! parallel.
 
 use crate::assemble::{assemble_chunk, check_kernel, face_closures, Chunk, CHUNK};
+use crate::context::RowContext;
 use crate::layout::Layout;
+use crate::marshak::MarshakRows;
 use crate::problem::Problem;
 use crate::solver::parity::split::{classes, BlockMat, Classes, ParityError, Split};
 use crate::solver::pn_layout::{retained_mask, Retained};
@@ -264,6 +266,7 @@ pub fn assemble_split_stencil(
 }
 
 /// What one chunk of rows leaves in the stencil assembly.
+#[derive(Default)]
 struct StencilChunk {
     d_e: Vec<f64>,
     d_o: Vec<f64>,
@@ -274,6 +277,182 @@ struct StencilChunk {
     c_nnz: usize,
     diag_entries: usize,
     max_entry: f64,
+}
+
+impl StencilChunk {
+    /// Removes the last row's diagonal and right-hand side (of the eliminated class when
+    /// `eliminated`).
+    fn take_last_row(&mut self, eliminated: bool) -> (f64, f64) {
+        let d = if eliminated {
+            self.d_o.pop()
+        } else {
+            self.d_e.pop()
+        };
+        (d.unwrap_or(0.0), self.rhs.pop().unwrap_or(0.0))
+    }
+
+    /// Appends a row's diagonal and right-hand side.
+    fn push_row(&mut self, (d, rhs): (f64, f64), eliminated: bool) {
+        if eliminated {
+            self.d_o.push(d);
+        } else {
+            self.d_e.push(d);
+        }
+        self.rhs.push(rhs);
+    }
+}
+
+/// What [`FastRows::row`] did with a row.
+enum FastRow {
+    /// The row is its moment's stencil: its diagonal and right-hand side were appended.
+    Taken,
+    /// The row must be assembled (near the boundary, or a weight differs).
+    NotTaken,
+    /// An eliminated row with a zero or non-finite diagonal.
+    Singular(ParityError),
+}
+
+/// The stencil assembly's fast path for interior rows: a row whose every stencil term lies
+/// inside its moment's grid (no closure touches it) and whose evaluated weights equal its
+/// moment's reference row's (the row nearest the middle of the grid, to
+/// [`crate::solver::parity::stencil_s::SAME_WEIGHT`]) has no correction, so only its
+/// diagonal and right-hand side are kept: no column is resolved, sorted or split.
+struct FastRows<'a> {
+    /// Per moment: the box of positions whose terms all lie inside the grid, `[lo, hi)`.
+    boxes: Vec<([usize; 3], [usize; 3])>,
+    /// Per moment: the reference row's weights (empty: no fast path for the moment).
+    reference: Vec<Vec<f64>>,
+    /// Per moment: which pattern terms are the centred term of the row's own moment.
+    centre: Vec<Vec<bool>>,
+    marshak: Option<&'a MarshakRows>,
+}
+
+impl<'a> FastRows<'a> {
+    fn new(
+        problem: &Problem,
+        kernel: &dyn StencilKernel,
+        layout: &Layout,
+        marshak: Option<&'a MarshakRows>,
+    ) -> Self {
+        let nm = layout.moments.len();
+        let (mut boxes, mut reference, mut centre) = (Vec::new(), Vec::new(), Vec::new());
+        let mut ctx = RowContext::new(problem, [0; 3]);
+        for q in 0..nm {
+            let e = layout.extents[q];
+            let pattern = kernel.pattern(q);
+            let h0 = layout.half_coord(q, [0; 3]);
+            let (mut lo, mut hi) = ([0i64; 3], e.map(|v| v as i64));
+            for t in pattern {
+                let sp = layout.moments[t.moment].shift;
+                let ep = layout.extents[t.moment];
+                for d in 0..3 {
+                    let half = h0[d] + t.offset[d] as i64;
+                    let delta = if sp[d] == 1 {
+                        half.div_euclid(2)
+                    } else {
+                        (half - 1).div_euclid(2)
+                    };
+                    lo[d] = lo[d].max(-delta);
+                    hi[d] = hi[d].min(ep[d] as i64 - delta);
+                }
+            }
+            let bx = (lo.map(|v| v.max(0) as usize), hi.map(|v| v.max(0) as usize));
+            let mid = e.map(|v| v / 2);
+            // A pattern naming one (moment, offset) twice is merged by the assembly: no
+            // fast path then (its entry count would differ).
+            let mut keys: Vec<_> = pattern.iter().map(|t| (t.moment, t.offset)).collect();
+            keys.sort_unstable();
+            let distinct = keys.windows(2).all(|w| w[0] != w[1]);
+            let inside = distinct && (0..3).all(|d| mid[d] >= bx.0[d] && mid[d] < bx.1[d]);
+            let mut w = vec![0.0; pattern.len()];
+            if inside {
+                ctx.set_row(layout.half_coord(q, mid));
+                kernel.eval_row(q, &ctx, &mut w);
+                if ctx.take_error().is_some() || w.iter().any(|v| !v.is_finite()) {
+                    w.clear();
+                }
+            } else {
+                w.clear();
+            }
+            boxes.push(bx);
+            reference.push(w);
+            centre.push(
+                pattern
+                    .iter()
+                    .map(|t| t.moment == q && t.offset == [0, 0, 0])
+                    .collect(),
+            );
+        }
+        Self {
+            boxes,
+            reference,
+            centre,
+            marshak,
+        }
+    }
+
+    /// Takes row `g` if it can (see [`FastRows`]), appending its diagonal, right-hand side,
+    /// entry counts and largest entry to `out`.
+    #[allow(clippy::too_many_arguments)]
+    fn row(
+        &self,
+        kernel: &dyn StencilKernel,
+        layout: &Layout,
+        ctx: &mut RowContext<'_>,
+        weights: &mut Vec<f64>,
+        g: usize,
+        eliminated: bool,
+        out: &mut StencilChunk,
+    ) -> anyhow::Result<FastRow> {
+        use crate::solver::parity::stencil_s::SAME_WEIGHT;
+        let (q, idx) = layout.locate(g);
+        let reference = &self.reference[q];
+        let (lo, hi) = self.boxes[q];
+        if reference.is_empty()
+            || (0..3).any(|d| idx[d] < lo[d] || idx[d] >= hi[d])
+            || self.marshak.is_some_and(|m| m.face_of(q, idx).is_some())
+        {
+            return Ok(FastRow::NotTaken);
+        }
+        ctx.set_row(layout.half_coord(q, idx));
+        weights.clear();
+        weights.resize(reference.len(), 0.0);
+        let rhs = kernel.eval_row(q, ctx, weights);
+        if ctx.take_error().is_some() || !rhs.is_finite() || weights.iter().any(|w| !w.is_finite())
+        {
+            // The assembly of the row reports the error with its position.
+            return Ok(FastRow::NotTaken);
+        }
+        let centre = &self.centre[q];
+        let (mut diag, mut has_diag, mut off, mut max) = (0.0, false, 0usize, 0.0f64);
+        for ((&w, &r), &c) in weights.iter().zip(reference).zip(centre) {
+            if c {
+                diag += w;
+                has_diag = true;
+            } else {
+                if (w - r).abs() > SAME_WEIGHT * r.abs() {
+                    return Ok(FastRow::NotTaken);
+                }
+                off += usize::from(w != 0.0);
+                max = max.max(w.abs());
+            }
+        }
+        if eliminated && (diag == 0.0 || !diag.is_finite()) {
+            return Ok(FastRow::Singular(ParityError::SingularOddDiagonal {
+                row: g,
+                value: diag,
+            }));
+        }
+        out.max_entry = out.max_entry.max(max).max(diag.abs());
+        out.diag_entries += usize::from(has_diag);
+        if eliminated {
+            out.c_nnz += off;
+        } else {
+            out.b_nnz += off;
+        }
+        out.push_row((diag, rhs), eliminated);
+        Ok(FastRow::Taken)
+    }
 }
 
 /// [`assemble_split_stencil`] keeping the moments of the parity `retained`.
@@ -360,52 +539,105 @@ fn assemble_stencil_retaining(
     }
     let b_terms = stencil_terms(&m, true, |q| mid[q].clone());
     let c_terms = stencil_terms(&m, false, |q| mid[q].clone());
+    let fast = FastRows::new(problem, kernel, layout, marshak.as_ref());
     let chunks: Vec<Result<StencilChunk, ParityError>> = (0..n)
         .step_by(CHUNK)
         .collect::<Vec<_>>()
         .into_par_iter()
         .map(|r0| {
             let rows = r0..(r0 + CHUNK).min(n);
-            let sc = match split_rows(rows.clone())? {
-                Ok(sc) => sc,
-                Err(e) => return Ok(Err(e)),
+            let mut out = StencilChunk::default();
+            let mut implied = Vec::new();
+            // The rows the fast path cannot take are assembled, split and compared with
+            // their stencil as a run (`slow`).
+            let mut slow = |run: std::ops::Range<usize>, out: &mut StencilChunk| {
+                let sc = match split_rows(run.clone())? {
+                    Ok(sc) => sc,
+                    Err(e) => return Ok(Err(e)),
+                };
+                let (mut bp, mut cp, mut bk, mut ck) = (0usize, 0usize, 0usize, 0usize);
+                for g in run {
+                    let (q, ri) = pos(g);
+                    let r = local[g] as usize;
+                    if even[g] {
+                        let len = sc.b_row_nnz[bk];
+                        let (cols, vals) = (&sc.b_cols[bp..bp + len], &sc.b_vals[bp..bp + len]);
+                        let entries = cols.iter().zip(vals).map(|(&c, &v)| (c as usize, v));
+                        row_fixes(
+                            &m,
+                            &b_terms[q],
+                            r,
+                            ri,
+                            entries,
+                            &mut implied,
+                            &mut out.b_fixes,
+                        );
+                        bp += len;
+                        bk += 1;
+                    } else {
+                        let len = sc.c_row_nnz[ck];
+                        let d = sc.d_o[ck];
+                        let (cols, vals) = (&sc.c_cols[cp..cp + len], &sc.c_vals[cp..cp + len]);
+                        let entries = cols
+                            .iter()
+                            .zip(vals)
+                            .map(move |(&c, &v)| (c as usize, d * v));
+                        row_fixes(
+                            &m,
+                            &c_terms[q],
+                            r,
+                            ri,
+                            entries,
+                            &mut implied,
+                            &mut out.c_fixes,
+                        );
+                        cp += len;
+                        ck += 1;
+                    }
+                }
+                out.b_nnz += sc.b_cols.len();
+                out.c_nnz += sc.c_cols.len();
+                out.d_e.extend_from_slice(&sc.d_e);
+                out.d_o.extend_from_slice(&sc.d_o);
+                out.rhs.extend_from_slice(&sc.rhs);
+                out.diag_entries += sc.diag_entries;
+                out.max_entry = out.max_entry.max(sc.max_entry);
+                anyhow::Ok(Ok(()))
             };
-            let (mut b_fixes, mut c_fixes, mut implied) = (Vec::new(), Vec::new(), Vec::new());
-            let (mut bp, mut cp, mut bk, mut ck) = (0usize, 0usize, 0usize, 0usize);
-            for g in rows {
-                let (q, ri) = pos(g);
-                let r = local[g] as usize;
-                if even[g] {
-                    let len = sc.b_row_nnz[bk];
-                    let (cols, vals) = (&sc.b_cols[bp..bp + len], &sc.b_vals[bp..bp + len]);
-                    let entries = cols.iter().zip(vals).map(|(&c, &v)| (c as usize, v));
-                    row_fixes(&m, &b_terms[q], r, ri, entries, &mut implied, &mut b_fixes);
-                    bp += len;
-                    bk += 1;
-                } else {
-                    let len = sc.c_row_nnz[ck];
-                    let d = sc.d_o[ck];
-                    let (cols, vals) = (&sc.c_cols[cp..cp + len], &sc.c_vals[cp..cp + len]);
-                    let entries = cols
-                        .iter()
-                        .zip(vals)
-                        .map(move |(&c, &v)| (c as usize, d * v));
-                    row_fixes(&m, &c_terms[q], r, ri, entries, &mut implied, &mut c_fixes);
-                    cp += len;
-                    ck += 1;
+            let mut ctx = RowContext::new(problem, [0; 3]);
+            let mut weights = Vec::new();
+            let mut pending = rows.start..rows.start;
+            for g in rows.clone() {
+                let taken = fast.row(
+                    kernel,
+                    layout,
+                    &mut ctx,
+                    &mut weights,
+                    g,
+                    !even[g],
+                    &mut out,
+                )?;
+                match taken {
+                    FastRow::Taken if !pending.is_empty() => {
+                        // Keep the rows in order: the run before this row went first.
+                        let row_out = out.take_last_row(!even[g]);
+                        if let Err(e) = slow(pending.clone(), &mut out)? {
+                            return Ok(Err(e));
+                        }
+                        out.push_row(row_out, !even[g]);
+                        pending = g + 1..g + 1;
+                    }
+                    FastRow::Taken => pending = g + 1..g + 1,
+                    FastRow::Singular(e) => return Ok(Err(e)),
+                    FastRow::NotTaken => pending.end = g + 1,
                 }
             }
-            Ok(Ok(StencilChunk {
-                b_nnz: sc.b_cols.len(),
-                c_nnz: sc.c_cols.len(),
-                d_e: sc.d_e,
-                d_o: sc.d_o,
-                rhs: sc.rhs,
-                b_fixes,
-                c_fixes,
-                diag_entries: sc.diag_entries,
-                max_entry: sc.max_entry,
-            }))
+            if !pending.is_empty() {
+                if let Err(e) = slow(pending, &mut out)? {
+                    return Ok(Err(e));
+                }
+            }
+            Ok(Ok(out))
         })
         .collect::<anyhow::Result<_>>()?;
     let chunks = match chunks.into_iter().collect::<Result<Vec<_>, _>>() {
