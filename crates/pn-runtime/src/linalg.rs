@@ -289,6 +289,50 @@ pub fn solve_small_dense(
     rhs.iter().all(|v| v.is_finite()).then_some(rhs)
 }
 
+/// The floating-point types the preconditioner's finest level runs in: `f64`, or `f32` where
+/// a single-precision cycle is enough (`solver::multigrid`, `MgOptions::single_fine`).
+pub trait Real:
+    Copy
+    + Send
+    + Sync
+    + Default
+    + PartialEq
+    + std::ops::Add<Output = Self>
+    + std::ops::Sub<Output = Self>
+    + std::ops::Mul<Output = Self>
+    + std::ops::Div<Output = Self>
+    + std::ops::AddAssign
+    + std::ops::SubAssign
+    + 'static
+{
+    /// `v` rounded to this type.
+    fn of(v: f64) -> Self;
+    /// This value as `f64`.
+    fn wide(self) -> f64;
+}
+
+impl Real for f64 {
+    #[inline]
+    fn of(v: f64) -> Self {
+        v
+    }
+    #[inline]
+    fn wide(self) -> f64 {
+        self
+    }
+}
+
+impl Real for f32 {
+    #[inline]
+    fn of(v: f64) -> Self {
+        v as f32
+    }
+    #[inline]
+    fn wide(self) -> f64 {
+        self as f64
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -341,3 +341,68 @@ fn single_precision_coarse_levels_change_nothing_but_rounding() {
         assert!(rel_diff(&u_single, &u_double) <= SAME_ANSWER);
     }
 }
+
+/// The finest level of the cycle in single precision (the default for tolerances of 1e-6 and
+/// looser) against double: the solve reaches the same tolerance in the true `f64` residual,
+/// in about the same number of iterations, and the answers agree to the tolerance's order
+/// (both are within 1e-6 of the solution in the residual; cond ≲ 1e4 here, see
+/// `SAME_ANSWER`, so 1e-6 · 1e4 bounds their difference). The single-precision products
+/// are counted among the applications of `S`.
+#[test]
+fn single_precision_finest_level_meets_the_tolerance() {
+    for (problem, order) in [
+        (pointsource3d(16, Boundary::Neumann), 3),
+        (pointsource3d(16, Boundary::Dirichlet), 5),
+        (checkerboard(31), 5),
+    ] {
+        let (layout, sys) = system(&problem, order);
+        let solver = ParityCg::for_layout(&layout).with_precond(Precond::Multigrid);
+        let mut o = opts(1e-6);
+        let run = |single: bool, o: &mut pn_runtime::solver::SolverOptions| {
+            o.tuning.multigrid = Some(MgOptions {
+                single_fine: Some(single),
+                ..MgOptions::default()
+            });
+            solver.solve_detailed(&sys.matrix, &sys.rhs, o).unwrap()
+        };
+        let (u_single, single) = run(true, &mut o);
+        let (u_double, double) = run(false, &mut o);
+        for rep in [&single, &double] {
+            assert!(rep.stats.converged(), "P_{order}: {:?}", rep.stats);
+            assert!(rep.stats.relative_residual <= 1e-6, "P_{order}");
+        }
+        assert!(
+            single.stats.iterations.abs_diff(double.stats.iterations) <= 2,
+            "P_{order}: {} vs {} iterations",
+            single.stats.iterations,
+            double.stats.iterations
+        );
+        assert!(
+            single.reduced_applications + 2 >= double.reduced_applications,
+            "P_{order}: {} vs {} applications",
+            single.reduced_applications,
+            double.reduced_applications
+        );
+        let d = rel_diff(&u_single, &u_double);
+        assert!(d <= 1e-2, "P_{order}: {d:e}");
+    }
+    // The hierarchy really runs its finest level in f32 when asked (the stencil S).
+    let (layout, sys) = system(&pointsource3d(12, Boundary::Neumann), 3);
+    let mask = pn_runtime::solver::pn_layout::retained_mask(
+        &layout,
+        pn_runtime::solver::pn_layout::Retained::for_layout(&layout),
+    );
+    let sp = split(&sys.matrix, &mask).unwrap();
+    let geometry = Geometry::from_layout(&layout, None);
+    let op = ReducedOperator::new(&sp, ReducedMode::MatrixFree).with_stencil(&geometry);
+    for single in [true, false] {
+        let mg_opts = MgOptions {
+            single_fine: Some(single),
+            ..MgOptions::default()
+        };
+        match Built::multigrid_with(&sp, &geometry, &mg_opts, &op).unwrap() {
+            Built::Multigrid(mg) => assert_eq!(mg.is_single_fine(), single),
+            _ => panic!("not a multigrid"),
+        }
+    }
+}

@@ -300,7 +300,13 @@ impl ParityCg {
         let t_form = t_split + t0.elapsed().as_secs_f64();
         let built = match (&precond_used, &self.geometry) {
             (Precond::Multigrid, Some(g)) => {
-                precond::Built::multigrid_with(sp, g, &tuning.multigrid_options(), &op)
+                let mut mg_opts = tuning.multigrid_options();
+                mg_opts.single_fine = Some(
+                    mg_opts
+                        .single_fine
+                        .unwrap_or(opts.tol >= crate::solver::multigrid::SINGLE_FINE_MIN_TOL),
+                );
+                precond::Built::multigrid_with(sp, g, &mg_opts, &op)
             }
             _ => precond::Built::new(&precond_used, sp, op.formed()),
         };
@@ -408,7 +414,7 @@ impl ParityCg {
                 t_pre - t_form,
                 seconds_setup - t_pre,
                 ctl.iterations,
-                s_apps.count(),
+                s_apps.count() + pre.single_applications(),
                 it / ctl.iterations.max(1) as f64,
                 method.name(),
             );
@@ -437,7 +443,10 @@ impl ParityCg {
             formed: op.is_formed(),
             even_unknowns: sp.even.len(),
             odd_unknowns: sp.odd.len(),
-            reduced_applications: s_apps.count() + 2 * probes + pre.setup_applications(),
+            reduced_applications: s_apps.count()
+                + 2 * probes
+                + pre.setup_applications()
+                + pre.single_applications(),
             full_applications,
             seconds_setup,
             seconds_iterate: t1.elapsed().as_secs_f64(),

@@ -125,7 +125,16 @@ pub struct MgOptions {
     /// Coarse entries `|a_ij| < drop · sqrt(|a_ii a_jj|)` are dropped and their magnitude
     /// added to the diagonal ([`sparsify`]); 0 keeps the Galerkin operators whole.
     pub drop: f64,
+    /// Run the finest level of the cycle in single precision where the finest operator has
+    /// an `f32` form ([`Multigrid::with_single_fine`]): `None` decides by the solve's
+    /// tolerance ([`SINGLE_FINE_MIN_TOL`]); `PN_MG_SINGLE=0|1` forces it.
+    pub single_fine: Option<bool>,
 }
+
+/// The tightest relative tolerance for which the parity solves run the finest
+/// level of the cycle in single precision by default: rounding `f32` perturbs the
+/// preconditioner by about 1e-7 relative, far below what a solve to 1e-6 or looser needs.
+pub const SINGLE_FINE_MIN_TOL: f64 = 1e-6;
 
 /// How the finest level enters the preconditioner.
 ///
@@ -186,6 +195,7 @@ impl Default for MgOptions {
             fine_cycle: FineCycle::AdditiveIfSymmetric,
             double_coarse: false,
             drop: 0.0,
+            single_fine: None,
         }
     }
 }
@@ -222,6 +232,9 @@ impl MgOptions {
             },
             double_coarse: get("PN_MG_DOUBLE_COARSE").is_some(),
             drop: parse(get, "PN_MG_DROP").unwrap_or(d.drop),
+            single_fine: parse::<u8>(get, "PN_MG_SINGLE")
+                .map(|v| v != 0)
+                .or(d.single_fine),
             ..d
         }
     }
@@ -328,6 +341,21 @@ pub struct Multigrid {
     /// Cycles applied and nanoseconds spent in them (for the profile line).
     cycle_stats: [std::sync::atomic::AtomicU64; 2],
     work: Mutex<Vec<Work>>,
+    /// The finest level in single precision ([`Multigrid::with_single_fine`]).
+    single: Option<Box<SingleFine>>,
+}
+
+/// The finest operator in single precision, `y = A x` ([`Multigrid::with_single_fine`]).
+pub type SingleApply = Box<dyn Fn(&[f32], &mut [f32]) + Send + Sync>;
+
+/// The finest level of the cycle in `f32`: its operator, the smoother's inverse diagonal
+/// and the work vectors, all in single precision.
+struct SingleFine {
+    apply: SingleApply,
+    inv_diag: Vec<f32>,
+    work: Mutex<[Vec<f32>; 5]>,
+    /// Applications of `apply` so far.
+    applications: std::sync::atomic::AtomicUsize,
 }
 
 fn inverse_diagonal(level: usize, diag: &[f64]) -> Result<Vec<f64>, MgError> {
@@ -588,6 +616,48 @@ impl Multigrid {
             first_coarse_asymmetry,
             cycle_stats: Default::default(),
             work: Mutex::new(work),
+            single: None,
+        })
+    }
+
+    /// Runs the finest level of the cycle (its smoothing, residual, restriction and
+    /// prolongation) in single precision with the operator `apply` (the finest operator in
+    /// `f32`); the coarse levels, which already store `f32` values, keep `f64` vectors.
+    /// The cycle is a preconditioner: the Krylov method, its residuals and its stopping test
+    /// stay in `f64` with the finest operator, so the answer meets the same tolerance; the
+    /// finest level's traffic (vectors and diagonals) halves. Ignored for the additive
+    /// finest level, which never applies the finest operator.
+    pub fn with_single_fine(mut self, apply: SingleApply) -> Self {
+        if self.additive || self.levels.is_empty() {
+            return self;
+        }
+        let inv_diag: Vec<f32> = self.levels[0]
+            .smoother
+            .inv_diag
+            .iter()
+            .map(|&v| v as f32)
+            .collect();
+        let n = inv_diag.len();
+        self.single = Some(Box::new(SingleFine {
+            apply,
+            inv_diag,
+            work: Mutex::new(std::array::from_fn(|_| vec![0.0f32; n])),
+            applications: Default::default(),
+        }));
+        self
+    }
+
+    /// Whether the finest level runs in single precision.
+    pub fn is_single_fine(&self) -> bool {
+        self.single.is_some()
+    }
+
+    /// Applications of the single-precision finest operator so far (the cycle's smoothing
+    /// and residuals on the finest level; 0 in double precision, where the caller counts
+    /// them through its own operator).
+    pub fn single_fine_applications(&self) -> usize {
+        self.single.as_ref().map_or(0, |s| {
+            s.applications.load(std::sync::atomic::Ordering::Relaxed)
         })
     }
 
@@ -697,10 +767,11 @@ impl Multigrid {
             None => "no fine level".into(),
         };
         format!(
-            "{} levels, unknowns {:?}, coarse nnz {:?}, {fine}, coarse degree {}, {} cycles in {:.3} s",
+            "{} levels, unknowns {:?}, coarse nnz {:?}, {fine}{}, coarse degree {}, {} cycles in {:.3} s",
             sizes.len(),
             sizes,
             self.coarse_nnz,
+            if self.single.is_some() { " (f32)" } else { "" },
             self.levels.get(1).map_or(0, |l| l.smoother.degree),
             self.cycle_stats[0].load(Relaxed),
             self.cycle_stats[1].load(Relaxed) as f64 * 1e-9,

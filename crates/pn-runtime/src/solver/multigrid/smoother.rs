@@ -7,7 +7,7 @@
 //! before and after the coarse correction gives a symmetric V-cycle. Degree 1 is damped
 //! Jacobi with `ω = 1/θ`, `θ` the centre of the interval.
 
-use crate::linalg::norm;
+use crate::linalg::{norm, Real};
 use rayon::prelude::*;
 
 /// A Chebyshev smoother for one level.
@@ -55,17 +55,33 @@ impl Chebyshev {
         t: &mut [f64],
         final_residual: bool,
     ) {
+        self.smooth_with(&self.inv_diag, apply, r, x, d, t, final_residual);
+    }
+
+    /// [`Chebyshev::smooth`] in any [`Real`] type, with `inv` the inverse diagonal in that
+    /// type (the polynomial's coefficients are computed in `f64` and rounded).
+    #[allow(clippy::too_many_arguments)]
+    pub fn smooth_with<T: Real>(
+        &self,
+        inv: &[T],
+        apply: &dyn Fn(&[T], &mut [T]),
+        r: &mut [T],
+        x: &mut [T],
+        d: &mut [T],
+        t: &mut [T],
+        final_residual: bool,
+    ) {
         let theta = 0.5 * (self.lambda_max + self.lambda_min);
         let delta = 0.5 * (self.lambda_max - self.lambda_min);
         let sigma = theta / delta;
         let mut rho = 1.0 / sigma;
-        let inv = &self.inv_diag;
+        let theta_t = T::of(theta);
         d.par_iter_mut()
             .zip(x.par_iter_mut())
             .zip(r.par_iter().zip(inv.par_iter()))
             .with_min_len(super::PAR_MIN_LEN)
-            .for_each(|((di, xi), (ri, ii))| {
-                *di = ri * ii / theta;
+            .for_each(|((di, xi), (&ri, &ii))| {
+                *di = ri * ii / theta_t;
                 *xi += *di;
             });
         for k in 1..=self.degree {
@@ -76,17 +92,17 @@ impl Chebyshev {
             r.par_iter_mut()
                 .zip(t.par_iter())
                 .with_min_len(super::PAR_MIN_LEN)
-                .for_each(|(ri, ti)| *ri -= ti);
+                .for_each(|(ri, &ti)| *ri -= ti);
             if k == self.degree {
                 break;
             }
             let rho_new = 1.0 / (2.0 * sigma - rho);
-            let (c1, c2) = (rho_new * rho, 2.0 * rho_new / delta);
+            let (c1, c2) = (T::of(rho_new * rho), T::of(2.0 * rho_new / delta));
             d.par_iter_mut()
                 .zip(x.par_iter_mut())
                 .zip(r.par_iter().zip(inv.par_iter()))
                 .with_min_len(super::PAR_MIN_LEN)
-                .for_each(|((di, xi), (ri, ii))| {
+                .for_each(|((di, xi), (&ri, &ii))| {
                     *di = c1 * *di + c2 * ri * ii;
                     *xi += *di;
                 });

@@ -10,7 +10,7 @@
 //! with `x_c` the cycle of the coarse levels for `Pᵀ b`: symmetric as well, and without
 //! any application of the finest operator.
 
-use super::{Multigrid, Work};
+use super::{Multigrid, SingleFine, Work};
 use rayon::prelude::*;
 
 impl Multigrid {
@@ -20,10 +20,76 @@ impl Multigrid {
         let t0 = std::time::Instant::now();
         let mut work = self.work.lock().unwrap_or_else(|e| e.into_inner());
         z.iter_mut().for_each(|v| *v = 0.0);
-        self.cycle(0, fine_apply, r, z, &mut work);
+        match &self.single {
+            Some(single) => self.cycle_single(single, fine_apply, r, z, &mut work),
+            None => self.cycle(0, fine_apply, r, z, &mut work),
+        }
         use std::sync::atomic::Ordering::Relaxed;
         self.cycle_stats[0].fetch_add(1, Relaxed);
         self.cycle_stats[1].fetch_add(t0.elapsed().as_nanos() as u64, Relaxed);
+    }
+
+    /// The finest level of [`Multigrid::cycle`] in `f32` ([`Multigrid::with_single_fine`]):
+    /// the same steps, with `b` rounded once and `x` widened at the end.
+    fn cycle_single(
+        &self,
+        single: &SingleFine,
+        fine_apply: &dyn Fn(&[f64], &mut [f64]),
+        b: &[f64],
+        x: &mut [f64],
+        work: &mut [Work],
+    ) {
+        let mut vecs = single.work.lock().unwrap_or_else(|e| e.into_inner());
+        let [b32, r, x32, d, t] = &mut *vecs;
+        let lev = &self.levels[0];
+        let apply = |v: &[f32], out: &mut [f32]| {
+            single
+                .applications
+                .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            (single.apply)(v, out);
+        };
+        let apply = &apply;
+        b32.par_iter_mut()
+            .zip(b.par_iter())
+            .with_min_len(super::PAR_MIN_LEN)
+            .for_each(|(o, &v)| *o = v as f32);
+        r.copy_from_slice(b32);
+        x32.iter_mut().for_each(|v| *v = 0.0);
+        lev.smoother
+            .smooth_with(&single.inv_diag, apply, r, x32, d, t, true);
+        let Some((w, rest)) = work.split_first_mut() else {
+            return;
+        };
+        let agg = &lev.agg;
+        let rr = &*r;
+        w.b_next
+            .par_iter_mut()
+            .enumerate()
+            .with_min_len(super::PAR_MIN_LEN)
+            .for_each(|(c, bc)| {
+                *bc = agg.members[agg.ptr[c]..agg.ptr[c + 1]]
+                    .iter()
+                    .map(|&i| rr[i as usize] as f64)
+                    .sum();
+            });
+        w.x_next.iter_mut().for_each(|v| *v = 0.0);
+        self.cycle(1, fine_apply, &w.b_next, &mut w.x_next, rest);
+        let (xc, s) = (&w.x_next, self.scale);
+        x32.par_iter_mut()
+            .zip(agg.agg.par_iter())
+            .with_min_len(super::PAR_MIN_LEN)
+            .for_each(|(xi, &c)| *xi += (s * xc[c as usize]) as f32);
+        apply(x32, t);
+        r.par_iter_mut()
+            .zip(b32.par_iter().zip(t.par_iter()))
+            .with_min_len(super::PAR_MIN_LEN)
+            .for_each(|(ri, (&bi, &ti))| *ri = bi - ti);
+        lev.smoother
+            .smooth_with(&single.inv_diag, apply, r, x32, d, t, false);
+        x.par_iter_mut()
+            .zip(x32.par_iter())
+            .with_min_len(super::PAR_MIN_LEN)
+            .for_each(|(o, &v)| *o = v as f64);
     }
 
     fn cycle(

@@ -217,7 +217,28 @@ impl Built {
             },
             opts,
         )?;
+        // The finest level in single precision where S has an f32 form (its stencils).
+        let mg = match (opts.single_fine, fine.stencil_shared()) {
+            (Some(true), Some(st)) => {
+                let d_e: Vec<f32> = split.d_e.iter().map(|&v| v as f32).collect();
+                let d_o: Vec<f32> = split.d_o.iter().map(|&v| v as f32).collect();
+                let tmp = std::sync::Mutex::new(vec![0.0f32; d_o.len()]);
+                mg.with_single_fine(Box::new(move |x: &[f32], y: &mut [f32]| {
+                    let mut t = tmp.lock().unwrap_or_else(|e| e.into_inner());
+                    st.apply_with(&d_e, &d_o, x, y, &mut t);
+                }))
+            }
+            _ => mg,
+        };
         Ok(Built::Multigrid(mg))
+    }
+
+    /// Applications of `S` in single precision by the multigrid's finest level so far.
+    pub fn single_applications(&self) -> usize {
+        match self {
+            Built::Multigrid(mg) => mg.single_fine_applications(),
+            _ => 0,
+        }
     }
 
     /// Applications of `S` spent building it (multigrid's power iteration).

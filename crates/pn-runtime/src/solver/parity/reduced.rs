@@ -92,6 +92,11 @@ impl<'a> ReducedOperator<'a> {
         self.stencil.as_deref()
     }
 
+    /// The shared stencils `S` is applied from, if any.
+    pub fn stencil_shared(&self) -> Option<Arc<StencilReduced>> {
+        self.stencil.clone()
+    }
+
     /// Whether `S` is applied from the blocks' stencils.
     pub fn is_stencil(&self) -> bool {
         self.stencil.is_some()

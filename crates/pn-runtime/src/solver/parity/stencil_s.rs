@@ -23,6 +23,7 @@
 mod galerkin;
 
 use super::block_mat::BlockMat;
+use crate::linalg::Real;
 use crate::matfree::range;
 use crate::solver::multigrid::Geometry;
 use rayon::prelude::*;
@@ -258,13 +259,19 @@ impl StencilReduced {
     /// `y = S x = D_e x − B D_o⁻¹ C x` (kept-local vectors; `d_e`, `d_o` the diagonals).
     pub fn apply(&self, d_e: &[f64], d_o: &[f64], x: &[f64], y: &mut [f64]) {
         let mut t = self.tmp.lock().unwrap_or_else(|e| e.into_inner());
+        self.apply_with(d_e, d_o, x, y, &mut t);
+    }
+
+    /// [`StencilReduced::apply`] in any [`Real`] type (the single-precision finest level of
+    /// the multigrid cycle), with `t` a work vector of the eliminated unknowns.
+    pub fn apply_with<T: Real>(&self, d_e: &[T], d_o: &[T], x: &[T], y: &mut [T], t: &mut [T]) {
         let m = &self.moments;
         // t = D_o⁻¹ (C x), slab by slab.
-        for_slabs(m, false, &mut t, |q, ix, start, ts| {
+        for_slabs(m, false, t, |q, ix, start, ts| {
             stencil_slab(m, &self.c.terms[q], q, ix, x, ts);
             self.c.correct(start, ts, x);
             let d = &d_o[start..start + ts.len()];
-            ts.iter_mut().zip(d).for_each(|(v, d)| *v /= d);
+            ts.iter_mut().zip(d).for_each(|(v, &d)| *v = *v / d);
         });
         let t = &*t;
         // y = D_e x − B t.
@@ -274,32 +281,32 @@ impl StencilReduced {
             let (xs, d) = (&x[start..start + ys.len()], &d_e[start..start + ys.len()]);
             ys.iter_mut()
                 .zip(xs.iter().zip(d))
-                .for_each(|(v, (x, d))| *v = d * x - *v);
+                .for_each(|(v, (&x, &d))| *v = d * x - *v);
         });
     }
 }
 
 impl StencilBlock {
     /// Adds the corrections of rows `start..start + out.len()` to `out`.
-    fn correct(&self, start: usize, out: &mut [f64], x: &[f64]) {
+    fn correct<T: Real>(&self, start: usize, out: &mut [T], x: &[T]) {
         let lo = self.fix_rows.partition_point(|&r| (r as usize) < start);
         let hi = self
             .fix_rows
             .partition_point(|&r| (r as usize) < start + out.len());
         for k in lo..hi {
             out[self.fix_rows[k] as usize - start] +=
-                self.fix_vals[k] * x[self.fix_cols[k] as usize];
+                T::of(self.fix_vals[k]) * x[self.fix_cols[k] as usize];
         }
     }
 }
 
 /// Runs `f(moment, x index, first local row, slab)` in parallel over the x-planes of the
 /// moments of one class (`kept` or eliminated) of the local vector `v`.
-fn for_slabs(
+fn for_slabs<T: Real>(
     m: &Moments,
     kept: bool,
-    v: &mut [f64],
-    f: impl Fn(usize, usize, usize, &mut [f64]) + Sync,
+    v: &mut [T],
+    f: impl Fn(usize, usize, usize, &mut [T]) + Sync,
 ) {
     let mut slabs = Vec::new();
     let mut rest = v;
@@ -333,9 +340,16 @@ fn for_slabs(
 /// over all its terms at once ([`fused_line`]): every output value is stored once instead
 /// of being read and written again for each term (71² checkerboard P_5: cycles 0.141 s
 /// against 0.146 s). In 3D the terms are added one by one.
-fn stencil_slab(m: &Moments, terms: &[Term], q: usize, ix: usize, src: &[f64], out: &mut [f64]) {
+fn stencil_slab<T: Real>(
+    m: &Moments,
+    terms: &[Term],
+    q: usize,
+    ix: usize,
+    src: &[T],
+    out: &mut [T],
+) {
     let e = m.ext[q];
-    let mut parts: Vec<LinePart> = Vec::with_capacity(terms.len());
+    let mut parts: Vec<LinePart<T>> = Vec::with_capacity(terms.len());
     // The x-plane of moment `p` shifted by `dx`, if it lies in `p`'s grid.
     let plane_of = |t: &Term| {
         let ep = m.ext[t.moment];
@@ -351,7 +365,7 @@ fn stencil_slab(m: &Moments, terms: &[Term], q: usize, ix: usize, src: &[f64], o
             let ys = range(e[1], m.ext[t.moment][1], t.delta[1]);
             if !ys.is_empty() {
                 parts.push(LinePart {
-                    weight: t.weight,
+                    weight: T::of(t.weight),
                     base: plane as i64 + t.delta[1],
                     valid: ys,
                 });
@@ -363,13 +377,13 @@ fn stencil_slab(m: &Moments, terms: &[Term], q: usize, ix: usize, src: &[f64], o
     // 3D: term by term over the plane (a ∂x or ∂y term as one contiguous run). Fusing the
     // terms line by line, as in 2D, measured slower here (40³ P_5 point source: cycles
     // 0.67–0.71 s against 0.59 s): the z-lines are short and the ∂x/∂y runs long.
-    out.fill(0.0);
+    out.fill(T::default());
     for t in terms {
         let Some(plane) = plane_of(t) else { continue };
         let p = t.moment;
         let ep = m.ext[p];
         let [_, dy, dz] = t.delta;
-        let w = t.weight;
+        let w = T::of(t.weight);
         if dz == 0 && ep[2] == e[2] {
             // Same z positions (a ∂x or ∂y term): the y-lines are one contiguous run.
             let ys = range(e[1], ep[1], dy);
@@ -380,7 +394,7 @@ fn stencil_slab(m: &Moments, terms: &[Term], q: usize, ix: usize, src: &[f64], o
             let len = ys.len() * e[2];
             let xs = &src[first..first + len];
             let run = &mut out[ys.start * e[2]..ys.start * e[2] + len];
-            run.iter_mut().zip(xs).for_each(|(o, x)| *o += w * x);
+            run.iter_mut().zip(xs).for_each(|(o, &x)| *o += w * x);
             continue;
         }
         let zs = range(e[2], ep[2], dz);
@@ -392,15 +406,15 @@ fn stencil_slab(m: &Moments, terms: &[Term], q: usize, ix: usize, src: &[f64], o
             let first = (plane as i64 + (iyr * ep[2]) as i64 + zs.start as i64 + dz) as usize;
             let xs = &src[first..first + zs.len()];
             let line = &mut out[iy * e[2] + zs.start..iy * e[2] + zs.end];
-            line.iter_mut().zip(xs).for_each(|(o, x)| *o += w * x);
+            line.iter_mut().zip(xs).for_each(|(o, &x)| *o += w * x);
         }
     }
 }
 
 /// One term's contribution to a line of the output: `out[i] += weight · src[base + i]` for
 /// `i` in `valid` (the positions whose reference lies in the source moment's grid).
-struct LinePart {
-    weight: f64,
+struct LinePart<T> {
+    weight: T,
     base: i64,
     valid: std::ops::Range<usize>,
 }
@@ -411,7 +425,7 @@ struct LinePart {
 /// once; the few positions at the ends, where a shifted reference leaves its grid, take
 /// the terms one by one.
 #[inline]
-fn fused_line(out: &mut [f64], parts: &[LinePart], src: &[f64]) {
+fn fused_line<T: Real>(out: &mut [T], parts: &[LinePart<T>], src: &[T]) {
     let len = out.len();
     let lo = parts
         .iter()
@@ -421,8 +435,8 @@ fn fused_line(out: &mut [f64], parts: &[LinePart], src: &[f64]) {
         .min(len);
     let hi = parts.iter().map(|p| p.valid.end).min().unwrap_or(0).max(lo);
     // The ends: term by term.
-    out[..lo].fill(0.0);
-    out[hi..].fill(0.0);
+    out[..lo].fill(T::default());
+    out[hi..].fill(T::default());
     for p in parts {
         for i in (p.valid.start..lo.min(p.valid.end)).chain(hi.max(p.valid.start)..p.valid.end) {
             out[i] += p.weight * src[(p.base + i as i64) as usize];
@@ -432,7 +446,7 @@ fn fused_line(out: &mut [f64], parts: &[LinePart], src: &[f64]) {
     const BLOCK: usize = 8;
     let mut i = lo;
     while i + BLOCK <= hi {
-        let mut acc = [0.0f64; BLOCK];
+        let mut acc = [T::default(); BLOCK];
         for p in parts {
             let s0 = (p.base + i as i64) as usize;
             let xs = &src[s0..s0 + BLOCK];
@@ -444,10 +458,9 @@ fn fused_line(out: &mut [f64], parts: &[LinePart], src: &[f64]) {
         i += BLOCK;
     }
     for (k, o) in out[i..hi].iter_mut().enumerate() {
-        *o = parts
-            .iter()
-            .map(|p| p.weight * src[(p.base + (i + k) as i64) as usize])
-            .sum();
+        *o = parts.iter().fold(T::default(), |a, p| {
+            a + p.weight * src[(p.base + (i + k) as i64) as usize]
+        });
     }
 }
 
@@ -603,7 +616,7 @@ mod tests {
     #[test]
     fn fused_line_equals_term_by_term_sum() {
         let src: Vec<f64> = (0..200).map(|i| ((i * 37 % 101) as f64) - 50.0).collect();
-        let cases: Vec<Vec<LinePart>> = vec![
+        let cases: Vec<Vec<LinePart<f64>>> = vec![
             vec![],
             vec![
                 LinePart {
