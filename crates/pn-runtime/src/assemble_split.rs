@@ -102,24 +102,19 @@ pub fn assemble_split_retaining(
     layout: &Layout,
     retained: Retained,
 ) -> anyhow::Result<Result<SplitSystem, ParityError>> {
-    check_kernel(problem, kernel, layout)?;
-    let (robin, marshak) = face_closures(problem, kernel, layout)?;
-    // Ghost eliminations add entries the pattern's bounds do not count, and such kernels
-    // never have the parity structure ([`has_parity_structure`]).
-    anyhow::ensure!(
-        robin.is_none(),
-        "the split assembly does not take a PDE's own boundary conditions; assemble A instead"
-    );
-    let n = layout.len();
-    let even = retained_mask(layout, retained);
-    let Classes {
-        local,
-        even: ev,
-        odd: od,
-    } = match classes(&even) {
-        Ok(c) => c,
+    let Prologue {
+        marshak,
+        even,
+        classes: Classes {
+            local,
+            even: ev,
+            odd: od,
+        },
+    } = match prologue(problem, kernel, layout, retained)? {
+        Ok(p) => p,
         Err(e) => return Ok(Err(e)),
     };
+    let n = layout.len();
     // Upper bounds of the off-diagonal entries of each block, from the pattern.
     let (mut b_cap, mut c_cap) = (0usize, 0usize);
     for (q, mp) in layout.moments.iter().enumerate() {
@@ -466,22 +461,19 @@ fn assemble_stencil_retaining(
         row_fixes, stencil_terms, Moments, StencilBlock, StencilReduced, MAX_CORRECTION_SHARE,
     };
     let t0 = std::time::Instant::now();
-    check_kernel(problem, kernel, layout)?;
-    let (robin, marshak) = face_closures(problem, kernel, layout)?;
-    anyhow::ensure!(
-        robin.is_none(),
-        "the split assembly does not take a PDE's own boundary conditions; assemble A instead"
-    );
-    let n = layout.len();
-    let even = retained_mask(layout, retained);
-    let Classes {
-        local,
-        even: ev,
-        odd: od,
-    } = match classes(&even) {
-        Ok(c) => c,
+    let Prologue {
+        marshak,
+        even,
+        classes: Classes {
+            local,
+            even: ev,
+            odd: od,
+        },
+    } = match prologue(problem, kernel, layout, retained)? {
+        Ok(p) => p,
         Err(e) => return Ok(Err(e)),
     };
+    let n = layout.len();
     if ev.is_empty() || od.is_empty() {
         return assemble_split_retaining(problem, kernel, layout, retained);
     }
@@ -693,6 +685,38 @@ fn assemble_stencil_retaining(
         max_entry,
         seconds_rows: t0.elapsed().as_secs_f64(),
         seconds_append: 0.0,
+    }))
+}
+
+/// What both split assemblies check and set up first.
+struct Prologue {
+    marshak: Option<MarshakRows>,
+    /// Whether each unknown is kept.
+    even: Vec<bool>,
+    classes: Classes,
+}
+
+/// The checks and the parity classes both split assemblies start from; the inner error
+/// says that the mask cannot split the system.
+fn prologue(
+    problem: &Problem,
+    kernel: &dyn StencilKernel,
+    layout: &Layout,
+    retained: Retained,
+) -> anyhow::Result<Result<Prologue, ParityError>> {
+    check_kernel(problem, kernel, layout)?;
+    let (robin, marshak) = face_closures(problem, kernel, layout)?;
+    // Ghost eliminations add entries the pattern's bounds do not count, and such kernels
+    // never have the parity structure ([`has_parity_structure`]).
+    anyhow::ensure!(
+        robin.is_none(),
+        "the split assembly does not take a PDE's own boundary conditions; assemble A instead"
+    );
+    let even = retained_mask(layout, retained);
+    Ok(classes(&even).map(|classes| Prologue {
+        marshak,
+        even,
+        classes,
     }))
 }
 

@@ -10,7 +10,9 @@
 //! with `x_c` the cycle of the coarse levels for `Pᵀ b`: symmetric as well, and without
 //! any application of the finest operator.
 
+use super::aggregate::Aggregation;
 use super::{Multigrid, SingleFine, Work};
+use crate::linalg::Real;
 use rayon::prelude::*;
 
 impl Multigrid {
@@ -61,17 +63,7 @@ impl Multigrid {
             return;
         };
         let agg = &lev.agg;
-        let rr = &*r;
-        w.b_next
-            .par_iter_mut()
-            .enumerate()
-            .with_min_len(super::PAR_MIN_LEN)
-            .for_each(|(c, bc)| {
-                *bc = agg.members[agg.ptr[c]..agg.ptr[c + 1]]
-                    .iter()
-                    .map(|&i| rr[i as usize] as f64)
-                    .sum();
-            });
+        restrict(agg, r, &mut w.b_next);
         w.x_next.iter_mut().for_each(|v| *v = 0.0);
         self.cycle(1, fine_apply, &w.b_next, &mut w.x_next, rest);
         let (xc, s) = (&w.x_next, self.scale);
@@ -134,17 +126,7 @@ impl Multigrid {
         }
         // Restriction b_c = Pᵀ r.
         let agg = &lev.agg;
-        let r = &w.r;
-        w.b_next
-            .par_iter_mut()
-            .enumerate()
-            .with_min_len(super::PAR_MIN_LEN)
-            .for_each(|(c, bc)| {
-                *bc = agg.members[agg.ptr[c]..agg.ptr[c + 1]]
-                    .iter()
-                    .map(|&i| r[i as usize])
-                    .sum();
-            });
+        restrict(agg, &w.r, &mut w.b_next);
         w.x_next.iter_mut().for_each(|v| *v = 0.0);
         self.cycle(l + 1, fine_apply, &w.b_next, &mut w.x_next, rest);
         // Prolongation x += s P x_c.
@@ -165,4 +147,18 @@ impl Multigrid {
         lev.smoother
             .smooth(apply, &mut w.r, x, &mut w.d, &mut w.t, false);
     }
+}
+
+/// The restriction `b_c = Pᵀ r`: each aggregate's sum of its members' residuals (in `f64`).
+fn restrict<T: Real>(agg: &Aggregation, r: &[T], b_next: &mut [f64]) {
+    b_next
+        .par_iter_mut()
+        .enumerate()
+        .with_min_len(super::PAR_MIN_LEN)
+        .for_each(|(c, bc)| {
+            *bc = agg.members[agg.ptr[c]..agg.ptr[c + 1]]
+                .iter()
+                .map(|&i| r[i as usize].wide())
+                .sum();
+        });
 }
