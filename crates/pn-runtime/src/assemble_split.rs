@@ -85,13 +85,9 @@ pub fn assemble_split(
     kernel: &dyn StencilKernel,
     layout: &Layout,
 ) -> anyhow::Result<Result<SplitSystem, ParityError>> {
-    let retained = Retained::for_layout(layout);
-    match assemble_split_retaining(problem, kernel, layout, retained)? {
-        Err(_) if retained == Retained::Odd => {
-            assemble_split_retaining(problem, kernel, layout, Retained::Even)
-        }
-        r => Ok(r),
-    }
+    with_even_fallback(layout, |retained| {
+        assemble_split_retaining(problem, kernel, layout, retained)
+    })
 }
 
 /// [`assemble_split`] keeping the moments of the parity `retained` (the blocks' "even"
@@ -251,13 +247,9 @@ pub fn assemble_split_stencil(
     kernel: &dyn StencilKernel,
     layout: &Layout,
 ) -> anyhow::Result<Result<SplitSystem, ParityError>> {
-    let retained = Retained::for_layout(layout);
-    match assemble_stencil_retaining(problem, kernel, layout, retained)? {
-        Err(_) if retained == Retained::Odd => {
-            assemble_stencil_retaining(problem, kernel, layout, Retained::Even)
-        }
-        r => Ok(r),
-    }
+    with_even_fallback(layout, |retained| {
+        assemble_stencil_retaining(problem, kernel, layout, retained)
+    })
 }
 
 /// What one chunk of rows leaves in the stencil assembly.
@@ -686,6 +678,19 @@ fn assemble_stencil_retaining(
         seconds_rows: t0.elapsed().as_secs_f64(),
         seconds_append: 0.0,
     }))
+}
+
+/// `assemble(Retained::for_layout(layout))`, and when that keeps the odd moments and the
+/// system cannot be split so, `assemble(Retained::Even)`.
+fn with_even_fallback(
+    layout: &Layout,
+    assemble: impl Fn(Retained) -> anyhow::Result<Result<SplitSystem, ParityError>>,
+) -> anyhow::Result<Result<SplitSystem, ParityError>> {
+    let retained = Retained::for_layout(layout);
+    match assemble(retained)? {
+        Err(_) if retained == Retained::Odd => assemble(Retained::Even),
+        r => Ok(r),
+    }
 }
 
 /// What both split assemblies check and set up first.
