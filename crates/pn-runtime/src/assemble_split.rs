@@ -267,23 +267,12 @@ struct StencilChunk {
 }
 
 impl StencilChunk {
-    /// Removes the last row's diagonal and right-hand side (of the eliminated class when
-    /// `eliminated`).
-    fn take_last_row(&mut self, eliminated: bool) -> (f64, f64) {
-        let d = if eliminated {
-            self.d_o.pop()
-        } else {
-            self.d_e.pop()
-        };
-        (d.unwrap_or(0.0), self.rhs.pop().unwrap_or(0.0))
-    }
-
-    /// Appends a row's diagonal and right-hand side.
-    fn push_row(&mut self, (d, rhs): (f64, f64), eliminated: bool) {
+    /// Appends a row's diagonal and right-hand side (to `d_o` when `eliminated`).
+    fn push_row(&mut self, diag: f64, rhs: f64, eliminated: bool) {
         if eliminated {
-            self.d_o.push(d);
+            self.d_o.push(diag);
         } else {
-            self.d_e.push(d);
+            self.d_e.push(diag);
         }
         self.rhs.push(rhs);
     }
@@ -291,8 +280,13 @@ impl StencilChunk {
 
 /// What [`FastRows::row`] did with a row.
 enum FastRow {
-    /// The row is its moment's stencil: its diagonal and right-hand side were appended.
-    Taken,
+    /// The row is its moment's stencil: only its diagonal and right-hand side are kept.
+    Taken {
+        /// The row's diagonal entry.
+        diag: f64,
+        /// The row's right-hand side.
+        rhs: f64,
+    },
     /// The row must be assembled (near the boundary, or a weight differs).
     NotTaken,
     /// An eliminated row with a zero or non-finite diagonal.
@@ -378,8 +372,9 @@ impl<'a> FastRows<'a> {
         }
     }
 
-    /// Takes row `g` if it can (see [`FastRows`]), appending its diagonal, right-hand side,
-    /// entry counts and largest entry to `out`.
+    /// Takes row `g` if it can (see [`FastRows`]), adding its entry counts and largest entry
+    /// to `out` (the caller appends its diagonal and right-hand side, after any rows before
+    /// it that had to be assembled).
     #[allow(clippy::too_many_arguments)]
     fn row(
         &self,
@@ -390,7 +385,7 @@ impl<'a> FastRows<'a> {
         g: usize,
         eliminated: bool,
         out: &mut StencilChunk,
-    ) -> anyhow::Result<FastRow> {
+    ) -> FastRow {
         use crate::solver::parity::stencil_s::SAME_WEIGHT;
         let (q, idx) = layout.locate(g);
         let reference = &self.reference[q];
@@ -399,7 +394,7 @@ impl<'a> FastRows<'a> {
             || (0..3).any(|d| idx[d] < lo[d] || idx[d] >= hi[d])
             || self.marshak.is_some_and(|m| m.face_of(q, idx).is_some())
         {
-            return Ok(FastRow::NotTaken);
+            return FastRow::NotTaken;
         }
         ctx.set_row(layout.half_coord(q, idx));
         weights.clear();
@@ -408,7 +403,7 @@ impl<'a> FastRows<'a> {
         if ctx.take_error().is_some() || !rhs.is_finite() || weights.iter().any(|w| !w.is_finite())
         {
             // The assembly of the row reports the error with its position.
-            return Ok(FastRow::NotTaken);
+            return FastRow::NotTaken;
         }
         let centre = &self.centre[q];
         let (mut diag, mut has_diag, mut off, mut max) = (0.0, false, 0usize, 0.0f64);
@@ -418,17 +413,17 @@ impl<'a> FastRows<'a> {
                 has_diag = true;
             } else {
                 if (w - r).abs() > SAME_WEIGHT * r.abs() {
-                    return Ok(FastRow::NotTaken);
+                    return FastRow::NotTaken;
                 }
                 off += usize::from(w != 0.0);
                 max = max.max(w.abs());
             }
         }
         if eliminated && (diag == 0.0 || !diag.is_finite()) {
-            return Ok(FastRow::Singular(ParityError::SingularOddDiagonal {
+            return FastRow::Singular(ParityError::SingularOddDiagonal {
                 row: g,
                 value: diag,
-            }));
+            });
         }
         out.max_entry = out.max_entry.max(max).max(diag.abs());
         out.diag_entries += usize::from(has_diag);
@@ -437,8 +432,7 @@ impl<'a> FastRows<'a> {
         } else {
             out.b_nnz += off;
         }
-        out.push_row((diag, rhs), eliminated);
-        Ok(FastRow::Taken)
+        FastRow::Taken { diag, rhs }
     }
 }
 
@@ -495,12 +489,12 @@ fn assemble_stencil_retaining(
     // Each moment's stencil from its row nearest the middle of its grid.
     let mut mid = Vec::with_capacity(layout.moments.len());
     for (q, &kept_q) in kept.iter().enumerate() {
-        let e = m.extent(q);
+        let e = layout.extents[q];
         if e.iter().product::<usize>() == 0 {
             mid.push(([0i64; 3], Vec::new()));
             continue;
         }
-        let g = layout.offsets[q] + (((e[0] / 2) * e[1] + e[1] / 2) * e[2] + e[2] / 2);
+        let g = layout.index(q, e.map(|v| v / 2));
         let sc = match split_rows(g..g + 1)? {
             Ok(sc) => sc,
             Err(e) => return Ok(Err(e)),
@@ -592,26 +586,26 @@ fn assemble_stencil_retaining(
             let mut weights = Vec::new();
             let mut pending = rows.start..rows.start;
             for g in rows.clone() {
-                let taken = fast.row(
+                let eliminated = !even[g];
+                match fast.row(
                     kernel,
                     layout,
                     &mut ctx,
                     &mut weights,
                     g,
-                    !even[g],
+                    eliminated,
                     &mut out,
-                )?;
-                match taken {
-                    FastRow::Taken if !pending.is_empty() => {
-                        // Keep the rows in order: the run before this row went first.
-                        let row_out = out.take_last_row(!even[g]);
-                        if let Err(e) = slow(pending.clone(), &mut out)? {
-                            return Ok(Err(e));
+                ) {
+                    FastRow::Taken { diag, rhs } => {
+                        // Keep the rows in order: the run before this row goes first.
+                        if !pending.is_empty() {
+                            if let Err(e) = slow(pending.clone(), &mut out)? {
+                                return Ok(Err(e));
+                            }
                         }
-                        out.push_row(row_out, !even[g]);
+                        out.push_row(diag, rhs, eliminated);
                         pending = g + 1..g + 1;
                     }
-                    FastRow::Taken => pending = g + 1..g + 1,
                     FastRow::Singular(e) => return Ok(Err(e)),
                     FastRow::NotTaken => pending.end = g + 1,
                 }

@@ -77,11 +77,6 @@ pub(crate) struct Moments {
 }
 
 impl Moments {
-    /// The grid extent of moment `q`.
-    pub(crate) fn extent(&self, q: usize) -> [usize; 3] {
-        self.ext[q]
-    }
-
     fn linear(&self, q: usize, idx: [usize; 3]) -> usize {
         let e = self.ext[q];
         (idx[0] * e[1] + idx[1]) * e[2] + idx[2]
@@ -91,18 +86,7 @@ impl Moments {
     /// `kept[q]` in the reduced system.
     pub(crate) fn from_layout(layout: &crate::layout::Layout, kept: Vec<bool>) -> Self {
         let nm = layout.moments.len();
-        let ext: Vec<[usize; 3]> = (0..nm)
-            .map(|q| {
-                let n = layout.offsets[q + 1] - layout.offsets[q];
-                let e = if n == 0 {
-                    [0, 0, 0]
-                } else {
-                    layout.locate(layout.offsets[q + 1] - 1).1.map(|v| v + 1)
-                };
-                debug_assert_eq!(e.iter().product::<usize>(), n);
-                e
-            })
-            .collect();
+        let ext = layout.extents.clone();
         let mut local_off = vec![0; nm];
         let (mut kept_at, mut elim_at) = (0, 0);
         for q in 0..nm {
