@@ -342,6 +342,65 @@ fn single_precision_coarse_levels_change_nothing_but_rounding() {
     }
 }
 
+/// The structured coarse levels stored as per-class stencils with per-row weights (the
+/// default) against the compact CSR: the same `f32` entries summed in another order, so the
+/// solve takes the same iterations (up to one) to the same answer; and the hierarchy of the
+/// 3D point source and the 2D checkerboard does store its coarse levels as stencils.
+#[test]
+fn stencil_coarse_levels_change_nothing_but_rounding() {
+    for (problem, order) in [
+        (pointsource3d(16, Boundary::Neumann), 3),
+        (pointsource3d(12, Boundary::Dirichlet), 5),
+        (checkerboard(31), 5),
+    ] {
+        let (layout, sys) = system(&problem, order);
+        let solver = ParityCg::for_layout(&layout).with_precond(Precond::Multigrid);
+        let mut o = opts(1e-10);
+        let (u_stencil, stencil) = solver.solve_detailed(&sys.matrix, &sys.rhs, &o).unwrap();
+        o.tuning.multigrid = Some(MgOptions {
+            stencil_coarse: false,
+            ..MgOptions::default()
+        });
+        let (u_csr, csr) = solver.solve_detailed(&sys.matrix, &sys.rhs, &o).unwrap();
+        assert!(stencil.stats.converged() && csr.stats.converged());
+        assert!(
+            stencil.stats.iterations.abs_diff(csr.stats.iterations) <= 1,
+            "P_{order}: {} vs {} iterations",
+            stencil.stats.iterations,
+            csr.stats.iterations
+        );
+        assert!(rel_diff(&u_stencil, &u_csr) <= SAME_ANSWER);
+        // The hierarchies themselves: the coarse levels are stencils by default (at least
+        // the first; the smallest ones, mostly boundary rows, may pad too much and stay
+        // CSR), none without.
+        let mask = pn_runtime::solver::pn_layout::retained_mask(
+            &layout,
+            pn_runtime::solver::pn_layout::Retained::for_layout(&layout),
+        );
+        let sp = split(&sys.matrix, &mask).unwrap();
+        let geometry = Geometry::from_layout(&layout, None);
+        for stencil_coarse in [true, false] {
+            let mg_opts = MgOptions {
+                stencil_coarse,
+                coarse_max: 50,
+                ..MgOptions::default()
+            };
+            let Built::Multigrid(mg) = Built::multigrid(&sp, &geometry, &mg_opts).unwrap() else {
+                panic!("not a multigrid")
+            };
+            let coarse = mg.level_sizes().len() - 2;
+            assert!(coarse >= 1, "{}", mg.describe());
+            let stencils = mg.stencil_levels();
+            let ok = if stencil_coarse {
+                (1..=coarse).contains(&stencils)
+            } else {
+                stencils == 0
+            };
+            assert!(ok, "P_{order}: {}", mg.describe());
+        }
+    }
+}
+
 /// The finest level of the cycle in single precision (the default for tolerances of 1e-6 and
 /// looser) against double: the solve reaches the same tolerance in the true `f64` residual,
 /// in about the same number of iterations, and the answers agree to the tolerance's order

@@ -25,6 +25,7 @@ pub mod aggregate;
 pub mod galerkin;
 pub mod smoother;
 pub mod solve;
+pub mod stencil_level;
 pub mod vcycle;
 
 pub use aggregate::Geometry;
@@ -35,6 +36,7 @@ use aggregate::{aggregate, Aggregation};
 use smoother::Chebyshev;
 use sprs::CsMat;
 use std::sync::Mutex;
+use stencil_level::StencilLevel;
 
 /// Why a hierarchy could not be built.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -122,6 +124,9 @@ pub struct MgOptions {
     /// Keep the coarse levels' operators in double precision instead of the compact
     /// single-precision storage ([`LevelOp`]; for comparisons).
     pub double_coarse: bool,
+    /// Store the structured coarse levels as per-class stencils with per-row weights
+    /// ([`StencilLevel`]) instead of the compact CSR; `PN_MG_COARSE_CSR` (set) turns it off.
+    pub stencil_coarse: bool,
     /// Coarse entries `|a_ij| < drop · sqrt(|a_ii a_jj|)` are dropped and their magnitude
     /// added to the diagonal ([`sparsify`]); 0 keeps the Galerkin operators whole.
     pub drop: f64,
@@ -194,6 +199,7 @@ impl Default for MgOptions {
             correction_scale: None,
             fine_cycle: FineCycle::AdditiveIfSymmetric,
             double_coarse: false,
+            stencil_coarse: true,
             drop: 0.0,
             single_fine: None,
         }
@@ -231,6 +237,7 @@ impl MgOptions {
                 _ => FineCycle::Multiplicative,
             },
             double_coarse: get("PN_MG_DOUBLE_COARSE").is_some(),
+            stencil_coarse: get("PN_MG_COARSE_CSR").is_none(),
             drop: parse(get, "PN_MG_DROP").unwrap_or(d.drop),
             single_fine: parse::<u8>(get, "PN_MG_SINGLE")
                 .map(|v| v != 0)
@@ -283,9 +290,11 @@ struct Level {
     agg: Aggregation,
 }
 
-/// A coarse level's operator: CSR with 32-bit columns and `f32` values
-/// ([`CompactCsr::rounded_from_csr`], 8 bytes per entry instead of 16) unless its entries do
-/// not fit `f32` or [`MgOptions::double_coarse`] asks for `f64`.
+/// A coarse level's operator: per-class stencils with per-row `f32` weights
+/// ([`StencilLevel`], 4 bytes per stored weight, no column indices) where the level is
+/// structured, else CSR with 32-bit columns and `f32` values
+/// ([`CompactCsr::rounded_from_csr`], 8 bytes per entry instead of 16), unless its entries
+/// do not fit `f32` or [`MgOptions::double_coarse`] asks for `f64`.
 ///
 /// Only the preconditioner reads the coarse levels: the Krylov method's own products, its
 /// residuals and the stopping test stay in double precision with the finest operator, so the
@@ -294,20 +303,30 @@ struct Level {
 /// traffic on the coarse levels, which after the stencil `S` (`parity::stencil_s`) is most of
 /// a cycle's, halves.
 enum LevelOp {
+    Stencil(StencilLevel),
     Compact(CompactCsr<f32>),
     Double(CsMat<f64>),
 }
 
 impl LevelOp {
-    fn new(a: CsMat<f64>, double: bool) -> Self {
-        match (double, CompactCsr::rounded_from_csr(&a)) {
-            (false, Some(c)) => LevelOp::Compact(c),
-            _ => LevelOp::Double(a),
+    fn new(a: CsMat<f64>, geom: &Geometry, opts: &MgOptions) -> Self {
+        if opts.double_coarse {
+            return LevelOp::Double(a);
+        }
+        if opts.stencil_coarse {
+            if let Some(s) = StencilLevel::from_csr(&a, geom) {
+                return LevelOp::Stencil(s);
+            }
+        }
+        match CompactCsr::rounded_from_csr(&a) {
+            Some(c) => LevelOp::Compact(c),
+            None => LevelOp::Double(a),
         }
     }
 
     fn apply(&self, x: &[f64], y: &mut [f64]) {
         match self {
+            LevelOp::Stencil(s) => s.apply(x, y),
             LevelOp::Compact(c) => c.mul(x, y),
             LevelOp::Double(a) => spmv(a, x, y),
         }
@@ -555,10 +574,11 @@ impl Multigrid {
                 )
             };
             let next = sparsify(galerkin::coarse_from_csr(&a, &agg), opts.drop);
+            let op = LevelOp::new(a, &g, opts);
             g = agg.coarse.clone();
             coarse_nnz.push(next.nnz());
             levels.push(Level {
-                op: Some(LevelOp::new(a, opts.double_coarse)),
+                op: Some(op),
                 smoother,
                 agg,
             });
@@ -750,6 +770,15 @@ impl Multigrid {
         )
     }
 
+    /// Coarse levels whose operator is stored as per-class stencils ([`StencilLevel`])
+    /// rather than CSR.
+    pub fn stencil_levels(&self) -> usize {
+        self.levels
+            .iter()
+            .filter(|l| matches!(l.op, Some(LevelOp::Stencil(_))))
+            .count()
+    }
+
     /// One line describing the hierarchy (sizes, non-zeros, smoother bounds, and the
     /// cycles applied so far with their time).
     pub fn describe(&self) -> String {
@@ -767,10 +796,11 @@ impl Multigrid {
             None => "no fine level".into(),
         };
         format!(
-            "{} levels, unknowns {:?}, coarse nnz {:?}, {fine}{}, coarse degree {}, {} cycles in {:.3} s",
+            "{} levels, unknowns {:?}, coarse nnz {:?} ({} as stencils), {fine}{}, coarse degree {}, {} cycles in {:.3} s",
             sizes.len(),
             sizes,
             self.coarse_nnz,
+            self.stencil_levels(),
             if self.single.is_some() { " (f32)" } else { "" },
             self.levels.get(1).map_or(0, |l| l.smoother.degree),
             self.cycle_stats[0].load(Relaxed),

@@ -1,0 +1,495 @@
+//! A coarse level's operator stored as **per-class stencils with per-row weights**: no
+//! column indices.
+//!
+//! The aggregated levels keep the structure of the finest one: every unknown is a class
+//! (moment) at a position of that class's box, numbered class by class, x slowest
+//! ([`super::aggregate`]), and a row couples to a fixed set of (class, position shift) pairs
+//! — the Galerkin product of a stencil with piecewise-constant aggregation is again a
+//! stencil, only its weights vary from row to row (with the medium, and at the
+//! boundaries). [`StencilLevel::from_csr`] recovers, for each class, the set of shifts its
+//! rows reach (the *terms*), and stores one `f32` weight per row and term, zero where a row
+//! lacks the term (at the boundaries). A product then reads 4 bytes per stored weight
+//! instead of the compact CSR's 8 per entry (4 for the `f32` value, 4 for the column), and
+//! reads the source vector plane by plane in order instead of gathering it.
+//!
+//! Levels whose unknowns are not whole class boxes in that order, whose rows reach further
+//! than [`REACH`] positions, or whose boundary rows would pad the weights by more than
+//! [`MAX_PADDING`] are left to the compact CSR ([`StencilLevel::from_csr`] returns `None`).
+
+use super::Geometry;
+use crate::matfree::range;
+use rayon::prelude::*;
+use sprs::CsMat;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+/// Largest shift per axis between a row's position and a column's (in positions of the
+/// level's grids). Aggregation by two of a stencil reaching two positions reaches one or
+/// two; three leaves room for the staggered grids' half-cell offsets.
+pub const REACH: i64 = 3;
+
+/// Width of the shift table per axis.
+const SPAN: usize = (2 * REACH + 1) as usize;
+
+/// Largest ratio of stored weights (terms × rows, the boundary rows' zeros included) to
+/// the level's non-zeros: above it the compact CSR moves fewer bytes.
+pub const MAX_PADDING: f64 = 1.8;
+
+/// Fewest output values per parallel task of a product (2D levels have short planes).
+const MIN_TASK_VALUES: usize = 8192;
+
+/// One term of a class's stencil: the source class (its block) and the position shift.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+struct LevelTerm {
+    block: usize,
+    delta: [i64; 3],
+}
+
+/// The rows of one class: a whole box of positions, x slowest.
+#[derive(Debug)]
+struct ClassBlock {
+    /// First unknown of the class.
+    start: usize,
+    /// Extent of the class's box.
+    ext: [usize; 3],
+    /// The shifts the class's rows reach.
+    terms: Vec<LevelTerm>,
+    /// Weights x-plane by x-plane, term by term within a plane: the weight of term `k` in
+    /// row `i` of plane `ix` is at `(ix · terms + k) · plane + i`.
+    weights: Vec<f32>,
+}
+
+impl ClassBlock {
+    fn plane(&self) -> usize {
+        (self.ext[1] * self.ext[2]).max(1)
+    }
+
+    fn len(&self) -> usize {
+        self.ext.iter().product()
+    }
+}
+
+/// A square operator on a structured level as per-class stencils with per-row `f32`
+/// weights (see the module documentation).
+#[derive(Debug)]
+pub struct StencilLevel {
+    blocks: Vec<ClassBlock>,
+    n: usize,
+}
+
+impl StencilLevel {
+    /// The operator `a` (square CSR, sorted or not) of the unknowns `g`; `None` when the
+    /// level is not structured (see the module documentation) or an entry does not fit
+    /// `f32` (overflowing, or non-zero and flushed to zero).
+    pub fn from_csr(a: &CsMat<f64>, g: &Geometry) -> Option<Self> {
+        let n = a.rows();
+        if !a.is_csr() || a.cols() != n || g.len() != n || n == 0 {
+            return None;
+        }
+        let (starts, ext, block_of_class) = class_blocks(g)?;
+        let shape = Shape {
+            g,
+            block_of_class,
+            starts,
+            ext,
+        };
+        // The terms of each class: the shifts of its middle row, then those of any row
+        // that reaches further (rare: the boundary rows usually reach less), after which
+        // the weights are filled again.
+        let mut terms: Vec<Vec<LevelTerm>> = (0..shape.starts.len())
+            .map(|q| {
+                let e = shape.ext[q];
+                let r = shape.starts[q] + linear(e, e.map(|v| v / 2));
+                let row = a.outer_view(r)?;
+                row.indices().iter().map(|&c| shape.term(r, c)).collect()
+            })
+            .collect::<Option<_>>()?;
+        let weights = match shape.fill(a, &terms) {
+            Fill::Done(w) => w,
+            Fill::Unfit => return None,
+            Fill::Missing => {
+                for (q, t) in shape.missing_terms(a, &terms)? {
+                    terms[q].push(t);
+                }
+                match shape.fill(a, &terms) {
+                    Fill::Done(w) => w,
+                    _ => return None,
+                }
+            }
+        };
+        let stored: usize = weights.iter().map(Vec::len).sum();
+        if stored as f64 > MAX_PADDING * a.nnz().max(1) as f64 {
+            return None;
+        }
+        let blocks = weights
+            .into_iter()
+            .zip(terms)
+            .enumerate()
+            .map(|(q, (weights, terms))| ClassBlock {
+                start: shape.starts[q],
+                ext: shape.ext[q],
+                terms,
+                weights,
+            })
+            .collect();
+        Some(Self { blocks, n })
+    }
+
+    /// Rows (and columns).
+    pub fn len(&self) -> usize {
+        self.n
+    }
+
+    /// Whether the operator has no rows.
+    pub fn is_empty(&self) -> bool {
+        self.n == 0
+    }
+
+    /// Stored weights (terms × rows per class, the boundary rows' zeros included).
+    pub fn stored(&self) -> usize {
+        self.blocks.iter().map(|b| b.weights.len()).sum()
+    }
+
+    /// Modelled bytes of one product: the weights (4 bytes each), `x` read and `y` written
+    /// once (8 bytes each).
+    pub fn bytes_per_product(&self) -> u64 {
+        (4 * self.stored() + 16 * self.n) as u64
+    }
+
+    /// `y = A x`, accumulated in `f64`.
+    pub fn apply(&self, x: &[f64], y: &mut [f64]) {
+        assert_eq!(x.len(), self.n);
+        assert_eq!(y.len(), self.n);
+        let mut slabs = Vec::new();
+        let mut rest = y;
+        for (q, b) in self.blocks.iter().enumerate() {
+            let (mine, tail) = rest.split_at_mut(b.len());
+            rest = tail;
+            for (ix, s) in mine.chunks_mut(b.plane()).enumerate() {
+                slabs.push((q, ix, s));
+            }
+        }
+        // Plane by plane across the classes: the source planes a plane reads stay in cache
+        // for the other classes' planes at the same x.
+        slabs.sort_by_key(|s| s.1);
+        let min_len = (MIN_TASK_VALUES * slabs.len()).div_ceil(self.n).max(1);
+        slabs
+            .into_par_iter()
+            .with_min_len(min_len)
+            .for_each(|(q, ix, out)| self.slab(q, ix, x, out));
+    }
+
+    /// Plane `ix` of class `q`: `out = Σ_terms w_row · x[shifted]` over the references
+    /// inside the source class's box.
+    fn slab(&self, q: usize, ix: usize, x: &[f64], out: &mut [f64]) {
+        let b = &self.blocks[q];
+        let (e, plane, kn) = (b.ext, b.plane(), b.terms.len());
+        let w = &b.weights[ix * kn * plane..(ix + 1) * kn * plane];
+        out.fill(0.0);
+        for (k, t) in b.terms.iter().enumerate() {
+            let wk = &w[k * plane..(k + 1) * plane];
+            let src = &self.blocks[t.block];
+            let ep = src.ext;
+            let [dx, dy, dz] = t.delta;
+            let ixr = ix as i64 + dx;
+            if ixr < 0 || ixr >= ep[0] as i64 {
+                continue;
+            }
+            let src_plane = src.start + ixr as usize * ep[1] * ep[2];
+            let ys = range(e[1], ep[1], dy);
+            if ys.is_empty() {
+                continue;
+            }
+            if dz == 0 && ep[2] == e[2] {
+                // Same z positions: the y-lines are one contiguous run.
+                let (lo, len) = (ys.start * e[2], ys.len() * e[2]);
+                let first = src_plane + (ys.start as i64 + dy) as usize * e[2];
+                let xs = &x[first..first + len];
+                out[lo..lo + len]
+                    .iter_mut()
+                    .zip(&wk[lo..lo + len])
+                    .zip(xs)
+                    .for_each(|((o, &w), &x)| *o += w as f64 * x);
+                continue;
+            }
+            let zs = range(e[2], ep[2], dz);
+            if zs.is_empty() {
+                continue;
+            }
+            for iy in ys {
+                let iyr = (iy as i64 + dy) as usize;
+                let first =
+                    (src_plane as i64 + (iyr * ep[2]) as i64 + zs.start as i64 + dz) as usize;
+                let xs = &x[first..first + zs.len()];
+                let at = iy * e[2] + zs.start..iy * e[2] + zs.end;
+                out[at.clone()]
+                    .iter_mut()
+                    .zip(&wk[at])
+                    .zip(xs)
+                    .for_each(|((o, &w), &x)| *o += w as f64 * x);
+            }
+        }
+    }
+}
+
+/// The classes of a level as boxes ([`class_blocks`]), for reading its CSR rows as terms.
+struct Shape<'a> {
+    g: &'a Geometry,
+    block_of_class: Vec<usize>,
+    starts: Vec<usize>,
+    ext: Vec<[usize; 3]>,
+}
+
+/// What [`Shape::fill`] found.
+enum Fill {
+    /// The weights of every class.
+    Done(Vec<Vec<f32>>),
+    /// Some row reaches a shift missing from its class's terms.
+    Missing,
+    /// Some entry does not fit `f32`, or a shift exceeds [`REACH`].
+    Unfit,
+}
+
+impl Shape<'_> {
+    fn block(&self, i: usize) -> usize {
+        self.block_of_class[self.g.class[i] as usize]
+    }
+
+    /// The term of entry `(r, c)`, or `None` beyond [`REACH`].
+    #[inline]
+    fn term(&self, r: usize, c: usize) -> Option<LevelTerm> {
+        let (pr, pc) = (self.g.coords[r], self.g.coords[c]);
+        let delta = [0, 1, 2].map(|k| pc[k] as i64 - pr[k] as i64);
+        delta.iter().all(|v| v.abs() <= REACH).then(|| LevelTerm {
+            block: self.block(c),
+            delta,
+        })
+    }
+
+    /// Each class's term index by [`slot`] (`u32::MAX`: none).
+    fn tables(&self, terms: &[Vec<LevelTerm>]) -> Vec<Vec<u32>> {
+        let nb = self.starts.len();
+        terms
+            .iter()
+            .map(|ts| {
+                let mut table = vec![u32::MAX; nb * SPAN * SPAN * SPAN];
+                for (k, t) in ts.iter().enumerate() {
+                    table[slot(t)] = k as u32;
+                }
+                table
+            })
+            .collect()
+    }
+
+    /// The weights of `a`'s rows on the classes' `terms`, x-plane by x-plane.
+    fn fill(&self, a: &CsMat<f64>, terms: &[Vec<LevelTerm>]) -> Fill {
+        let tables = self.tables(terms);
+        let (missing, unfit) = (AtomicBool::new(false), AtomicBool::new(false));
+        let (ap, ai, av) = (a.indptr(), a.indices(), a.data());
+        let ap = ap.raw_storage();
+        let weights = (0..self.starts.len())
+            .map(|q| {
+                let e = self.ext[q];
+                let plane = (e[1] * e[2]).max(1);
+                let kn = terms[q].len();
+                let mut w = vec![0.0f32; kn * e.iter().product::<usize>()];
+                w.par_chunks_mut((kn * plane).max(1))
+                    .enumerate()
+                    .for_each(|(ix, w)| {
+                        for i in 0..plane {
+                            let r = self.starts[q] + ix * plane + i;
+                            for p in ap[r]..ap[r + 1] {
+                                let Some(t) = self.term(r, ai[p]) else {
+                                    unfit.store(true, Ordering::Relaxed);
+                                    return;
+                                };
+                                let k = tables[q][slot(&t)];
+                                if k == u32::MAX {
+                                    missing.store(true, Ordering::Relaxed);
+                                    return;
+                                }
+                                let v = av[p] as f32;
+                                if !v.is_finite() || (v == 0.0 && av[p] != 0.0) {
+                                    unfit.store(true, Ordering::Relaxed);
+                                }
+                                w[k as usize * plane + i] += v;
+                            }
+                        }
+                    });
+                w
+            })
+            .collect();
+        if unfit.into_inner() {
+            Fill::Unfit
+        } else if missing.into_inner() {
+            Fill::Missing
+        } else {
+            Fill::Done(weights)
+        }
+    }
+
+    /// The `(class, term)` pairs some row of `a` reaches beyond its class's `terms`.
+    fn missing_terms(
+        &self,
+        a: &CsMat<f64>,
+        terms: &[Vec<LevelTerm>],
+    ) -> Option<Vec<(usize, LevelTerm)>> {
+        let tables = self.tables(terms);
+        let (ap, ai) = (a.indptr(), a.indices());
+        let ap = ap.raw_storage();
+        (0..a.rows())
+            .into_par_iter()
+            .with_min_len(4096)
+            .map(|r| {
+                let q = self.block(r);
+                let mut out = Vec::new();
+                for &c in &ai[ap[r]..ap[r + 1]] {
+                    let t = self.term(r, c)?;
+                    if tables[q][slot(&t)] == u32::MAX {
+                        out.push((q, t));
+                    }
+                }
+                Some(out)
+            })
+            .try_reduce(Vec::new, |mut a, b| {
+                a.extend(b);
+                a.sort_unstable();
+                a.dedup();
+                Some(a)
+            })
+    }
+}
+
+/// The index of `t` in a class's table of terms.
+#[inline]
+fn slot(t: &LevelTerm) -> usize {
+    let [x, y, z] = t.delta.map(|v| (v + REACH) as usize);
+    ((t.block * SPAN + x) * SPAN + y) * SPAN + z
+}
+
+/// Position `idx` of a box `e`, x slowest.
+fn linear(e: [usize; 3], idx: [usize; 3]) -> usize {
+    (idx[0] * e[1] + idx[1]) * e[2] + idx[2]
+}
+
+/// The classes of `g` as whole boxes numbered x slowest, one class after the other: each
+/// block's first unknown and extent, and the block of each class (`usize::MAX` for classes
+/// absent). `None` when a class is split, a box is incomplete or out of order.
+#[allow(clippy::type_complexity)]
+fn class_blocks(g: &Geometry) -> Option<(Vec<usize>, Vec<[usize; 3]>, Vec<usize>)> {
+    let classes = g.class.iter().max().map_or(0, |&c| c as usize + 1);
+    let mut block_of_class = vec![usize::MAX; classes];
+    let (mut starts, mut ext) = (Vec::new(), Vec::<[usize; 3]>::new());
+    for (i, (&c, x)) in g.class.iter().zip(&g.coords).enumerate() {
+        if i == 0 || g.class[i - 1] != c {
+            if block_of_class[c as usize] != usize::MAX {
+                return None;
+            }
+            block_of_class[c as usize] = starts.len();
+            starts.push(i);
+            ext.push([0; 3]);
+        }
+        let e = ext.last_mut()?;
+        for d in 0..3 {
+            e[d] = e[d].max(x[d] as usize + 1);
+        }
+    }
+    let ends: Vec<usize> = starts.iter().skip(1).copied().chain([g.len()]).collect();
+    for (q, &s) in starts.iter().enumerate() {
+        if ends[q] - s != ext[q].iter().product::<usize>() {
+            return None;
+        }
+    }
+    let ordered = (0..starts.len()).all(|q| {
+        (starts[q]..ends[q])
+            .into_par_iter()
+            .all(|i| i - starts[q] == linear(ext[q], g.coords[i].map(|v| v as usize)))
+    });
+    ordered.then_some((starts, ext, block_of_class))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::solver::multigrid::aggregate::aggregate;
+    use sprs::TriMat;
+
+    /// Two classes on staggered boxes (5×4×3 and 4×4×3): class 0 with a 7-point Laplacian,
+    /// both coupled to each other at shifts 0 and −1 in x, with random row-varying weights;
+    /// the product equals the CSR one to `f32` rounding of the weights, and the aggregated
+    /// geometry of the level is accepted too.
+    #[test]
+    fn stencil_level_equals_the_csr_product() {
+        let boxes = [[5usize, 4, 3], [4, 4, 3]];
+        let mut g = Geometry {
+            class: Vec::new(),
+            coords: Vec::new(),
+        };
+        let mut start = vec![];
+        for (c, e) in boxes.iter().enumerate() {
+            start.push(g.len());
+            for i in 0..e[0] {
+                for j in 0..e[1] {
+                    for k in 0..e[2] {
+                        g.class.push(c as u32);
+                        g.coords.push([i as u32, j as u32, k as u32]);
+                    }
+                }
+            }
+        }
+        let n = g.len();
+        let idx = |c: usize, p: [i64; 3]| -> Option<usize> {
+            let e = boxes[c];
+            (0..3)
+                .all(|d| p[d] >= 0 && (p[d] as usize) < e[d])
+                .then(|| start[c] + linear(e, p.map(|v| v as usize)))
+        };
+        let mut t = TriMat::new((n, n));
+        let mut seed = 1u64;
+        let mut rnd = || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((seed >> 33) as f64 / (1u64 << 31) as f64) - 0.5
+        };
+        for r in 0..n {
+            let (c, p) = (g.class[r] as usize, g.coords[r].map(|v| v as i64));
+            t.add_triplet(r, r, 6.0 + rnd());
+            let mut shifts = vec![];
+            if c == 0 {
+                for d in 0..3 {
+                    for s in [-1, 1] {
+                        let mut q = [0; 3];
+                        q[d] = s;
+                        shifts.push((0, q));
+                    }
+                }
+            }
+            shifts.push((1 - c, [0, 0, 0]));
+            shifts.push((1 - c, [if c == 0 { -1 } else { 1 }, 0, 0]));
+            for (cc, s) in shifts {
+                if let Some(col) = idx(cc, [0, 1, 2].map(|d| p[d] + s[d])) {
+                    t.add_triplet(r, col, rnd());
+                }
+            }
+        }
+        let a: CsMat<f64> = t.to_csr();
+        let s = StencilLevel::from_csr(&a, &g).expect("structured");
+        assert!(s.stored() >= a.nnz());
+        let x: Vec<f64> = (0..n).map(|i| (i as f64 * 0.37).sin()).collect();
+        let mut want = vec![0.0; n];
+        crate::linalg::spmv(&a, &x, &mut want);
+        let mut got = vec![f64::NAN; n];
+        s.apply(&x, &mut got);
+        let scale = want.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        for (w, v) in want.iter().zip(&got) {
+            assert!((w - v).abs() <= 1e-6 * scale, "{w} vs {v}");
+        }
+        // The aggregated geometry is structured as well.
+        let agg = aggregate(&g);
+        assert!(class_blocks(&agg.coarse).is_some());
+        // A permuted geometry is refused.
+        let mut h = g.clone();
+        h.coords.swap(0, 1);
+        assert!(StencilLevel::from_csr(&a, &h).is_none());
+    }
+}
