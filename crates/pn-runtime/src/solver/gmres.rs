@@ -18,7 +18,7 @@
 //! caller continues from there if it is not met.
 
 use super::control::{true_residual, Control, Outcome};
-use crate::linalg::{axpy, norm};
+use crate::linalg::{axpy, lane_dot, norm};
 use crate::operator::{LinearOperator, Preconditioner};
 use rayon::prelude::*;
 
@@ -290,40 +290,21 @@ fn project<V: BasisValue>(w: &[f64], basis: &[Vec<V>]) -> (Vec<f64>, f64) {
         a.iter_mut().zip(&b).for_each(|(x, y)| *x += y);
         a
     };
-    let mut acc = if w.len() < 4 * GS_BLOCK {
+    // Partial sums per block, added in order: deterministic (see `linalg::REDUCE_CHUNK`).
+    let parts: Vec<Vec<f64>> = if w.len() < 4 * GS_BLOCK {
         w.chunks(GS_BLOCK)
             .enumerate()
             .map(|(c, ws)| block(c, ws))
-            .fold(vec![0.0; k + 1], add)
+            .collect()
     } else {
         w.par_chunks(GS_BLOCK)
             .enumerate()
             .map(|(c, ws)| block(c, ws))
-            .reduce(|| vec![0.0; k + 1], add)
+            .collect()
     };
+    let mut acc = parts.into_iter().fold(vec![0.0; k + 1], add);
     let wn = acc.pop().unwrap_or(0.0).sqrt();
     (acc, wn)
-}
-
-/// `⟨a, b⟩` with eight independent partial sums (so that the sum vectorises instead of
-/// waiting on one accumulator's latency).
-#[inline]
-fn lane_dot<V: BasisValue>(a: &[f64], b: &[V]) -> f64 {
-    const LANES: usize = 8;
-    let mut acc = [0.0f64; LANES];
-    let (ac, bc) = (a.chunks_exact(LANES), b.chunks_exact(LANES));
-    let tail: f64 = ac
-        .remainder()
-        .iter()
-        .zip(bc.remainder())
-        .map(|(x, &y)| x * y.into())
-        .sum();
-    for (x, y) in ac.zip(bc) {
-        for l in 0..LANES {
-            acc[l] += x[l] * y[l].into();
-        }
-    }
-    acc.iter().sum::<f64>() + tail
 }
 
 /// `w −= Σ_i c_i v_i` over the basis vectors `v_i` paired with `c`, in one sweep.

@@ -107,7 +107,7 @@ pub struct ParityReport {
     /// Unknowns eliminated.
     pub odd_unknowns: usize,
     /// Applications of `S` (Krylov iterations, restarts, the symmetry probe, and for
-    /// multigrid the finest-level smoothing and residuals and the setup's power iteration).
+    /// multigrid the finest-level smoothing and residuals and the setup's `λ_max` estimate).
     pub reduced_applications: usize,
     /// Applications of the full `A` (residual checks on the recovered vector).
     pub full_applications: usize,

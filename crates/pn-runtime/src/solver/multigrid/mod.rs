@@ -106,7 +106,8 @@ pub struct MgOptions {
     /// 71² checkerboard P_5 53 / 54 / 53, P_3 42 / 42 / 42. [`Multigrid::for_matrix`] uses
     /// `ratio` instead.
     pub fine_ratio: f64,
-    /// Power iterations for `λ_max`.
+    /// Lanczos steps for the estimate of `λ_max` ([`smoother::estimate_lambda_max`]; the
+    /// variable keeps its older name, `PN_MG_POWER_STEPS`).
     pub power_steps: usize,
     /// Stop coarsening at this many unknowns.
     pub coarse_max: usize,
@@ -158,7 +159,7 @@ pub enum FineCycle {
     /// applications of the finest operator per cycle.
     Multiplicative,
     /// `M⁻¹ = ω D⁻¹ + P M_c⁻¹ Pᵀ` with `M_c⁻¹` the V-cycle of the coarse levels: no
-    /// application of the finest operator in the cycle and no power iteration. Symmetric;
+    /// application of the finest operator in the cycle and no `λ_max` estimate. Symmetric;
     /// the Krylov method needs more iterations (one application each).
     Additive {
         /// Weight of the fine-level Jacobi term relative to the coarse correction (the
@@ -523,7 +524,7 @@ impl Multigrid {
         };
         let t_sym = t0.elapsed().as_secs_f64();
         let smoother = match fine_cycle {
-            // The additive term ω D⁻¹ needs no spectrum: no power iteration.
+            // The additive term ω D⁻¹ needs no spectrum: no `λ_max` estimate.
             FineCycle::Additive { omega } => Chebyshev {
                 inv_diag: inv,
                 lambda_max: 1.0 / omega,
@@ -726,7 +727,7 @@ impl Multigrid {
         }
     }
 
-    /// Applications of the finest operator made while building (power iteration).
+    /// Applications of the finest operator made while building (the `λ_max` estimate).
     pub fn setup_fine_applications(&self) -> usize {
         self.setup_apps
     }
@@ -790,8 +791,7 @@ impl Multigrid {
             }
             Some(l) => format!(
                 "fine λ_max(D⁻¹A) ≈ {:.3}, degree {}",
-                l.smoother.lambda_max / 1.1,
-                l.smoother.degree
+                l.smoother.lambda_max, l.smoother.degree
             ),
             None => "no fine level".into(),
         };

@@ -92,7 +92,7 @@ pub fn mg_krylov(
             rhs_norm: bnorm,
             tolerance: opts.tol,
             history: ctl.history,
-            // The products above, the final residual, and the setup's power iteration.
+            // The products above, the final residual, and the setup's `λ_max` estimate.
             operator_applications: products.count() + 1 + mg.setup_fine_applications(),
         },
     ))

@@ -181,7 +181,7 @@ impl Built {
     }
 
     /// [`Built::multigrid`] with the reduced operator `fine` the solve applies (its setup's
-    /// power iteration applies it too), so that it is built once.
+    /// `λ_max` estimate applies it too), so that it is built once.
     pub fn multigrid_with(
         split: &Split,
         geometry: &crate::solver::multigrid::Geometry,
@@ -241,7 +241,7 @@ impl Built {
         }
     }
 
-    /// Applications of `S` spent building it (multigrid's power iteration).
+    /// Applications of `S` spent building it (the multigrid's `λ_max` estimate).
     pub fn setup_applications(&self) -> usize {
         match self {
             Built::Multigrid(mg) => mg.setup_fine_applications(),
