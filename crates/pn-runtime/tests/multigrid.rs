@@ -313,6 +313,25 @@ fn the_reported_solver_names_the_krylov_method_that_ran() {
     assert!(st.converged() && u.iter().all(|v| v.is_finite()), "{st:?}");
 }
 
+/// Solves `sys` to 1e-10 with the default multigrid and with `variant`, and checks that the
+/// variant changes the preconditioner by rounding only: both converge, in the same
+/// iterations up to one, to the same answer.
+fn same_solve_as_the_default(layout: &Layout, sys: &System, order: i32, variant: MgOptions) {
+    let solver = ParityCg::for_layout(layout).with_precond(Precond::Multigrid);
+    let mut o = opts(1e-10);
+    let (u_default, default) = solver.solve_detailed(&sys.matrix, &sys.rhs, &o).unwrap();
+    o.tuning.multigrid = Some(variant);
+    let (u_variant, variant) = solver.solve_detailed(&sys.matrix, &sys.rhs, &o).unwrap();
+    assert!(default.stats.converged() && variant.stats.converged());
+    assert!(
+        default.stats.iterations.abs_diff(variant.stats.iterations) <= 1,
+        "P_{order}: {} vs {} iterations",
+        default.stats.iterations,
+        variant.stats.iterations
+    );
+    assert!(rel_diff(&u_default, &u_variant) <= SAME_ANSWER);
+}
+
 /// The coarse levels in single precision (the default) against double: the preconditioner
 /// changes by rounding only, so the solve takes the same iterations (up to one) to the same
 /// tolerance, with the same answer.
@@ -323,22 +342,11 @@ fn single_precision_coarse_levels_change_nothing_but_rounding() {
         (checkerboard(31), 5),
     ] {
         let (layout, sys) = system(&problem, order);
-        let solver = ParityCg::for_layout(&layout).with_precond(Precond::Multigrid);
-        let mut o = opts(1e-10);
-        let (u_single, single) = solver.solve_detailed(&sys.matrix, &sys.rhs, &o).unwrap();
-        o.tuning.multigrid = Some(MgOptions {
+        let double = MgOptions {
             double_coarse: true,
             ..MgOptions::default()
-        });
-        let (u_double, double) = solver.solve_detailed(&sys.matrix, &sys.rhs, &o).unwrap();
-        assert!(single.stats.converged() && double.stats.converged());
-        assert!(
-            single.stats.iterations.abs_diff(double.stats.iterations) <= 1,
-            "P_{order}: {} vs {} iterations",
-            single.stats.iterations,
-            double.stats.iterations
-        );
-        assert!(rel_diff(&u_single, &u_double) <= SAME_ANSWER);
+        };
+        same_solve_as_the_default(&layout, &sys, order, double);
     }
 }
 
@@ -354,22 +362,11 @@ fn stencil_coarse_levels_change_nothing_but_rounding() {
         (checkerboard(31), 5),
     ] {
         let (layout, sys) = system(&problem, order);
-        let solver = ParityCg::for_layout(&layout).with_precond(Precond::Multigrid);
-        let mut o = opts(1e-10);
-        let (u_stencil, stencil) = solver.solve_detailed(&sys.matrix, &sys.rhs, &o).unwrap();
-        o.tuning.multigrid = Some(MgOptions {
+        let csr = MgOptions {
             stencil_coarse: false,
             ..MgOptions::default()
-        });
-        let (u_csr, csr) = solver.solve_detailed(&sys.matrix, &sys.rhs, &o).unwrap();
-        assert!(stencil.stats.converged() && csr.stats.converged());
-        assert!(
-            stencil.stats.iterations.abs_diff(csr.stats.iterations) <= 1,
-            "P_{order}: {} vs {} iterations",
-            stencil.stats.iterations,
-            csr.stats.iterations
-        );
-        assert!(rel_diff(&u_stencil, &u_csr) <= SAME_ANSWER);
+        };
+        same_solve_as_the_default(&layout, &sys, order, csr);
         // The hierarchies themselves: the coarse levels are stencils by default (at least
         // the first; the smallest ones, mostly boundary rows, may pad too much and stay
         // CSR), none without.
