@@ -208,20 +208,30 @@ pub fn spmv_transpose<I: sprs::SpIndex>(a: &sprs::CsMatI<f64, I, usize>, x: &[f6
 pub const REDUCE_CHUNK: usize = 1 << 14;
 
 /// Euclidean dot product (`b` in `f64`, or `f32` read as `f64`: GMRES's single-precision
-/// basis). Deterministic: the same inputs give the same bits on any number of threads
-/// (partial sums over fixed chunks of [`REDUCE_CHUNK`], added in order).
+/// basis). Deterministic ([`chunked_sum`]).
 pub fn dot<V: Copy + Into<f64> + Sync>(a: &[f64], b: &[V]) -> f64 {
+    chunked_sum(a, b, lane_dot)
+}
+
+/// `Σ_chunks f(a_chunk, b_chunk)` over the paired chunks of [`REDUCE_CHUNK`] values, the
+/// partial sums added in order: the same bits on any number of threads (in parallel from
+/// `SERIAL_BELOW` values on).
+pub fn chunked_sum<A: Sync, B: Sync>(
+    a: &[A],
+    b: &[B],
+    f: impl Fn(&[A], &[B]) -> f64 + Sync,
+) -> f64 {
     if a.len() < SERIAL_BELOW {
         return a
             .chunks(REDUCE_CHUNK)
             .zip(b.chunks(REDUCE_CHUNK))
-            .map(|(x, y)| lane_dot(x, y))
+            .map(|(x, y)| f(x, y))
             .sum();
     }
     let parts: Vec<f64> = a
         .par_chunks(REDUCE_CHUNK)
         .zip(b.par_chunks(REDUCE_CHUNK))
-        .map(|(x, y)| lane_dot(x, y))
+        .map(|(x, y)| f(x, y))
         .collect();
     parts.iter().sum()
 }

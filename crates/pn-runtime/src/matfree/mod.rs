@@ -242,19 +242,14 @@ impl MatFreeOperator {
         self.blocks.iter().map(|b| b.varying.len()).sum::<usize>() + self.clamped.len()
     }
 
-    /// Splits `y` into the output slabs `(moment, x index, slice)`.
-    fn slabs<'y>(&self, y: &'y mut [f64]) -> Vec<(usize, usize, &'y mut [f64])> {
-        let mut out = Vec::new();
-        let mut rest = y;
-        for (q, e) in self.layout.extents.iter().enumerate() {
-            let (mine, tail) = rest.split_at_mut(e.iter().product());
-            rest = tail;
-            let plane = (e[1] * e[2]).max(1);
-            for (ix, s) in mine.chunks_mut(plane).enumerate() {
-                out.push((q, ix, s));
-            }
-        }
-        out
+    /// The moments as boxes of the output vector for [`for_planes_across`]: `(moment,
+    /// values, values per x-plane)`.
+    fn boxes(&self) -> impl Iterator<Item = (usize, usize, usize)> + '_ {
+        self.layout
+            .extents
+            .iter()
+            .enumerate()
+            .map(|(q, e)| (q, e.iter().product(), e[1] * e[2]))
     }
 }
 
@@ -295,6 +290,47 @@ fn eval_into(
         ctx.point([0; 3])
     );
     Ok(rhs)
+}
+
+/// Fewest output values per parallel task of [`for_planes_across`] (2D planes are one short
+/// line: 71 values on the checkerboard).
+const MIN_PLANE_TASK_VALUES: usize = 8192;
+
+/// Runs `f(id, ix, first, plane)` in parallel over the x-planes of consecutive boxes of `v`
+/// (each of `boxes` is `(id, values, values per x-plane)`; `first` is the plane's index in
+/// `v`), x-plane by x-plane across the boxes: the source planes one box's plane reads (the
+/// other boxes at `x − 1 … x + 1`) are still in cache when the next box's plane reads them.
+/// At least [`MIN_PLANE_TASK_VALUES`] values per parallel task, so that scheduling does not
+/// dominate. Used by the stencil `S` ([`crate::solver::parity::stencil_s`], boxes = moments)
+/// and the coarse levels stored as stencils
+/// ([`crate::solver::multigrid::stencil_level`], boxes = classes).
+pub(crate) fn for_planes_across<T: Send>(
+    v: &mut [T],
+    boxes: impl IntoIterator<Item = (usize, usize, usize)>,
+    f: impl Fn(usize, usize, usize, &mut [T]) + Sync,
+) {
+    let values = v.len();
+    let mut planes = Vec::new();
+    let mut rest = v;
+    let mut at = 0;
+    for (id, len, plane) in boxes {
+        let (mine, tail) = rest.split_at_mut(len);
+        rest = tail;
+        let plane = plane.max(1);
+        for (ix, s) in mine.chunks_mut(plane).enumerate() {
+            planes.push((id, ix, at + ix * plane, s));
+        }
+        at += len;
+    }
+    // Stable: the boxes stay in order within an x-plane.
+    planes.sort_by_key(|p| p.1);
+    let min_len = (MIN_PLANE_TASK_VALUES * planes.len())
+        .div_ceil(values.max(1))
+        .max(1);
+    planes
+        .into_par_iter()
+        .with_min_len(min_len)
+        .for_each(|(id, ix, first, s)| f(id, ix, first, s));
 }
 
 /// `lo..hi` of `i` in `0..n` with `i + d` in `0..m` (also the index ranges of the stencil
@@ -342,7 +378,7 @@ impl LinearOperator for MatFreeOperator {
         assert_eq!(x.len(), self.layout.len());
         assert_eq!(y.len(), self.layout.len());
         let l = &self.layout;
-        self.slabs(y).into_par_iter().for_each(|(q, ix, ys)| {
+        for_planes_across(y, self.boxes(), |q, ix, _, ys| {
             ys.fill(0.0);
             let e = l.extents[q];
             let b = &self.blocks[q];
@@ -383,7 +419,7 @@ impl LinearOperator for MatFreeOperator {
         assert_eq!(x.len(), self.layout.len());
         assert_eq!(y.len(), self.layout.len());
         let l = &self.layout;
-        self.slabs(y).into_par_iter().for_each(|(p, ix, ys)| {
+        for_planes_across(y, self.boxes(), |p, ix, _, ys| {
             ys.fill(0.0);
             let ep = l.extents[p];
             for &(q, t) in &self.incoming[p] {

@@ -141,12 +141,10 @@ pub fn estimate_lambda_max(
     }
     // ‖x‖_D² = Σ x_i² / inv_i.
     let d_norm = |x: &[f64]| -> f64 {
-        let parts: Vec<f64> = x
-            .par_chunks(crate::linalg::REDUCE_CHUNK)
-            .zip(inv_diag.par_chunks(crate::linalg::REDUCE_CHUNK))
-            .map(|(x, i)| x.iter().zip(i).map(|(x, i)| x * x / i).sum::<f64>())
-            .collect();
-        parts.iter().sum::<f64>().sqrt()
+        crate::linalg::chunked_sum(x, inv_diag, |x, i| {
+            x.iter().zip(i).map(|(x, i)| x * x / i).sum::<f64>()
+        })
+        .sqrt()
     };
     // Deterministic start with all frequencies present.
     let mut q = pseudo_random(n, 0);

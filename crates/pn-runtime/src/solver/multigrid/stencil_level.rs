@@ -17,7 +17,7 @@
 //! [`MAX_PADDING`] are left to the compact CSR ([`StencilLevel::from_csr`] returns `None`).
 
 use super::Geometry;
-use crate::matfree::range;
+use crate::matfree::{for_planes_across, range};
 use rayon::prelude::*;
 use sprs::CsMat;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -33,9 +33,6 @@ const SPAN: usize = (2 * REACH + 1) as usize;
 /// Largest ratio of stored weights (terms × rows, the boundary rows' zeros included) to
 /// the level's non-zeros: above it the compact CSR moves fewer bytes.
 pub const MAX_PADDING: f64 = 1.8;
-
-/// Fewest output values per parallel task of a product (2D levels have short planes).
-const MIN_TASK_VALUES: usize = 8192;
 
 /// One term of a class's stencil: the source class (its block) and the position shift.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
@@ -159,23 +156,14 @@ impl StencilLevel {
     pub fn apply(&self, x: &[f64], y: &mut [f64]) {
         assert_eq!(x.len(), self.n);
         assert_eq!(y.len(), self.n);
-        let mut slabs = Vec::new();
-        let mut rest = y;
-        for (q, b) in self.blocks.iter().enumerate() {
-            let (mine, tail) = rest.split_at_mut(b.len());
-            rest = tail;
-            for (ix, s) in mine.chunks_mut(b.plane()).enumerate() {
-                slabs.push((q, ix, s));
-            }
-        }
         // Plane by plane across the classes: the source planes a plane reads stay in cache
         // for the other classes' planes at the same x.
-        slabs.sort_by_key(|s| s.1);
-        let min_len = (MIN_TASK_VALUES * slabs.len()).div_ceil(self.n).max(1);
-        slabs
-            .into_par_iter()
-            .with_min_len(min_len)
-            .for_each(|(q, ix, out)| self.slab(q, ix, x, out));
+        let boxes = self
+            .blocks
+            .iter()
+            .enumerate()
+            .map(|(q, b)| (q, b.len(), b.plane()));
+        for_planes_across(y, boxes, |q, ix, _, out| self.slab(q, ix, x, out));
     }
 
     /// Plane `ix` of class `q`: `out = Σ_terms w_row · x[shifted]` over the references

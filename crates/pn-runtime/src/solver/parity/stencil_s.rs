@@ -24,7 +24,7 @@ mod galerkin;
 
 use super::block_mat::BlockMat;
 use crate::linalg::Real;
-use crate::matfree::range;
+use crate::matfree::{for_planes_across, range};
 use crate::solver::multigrid::Geometry;
 use rayon::prelude::*;
 use std::sync::Mutex;
@@ -39,9 +39,6 @@ pub const MAX_CORRECTION_SHARE: f64 = 0.5;
 
 /// Rows per parallel task when the corrections are collected.
 const FIX_CHUNK: usize = 4096;
-
-/// Fewest values of the output per parallel task of an application.
-const MIN_TASK_VALUES: usize = 8192;
 
 /// Relative difference under which a row's weight counts as its moment's stencil weight
 /// (`C = D_o C̃` recomputed from `C̃` differs from the stencil's weight by rounding).
@@ -286,40 +283,19 @@ impl StencilBlock {
 
 /// Runs `f(moment, x index, first local row, slab)` in parallel over the x-planes of the
 /// moments of one class (`kept` or eliminated) of the local vector `v`, x-plane by x-plane
-/// across the moments: the source planes that one moment's plane reads (the other class's
-/// moments at `x − 1 … x + 1`) are still in cache when the next moment's plane reads them.
-/// Moment by moment instead, every source plane came from memory once per moment reading it
-/// (80³ P_5 point source: 52 → 36 ms per application in f64, 25 → 19 ms in f32).
+/// across the moments ([`for_planes_across`]). Moment by moment instead, every source plane
+/// came from memory once per moment reading it (80³ P_5 point source: 52 → 36 ms per
+/// application in f64, 25 → 19 ms in f32).
 fn for_slabs<T: Real>(
     m: &Moments,
     kept: bool,
     v: &mut [T],
     f: impl Fn(usize, usize, usize, &mut [T]) + Sync,
 ) {
-    let mut slabs = Vec::new();
-    let mut rest = v;
-    let mut at = 0;
-    for q in (0..m.ext.len()).filter(|&q| m.kept[q] == kept) {
-        let e = m.ext[q];
-        let (mine, tail) = rest.split_at_mut(e.iter().product());
-        rest = tail;
-        let plane = (e[1] * e[2]).max(1);
-        for (ix, s) in mine.chunks_mut(plane).enumerate() {
-            slabs.push((q, ix, at + ix * plane, s));
-        }
-        at += e.iter().product::<usize>();
-    }
-    slabs.sort_by_key(|s| s.1); // stable: moments in order within a plane
-                                // Slabs are small in 2D (one x-row, 71 values on the checkerboard): at least
-                                // MIN_TASK_VALUES values per parallel task, so that scheduling does not dominate.
-    let values: usize = slabs.iter().map(|s| s.3.len()).sum();
-    let min_len = (MIN_TASK_VALUES * slabs.len())
-        .div_ceil(values.max(1))
-        .max(1);
-    slabs
-        .into_par_iter()
-        .with_min_len(min_len)
-        .for_each(|(q, ix, start, s)| f(q, ix, start, s));
+    let boxes = (0..m.ext.len())
+        .filter(|&q| m.kept[q] == kept)
+        .map(|q| (q, m.ext[q].iter().product(), m.ext[q][1] * m.ext[q][2]));
+    for_planes_across(v, boxes, f);
 }
 
 /// `out = Σ_terms w · src[shifted]` over the in-grid references of x-plane `ix` of row
