@@ -15,6 +15,8 @@ pub struct RowAccumulator {
     values: Vec<f64>,
     mark: Vec<bool>,
     touched: Vec<u32>,
+    /// A row given in order by [`RowAccumulator::push_sorted`].
+    sorted: Vec<(u32, f64)>,
 }
 
 impl RowAccumulator {
@@ -23,6 +25,7 @@ impl RowAccumulator {
             values: vec![0.0; n_cols],
             mark: vec![false; n_cols],
             touched: Vec::new(),
+            sorted: Vec::new(),
         }
     }
 
@@ -37,8 +40,24 @@ impl RowAccumulator {
         self.values[ju] += v;
     }
 
+    /// Appends column `j` with value `v` to a row that takes no [`RowAccumulator::add`]:
+    /// the caller gives each column once, in ascending order.
+    #[inline]
+    pub fn push_sorted(&mut self, j: u32, v: f64) {
+        debug_assert!(self.touched.is_empty() && self.sorted.last().is_none_or(|l| l.0 < j));
+        self.sorted.push((j, v));
+    }
+
     /// Moves the row (sorted columns) into `cols`/`vals` and resets the accumulator.
     fn drain(&mut self, cols: &mut Vec<usize>, vals: &mut Vec<f64>) {
+        if !self.sorted.is_empty() {
+            assert!(self.touched.is_empty(), "push_sorted and add in one row");
+            for (j, v) in self.sorted.drain(..) {
+                cols.push(j as usize);
+                vals.push(v);
+            }
+            return;
+        }
         self.touched.sort_unstable();
         for &j in &self.touched {
             let ju = j as usize;

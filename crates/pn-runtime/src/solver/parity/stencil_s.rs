@@ -21,6 +21,7 @@
 //! The residual that stops the solve is always computed from the blocks.
 
 mod galerkin;
+mod interior;
 
 use super::block_mat::BlockMat;
 use crate::linalg::Real;

@@ -12,16 +12,23 @@
 //!   reference it are all stencil entries, the sum runs over the row's stencil terms with
 //!   each term's matching `C` weight found once per moment; the few other rows (the
 //!   corrections' rows and columns) sum over their actual entries.
-//! * `Pᵀ S P = Pᵀ D_e P − (Pᵀ B)(C̃ P)`: each coarse row adds its members' `B` rows into a
-//!   small dense window over the odd positions they can reach (instead of sorting them),
-//!   then scatters each reached row of `C̃` to the aggregates of its columns.
+//! * `Pᵀ S P = Pᵀ D_e P − (Pᵀ B)(C̃ P)`: a row whose aggregate is a block of its moment's
+//!   grid takes its stencil part from a map fixed per moment and position class
+//!   ([`CoarseMaps`], module `interior`: one multiply-add per coarse term and odd slot) and
+//!   adds the few corrections' products; any other row (the general route) adds its
+//!   members' `B` rows into a small dense window over the odd positions they can reach
+//!   (instead of sorting them), then scatters each reached row of `C̃` to the aggregates of
+//!   its columns. 80³ P_5 point source: 3.0 s by the general route, 1.36 s with the maps
+//!   (0.4 s of it building the CSR); 40³: 0.35 → 0.17 s.
 
+use super::interior::{CoarseMaps, MapScratch};
 use super::{Moments, StencilBlock, StencilReduced, Term};
 use crate::solver::multigrid::aggregate::Aggregation;
 use crate::solver::multigrid::galerkin::build_rows_with;
 use crate::solver::parity::block_mat::BlockMat;
 use rayon::prelude::*;
 use sprs::CsMat;
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 impl Moments {
     /// The moments of the class `kept`, in local order (for [`Moments::locate`]).
@@ -243,6 +250,19 @@ impl StencilReduced {
     /// The first Galerkin operator `Pᵀ S P` of the aggregation `ag` of the kept unknowns
     /// (kept-local order), from the stencils.
     pub fn coarse(&self, d_e: &[f64], d_o: &[f64], ag: &Aggregation) -> CsMat<f64> {
+        self.coarse_with(d_e, d_o, ag, true).0
+    }
+
+    /// [`StencilReduced::coarse`] with the rows' stencil part from the position maps
+    /// ([`CoarseMaps`], where `use_maps` and the aggregation allow) or all rows by the
+    /// general route, and the number of rows the maps computed.
+    pub fn coarse_with(
+        &self,
+        d_e: &[f64],
+        d_o: &[f64],
+        ag: &Aggregation,
+        use_maps: bool,
+    ) -> (CsMat<f64>, usize) {
         let (n_e, n_o) = (d_e.len(), d_o.len());
         let m = &self.moments;
         let (b, c) = (&self.b, &self.c);
@@ -259,12 +279,19 @@ impl StencilReduced {
         let w = [0, 1, 2].map(|d| (hi[d] - lo[d] + 2) as usize);
         let per_moment = w[0] * w[1] * w[2];
         let (kept, elim) = (m.class(true), m.class(false));
+        let maps = if use_maps {
+            CoarseMaps::new(m, b, c, n_o, ag.coarse_len())
+        } else {
+            None
+        };
+        let interior_rows = AtomicUsize::new(0);
         let scratch = || Window {
             sums: vec![0.0; nm * per_moment],
             touched: Vec::new(),
             spill: Vec::new(),
+            maps: MapScratch::default(),
         };
-        build_rows_with(
+        let a = build_rows_with(
             ag.coarse_len(),
             ag.coarse_len(),
             scratch,
@@ -273,9 +300,45 @@ impl StencilReduced {
                     sums: win,
                     touched,
                     spill,
+                    maps: inner,
                 } = scr;
                 let members = &ag.members[ag.ptr[row]..ag.ptr[row + 1]];
                 let (q, corner) = m.locate(&kept, members[0] as usize);
+                if let Some((maps, prepared)) = maps
+                    .as_ref()
+                    .and_then(|mp| Some((mp, mp.prepare(m, d_o, q, corner, members, inner)?)))
+                {
+                    let plain = inner.corrected.is_empty()
+                        && members
+                            .iter()
+                            .all(|&i| b_rows.fix_ptr[i as usize] == b_rows.fix_ptr[i as usize + 1]);
+                    if plain {
+                        // No corrections: the map's columns are sorted and distinct.
+                        maps.emit(&prepared, d_e, inner, |j, v| acc.push_sorted(j, v));
+                    } else {
+                        maps.emit(&prepared, d_e, inner, |j, v| acc.add(j, v));
+                        // The corrections (module `interior`): the children's B corrections
+                        // times the whole C row they reach ...
+                        for &i in members {
+                            let i = i as usize;
+                            for f in b_rows.fix_ptr[i] as usize..b_rows.fix_ptr[i + 1] as usize {
+                                let k = b.fix_cols[f] as usize;
+                                let g = -b.fix_vals[f] / d_o[k];
+                                let (r, pk) = m.locate(&elim, k);
+                                c_rows.for_row(r, pk, k, |j, _, cw| acc.add(ag.agg[j], g * cw));
+                            }
+                        }
+                        // ... and the C corrections of the slots the stencil B reaches.
+                        for &(k, beta) in &inner.corrected {
+                            let g = -beta / d_o[k];
+                            for f in c_rows.fix_ptr[k] as usize..c_rows.fix_ptr[k + 1] as usize {
+                                acc.add(ag.agg[c.fix_cols[f] as usize], g * c.fix_vals[f]);
+                            }
+                        }
+                    }
+                    interior_rows.fetch_add(1, Ordering::Relaxed);
+                    return;
+                }
                 let base = add(corner, lo);
                 for &i in members {
                     let i = i as usize;
@@ -329,7 +392,8 @@ impl StencilReduced {
                     scatter(k, r, pk, v);
                 }
             },
-        )
+        );
+        (a, interior_rows.into_inner())
     }
 }
 
@@ -339,6 +403,7 @@ struct Window {
     sums: Vec<f64>,
     touched: Vec<u32>,
     spill: Vec<(usize, f64)>,
+    maps: MapScratch,
 }
 
 impl StencilReduced {
