@@ -153,7 +153,7 @@ fn setup_products_equal_the_blocks() {
     use pn_runtime::solver::multigrid::aggregate::aggregate;
     use pn_runtime::solver::parity::galerkin::coarse_from_split;
     use pn_runtime::solver::parity::precond::diagonal;
-    let mut cases = 0;
+    let (mut cases, mut levels) = (0, 0);
     for (name, dim, res) in [
         ("checkerboard", Dim::Two, 21),
         ("pointsource", Dim::Three, 9),
@@ -203,6 +203,15 @@ fn setup_products_equal_the_blocks() {
                 let (general, none) = st.coarse_with(&split.d_e, &split.d_o, &ag, false);
                 assert_eq!(none, 0, "{label}");
                 let scale = want.data().iter().fold(0.0f64, |m, v| m.max(v.abs()));
+                // Marshak's face rows may reach coarse columns beyond the moment's terms:
+                // then the level is formed as CSR (`coarse_parts` gives `None`).
+                match st.coarse_parts(&split.d_e, &split.d_o, &ag) {
+                    Some(parts) => {
+                        same_level_as_csr(parts, &want, &label);
+                        levels += 1;
+                    }
+                    None => assert_eq!(bc, Boundary::Marshak, "{label}: no stencil level"),
+                }
                 for got in [got, general] {
                     assert_eq!(want.shape(), got.shape(), "{label}");
                     for (i, (rw, rg)) in want.outer_iterator().zip(got.outer_iterator()).enumerate()
@@ -229,6 +238,59 @@ fn setup_products_equal_the_blocks() {
         }
     }
     assert!(cases >= 24, "only {cases} cases compared");
+    assert!(levels >= 20, "only {levels} stencil levels compared");
+}
+
+/// The first coarse level built straight as stencil weights (`coarse_parts`) is the CSR
+/// `want` to `f32` rounding: the same products (1e-6 of the largest, the `f32` weights'
+/// rounding summed over a row) and diagonal, and its asymmetry is found exactly where the
+/// CSR's is (above `COARSE_SYMMETRY_TOL`).
+fn same_level_as_csr(
+    parts: Vec<pn_runtime::solver::multigrid::stencil_level::ClassParts>,
+    want: &sprs::CsMat<f64>,
+    label: &str,
+) {
+    use pn_runtime::solver::multigrid::stencil_level::{parts_asymmetry, StencilLevel};
+    use pn_runtime::solver::multigrid::COARSE_SYMMETRY_TOL;
+    let asym = parts_asymmetry(&parts, COARSE_SYMMETRY_TOL);
+    let level = StencilLevel::from_parts(parts).expect("weights fit f32");
+    let n = want.rows();
+    assert_eq!(level.len(), n, "{label}");
+    let x = pseudo_random(n, 7);
+    let (mut a, mut b) = (vec![0.0; n], vec![0.0; n]);
+    pn_runtime::linalg::spmv(want, &x, &mut a);
+    level.apply(&x, &mut b);
+    let scale = a.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let worst = a
+        .iter()
+        .zip(&b)
+        .fold(0.0f64, |m, (p, q)| m.max((p - q).abs()));
+    assert!(
+        worst <= 1e-6 * scale,
+        "{label}: product {worst:e} of {scale:e}"
+    );
+    let d = level.diagonal();
+    for (i, row) in want.outer_iterator().enumerate() {
+        let w = row.get(i).copied().unwrap_or(0.0);
+        assert!((w - d[i]).abs() <= 1e-6 * w.abs(), "{label}: diagonal {i}");
+    }
+    // The CSR's largest relative entry asymmetry.
+    let rowmax: Vec<f64> = want
+        .outer_iterator()
+        .map(|r| r.data().iter().fold(0.0f64, |m, v| m.max(v.abs())))
+        .collect();
+    let mut csr_asym = 0.0f64;
+    for (i, row) in want.outer_iterator().enumerate() {
+        for (j, &v) in row.iter() {
+            let t = want.get(j, i).copied().unwrap_or(0.0);
+            csr_asym = csr_asym.max((v - t).abs() / (rowmax[i] + rowmax[j]));
+        }
+    }
+    assert_eq!(
+        asym > COARSE_SYMMETRY_TOL,
+        csr_asym > COARSE_SYMMETRY_TOL,
+        "{label}: asymmetry {asym:e} from the parts, {csr_asym:e} from the CSR"
+    );
 }
 
 /// Assembling straight into the stencils (`assemble_split_stencil`, no blocks stored) gives

@@ -478,6 +478,60 @@ pub fn sparsify(a: CsMat<f64>, drop: f64) -> CsMat<f64> {
     CsMat::new((a.rows(), a.cols()), indptr, indices, data)
 }
 
+/// The first coarse operator `Pᵀ A P`, as [`Multigrid::build`] takes it.
+pub enum FirstCoarse {
+    /// A CSR matrix (sparsified by [`MgOptions::drop`] and stored as [`LevelOp::new`]
+    /// decides).
+    Csr(CsMat<f64>),
+    /// A structured level already in stencil form, with its relative entry asymmetry
+    /// measured before the weights were rounded ([`stencil_level::parts_asymmetry`]).
+    Stencil(StencilLevel, f64),
+}
+
+/// A coarse operator while the hierarchy is built: CSR, or the first level built straight
+/// as a stencil ([`FirstCoarse::Stencil`]).
+enum Building {
+    Csr(CsMat<f64>),
+    Stencil(StencilLevel),
+}
+
+impl Building {
+    fn rows(&self) -> usize {
+        match self {
+            Building::Csr(a) => a.rows(),
+            Building::Stencil(s) => s.len(),
+        }
+    }
+
+    fn diagonal(&self) -> Vec<f64> {
+        match self {
+            Building::Csr(a) => csr_diagonal(a),
+            Building::Stencil(s) => s.diagonal(),
+        }
+    }
+
+    fn galerkin(&self, agg: &Aggregation, drop: f64) -> CsMat<f64> {
+        match self {
+            Building::Csr(a) => sparsify(galerkin::coarse_from_csr(a, agg), drop),
+            Building::Stencil(s) => sparsify(s.galerkin(agg), drop),
+        }
+    }
+
+    fn into_op(self, geom: &Geometry, opts: &MgOptions) -> LevelOp {
+        match self {
+            Building::Csr(a) => LevelOp::new(a, geom, opts),
+            Building::Stencil(s) => LevelOp::Stencil(s),
+        }
+    }
+
+    fn into_csr(self) -> CsMat<f64> {
+        match self {
+            Building::Csr(a) => a,
+            Building::Stencil(s) => s.to_csr(),
+        }
+    }
+}
+
 fn csr_diagonal(a: &CsMat<f64>) -> Vec<f64> {
     let mut d = vec![0.0; a.rows()];
     for (i, row) in a.outer_iterator().enumerate() {
@@ -494,7 +548,7 @@ impl Multigrid {
         fine_apply: &dyn Fn(&[f64], &mut [f64]),
         fine_diag: &[f64],
         geom: &Geometry,
-        first_coarse: impl FnOnce(&Aggregation) -> CsMat<f64>,
+        first_coarse: impl FnOnce(&Aggregation) -> FirstCoarse,
         opts: &MgOptions,
     ) -> Result<Self, MgError> {
         if geom.len() != fine_diag.len() {
@@ -507,7 +561,10 @@ impl Multigrid {
         let inv = inverse_diagonal(0, fine_diag)?;
         let agg = aggregate(geom);
         let t_agg = t0.elapsed().as_secs_f64();
-        let mut a = sparsify(first_coarse(&agg), opts.drop);
+        let (mut a, first_asymmetry) = match first_coarse(&agg) {
+            FirstCoarse::Csr(c) => (Building::Csr(sparsify(c, opts.drop)), None),
+            FirstCoarse::Stencil(s, asym) => (Building::Stencil(s), Some(asym)),
+        };
         let t_first = t0.elapsed().as_secs_f64();
         // `PᵀAP` is symmetric (to rounding) when `A` is; an asymmetric `A` could pass only
         // if its asymmetry cancelled within every aggregate pair. No application of `A`.
@@ -517,7 +574,10 @@ impl Multigrid {
         // cloud, took 0.43 s to check in full).
         let (fine_cycle, first_coarse_asymmetry) = match opts.fine_cycle {
             FineCycle::AdditiveIfSymmetric => {
-                let asym = csr_asymmetry(&a, COARSE_SYMMETRY_TOL);
+                let asym = match &a {
+                    Building::Csr(c) => csr_asymmetry(c, COARSE_SYMMETRY_TOL),
+                    Building::Stencil(_) => first_asymmetry.unwrap_or(f64::INFINITY),
+                };
                 (opts.fine_cycle.resolve(asym <= COARSE_SYMMETRY_TOL), asym)
             }
             c => (c, 0.0),
@@ -557,15 +617,18 @@ impl Multigrid {
             smoother,
             agg,
         }];
-        let mut coarse_nnz = vec![a.nnz()];
+        let mut coarse_nnz = vec![match &a {
+            Building::Csr(c) => c.nnz(),
+            Building::Stencil(s) => s.nonzeros(),
+        }];
         while a.rows() > opts.coarse_max && levels.len() + 1 < opts.max_levels {
             let agg = aggregate(&g);
             if agg.coarse_len() as f64 > 0.9 * a.rows() as f64 {
                 break;
             }
-            let inv = inverse_diagonal(levels.len(), &csr_diagonal(&a))?;
-            let next = sparsify(galerkin::coarse_from_csr(&a, &agg), opts.drop);
-            let op = LevelOp::new(a, &g, opts);
+            let inv = inverse_diagonal(levels.len(), &a.diagonal())?;
+            let next = a.galerkin(&agg, opts.drop);
+            let op = a.into_op(&g, opts);
             // λ_max of the operator the cycle applies, whose stored f32 form reads fewer bytes
             // than the f64 CSR (80³ P_5 point source, coarser levels 1.1 → 0.78 s).
             let smoother = Chebyshev::new(
@@ -582,7 +645,7 @@ impl Multigrid {
                 smoother,
                 agg,
             });
-            a = next;
+            a = Building::Csr(next);
         }
         let setup_seconds = [
             t_agg,
@@ -591,6 +654,7 @@ impl Multigrid {
             t_power - t_sym,
             t0.elapsed().as_secs_f64() - t_power,
         ];
+        let a = a.into_csr();
         let n = a.rows();
         if n > opts.dense_max {
             return Err(MgError::CoarsestTooLarge {
@@ -709,7 +773,7 @@ impl Multigrid {
             &apply,
             &csr_diagonal(a),
             geom,
-            |agg| galerkin::coarse_from_csr(a, agg),
+            |agg| FirstCoarse::Csr(galerkin::coarse_from_csr(a, agg)),
             &opts,
         )
     }

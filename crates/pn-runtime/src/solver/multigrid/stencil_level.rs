@@ -12,6 +12,11 @@
 //! instead of the compact CSR's 8 per entry (4 for the `f32` value, 4 for the column), and
 //! reads the source vector plane by plane in order instead of gathering it.
 //!
+//! The first level of the parity systems is built straight in this form
+//! ([`StencilLevel::from_parts`], from
+//! [`crate::solver::parity::stencil_s::StencilReduced::coarse_parts`]), without its CSR;
+//! [`StencilLevel::galerkin`] then forms the next level's CSR from the stored weights.
+//!
 //! Levels whose unknowns are not whole class boxes in that order, whose rows reach further
 //! than [`REACH`] positions, or whose boundary rows would pad the weights by more than
 //! [`MAX_PADDING`] are left to the compact CSR ([`StencilLevel::from_csr`] returns `None`).
@@ -216,6 +221,190 @@ impl StencilLevel {
                     .for_each(|((o, &w), &x)| *o += w as f64 * x);
             }
         }
+    }
+}
+
+/// One class of a level given directly as stencil weights in `f64` (for
+/// [`StencilLevel::from_parts`]): its first unknown, box, terms (source class's block and
+/// shift) and weights laid out as [`StencilLevel`] stores them (x-plane by x-plane, term by
+/// term within a plane).
+pub struct ClassParts {
+    /// First unknown of the class.
+    pub start: usize,
+    /// Extent of the class's box.
+    pub ext: [usize; 3],
+    /// Source block (index into the parts) and position shift of each term.
+    pub terms: Vec<(usize, [i64; 3])>,
+    /// Weight of term `k` in row `i` of plane `ix` at `(ix · terms + k) · plane + i`.
+    pub weights: Vec<f64>,
+}
+
+impl ClassParts {
+    fn plane(&self) -> usize {
+        (self.ext[1] * self.ext[2]).max(1)
+    }
+}
+
+/// Relative asymmetry of the level given by `parts`, as `csr_asymmetry` in the parent module
+/// measures it on a CSR matrix: `|a_ij − a_ji| / (max_k |a_ik| + max_k |a_jk|)` of some
+/// entry where it exceeds `tol`, or 0 when every entry is within `tol`.
+pub fn parts_asymmetry(parts: &[ClassParts], tol: f64) -> f64 {
+    // Row scales, per class in row order.
+    let scale: Vec<Vec<f64>> = parts
+        .iter()
+        .map(|c| {
+            let (plane, kn) = (c.plane(), c.terms.len());
+            (0..c.ext.iter().product::<usize>())
+                .into_par_iter()
+                .map(|r| {
+                    let (ix, i) = (r / plane, r % plane);
+                    (0..kn).fold(0.0f64, |m, k| {
+                        m.max(c.weights[(ix * kn + k) * plane + i].abs())
+                    })
+                })
+                .collect()
+        })
+        .collect();
+    // The transposed term of each term: (block, index in the block's terms).
+    let back: Vec<Vec<Option<usize>>> = parts
+        .iter()
+        .enumerate()
+        .map(|(q, c)| {
+            c.terms
+                .iter()
+                .map(|&(b, d)| parts[b].terms.iter().position(|&t| t == (q, d.map(|v| -v))))
+                .collect()
+        })
+        .collect();
+    parts
+        .iter()
+        .enumerate()
+        .find_map(|(q, c)| {
+            let (plane, kn, e) = (c.plane(), c.terms.len(), c.ext);
+            (0..e.iter().product::<usize>())
+                .into_par_iter()
+                .find_map_any(|r| {
+                    let (ix, i) = (r / plane, r % plane);
+                    let pos = [ix as i64, (i / e[2]) as i64, (i % e[2]) as i64];
+                    (0..kn).find_map(|k| {
+                        let w = c.weights[(ix * kn + k) * plane + i];
+                        if w == 0.0 {
+                            return None;
+                        }
+                        let (b, d) = c.terms[k];
+                        let src = &parts[b];
+                        let j = [0, 1, 2].map(|a| pos[a] + d[a]);
+                        if (0..3).any(|a| j[a] < 0 || j[a] >= src.ext[a] as i64) {
+                            return Some(f64::INFINITY); // an entry outside the level
+                        }
+                        let j = j.map(|v| v as usize);
+                        let (jp, jl) = (j[0], j[1] * src.ext[2] + j[2]);
+                        let jr = jp * src.plane() + jl;
+                        let t = back[q][k].map_or(0.0, |kb| {
+                            src.weights[(jp * src.terms.len() + kb) * src.plane() + jl]
+                        });
+                        let s = scale[q][r] + scale[b][jr];
+                        let dlt = (w - t).abs();
+                        (dlt > tol * s).then(|| dlt / s)
+                    })
+                })
+        })
+        .unwrap_or(0.0)
+}
+
+impl StencilLevel {
+    /// The level given by `parts` (see [`ClassParts`]), its weights rounded to `f32`; `None`
+    /// when a term reaches further than [`REACH`] or a weight does not fit `f32`.
+    pub fn from_parts(parts: Vec<ClassParts>) -> Option<Self> {
+        let n = parts.iter().map(|c| c.ext.iter().product::<usize>()).sum();
+        let blocks = parts
+            .into_iter()
+            .map(|c| {
+                if c.terms.iter().any(|t| t.1.iter().any(|v| v.abs() > REACH)) {
+                    return None;
+                }
+                let weights: Vec<f32> = c
+                    .weights
+                    .par_iter()
+                    .map(|&v| {
+                        let w = v as f32;
+                        (w.is_finite() && (w != 0.0 || v == 0.0)).then_some(w)
+                    })
+                    .collect::<Option<_>>()?;
+                Some(ClassBlock {
+                    start: c.start,
+                    ext: c.ext,
+                    terms: c
+                        .terms
+                        .iter()
+                        .map(|&(block, delta)| LevelTerm { block, delta })
+                        .collect(),
+                    weights,
+                })
+            })
+            .collect::<Option<Vec<_>>>()?;
+        Some(Self { blocks, n })
+    }
+
+    /// Non-zero weights.
+    pub fn nonzeros(&self) -> usize {
+        self.blocks
+            .iter()
+            .map(|b| b.weights.par_iter().filter(|&&w| w != 0.0).count())
+            .sum()
+    }
+
+    /// Calls `f(column, weight)` for the non-zero weights of row `r`.
+    fn for_row(&self, r: usize, mut f: impl FnMut(usize, f64)) {
+        let q = self.blocks.partition_point(|b| b.start <= r) - 1;
+        let b = &self.blocks[q];
+        let (plane, kn, e) = (b.plane(), b.terms.len(), b.ext);
+        let l = r - b.start;
+        let (ix, i) = (l / plane, l % plane);
+        let pos = [ix as i64, (i / e[2]) as i64, (i % e[2]) as i64];
+        for (k, t) in b.terms.iter().enumerate() {
+            let w = b.weights[(ix * kn + k) * plane + i];
+            if w == 0.0 {
+                continue;
+            }
+            let src = &self.blocks[t.block];
+            let j = [0, 1, 2].map(|a| pos[a] + t.delta[a]);
+            if (0..3).all(|a| j[a] >= 0 && j[a] < src.ext[a] as i64) {
+                f(src.start + linear(src.ext, j.map(|v| v as usize)), w as f64);
+            }
+        }
+    }
+
+    /// The diagonal.
+    pub fn diagonal(&self) -> Vec<f64> {
+        (0..self.n)
+            .into_par_iter()
+            .map(|r| {
+                let mut d = 0.0;
+                self.for_row(r, |c, w| {
+                    if c == r {
+                        d += w;
+                    }
+                });
+                d
+            })
+            .collect()
+    }
+
+    /// The Galerkin operator `Pᵀ A P` of the aggregation `ag` of this level's unknowns.
+    pub fn galerkin(&self, ag: &super::aggregate::Aggregation) -> CsMat<f64> {
+        super::galerkin::build_rows(ag.coarse_len(), ag.coarse_len(), |ci, acc| {
+            for &r in &ag.members[ag.ptr[ci]..ag.ptr[ci + 1]] {
+                self.for_row(r as usize, |c, w| acc.add(ag.agg[c], w));
+            }
+        })
+    }
+
+    /// The operator as a CSR matrix (its `f32` weights).
+    pub fn to_csr(&self) -> CsMat<f64> {
+        super::galerkin::build_rows(self.n, self.n, |r, acc| {
+            self.for_row(r, |c, w| acc.add(c as u32, w));
+        })
     }
 }
 

@@ -211,10 +211,7 @@ impl Built {
             &apply,
             &diag,
             &even,
-            |agg| match stencil {
-                Some(st) => st.coarse(&split.d_e, &split.d_o, agg),
-                None => super::galerkin::coarse_from_split(split, agg),
-            },
+            |agg| first_coarse(split, stencil, agg, opts),
             opts,
         )?;
         // The finest level in single precision where S has an f32 form (its stencils).
@@ -494,6 +491,33 @@ impl Ilu0 {
             z[i] = s / self.values[self.diag[i]];
         }
     }
+}
+
+/// The first Galerkin operator of the multigrid for the reduced operator of `split`: from
+/// the stencils straight into the structured level's weights where the options store coarse
+/// levels as `f32` stencils unsparsified and every coarse row has a position map
+/// ([`super::stencil_s::StencilReduced::coarse_parts`]: no CSR of the level is formed);
+/// else as CSR from the stencils or the blocks.
+fn first_coarse(
+    split: &Split,
+    stencil: Option<&super::stencil_s::StencilReduced>,
+    agg: &crate::solver::multigrid::aggregate::Aggregation,
+    opts: &crate::solver::multigrid::MgOptions,
+) -> crate::solver::multigrid::FirstCoarse {
+    use crate::solver::multigrid::stencil_level::{parts_asymmetry, StencilLevel};
+    use crate::solver::multigrid::{FirstCoarse, COARSE_SYMMETRY_TOL};
+    let Some(st) = stencil else {
+        return FirstCoarse::Csr(super::galerkin::coarse_from_split(split, agg));
+    };
+    if opts.stencil_coarse && !opts.double_coarse && opts.drop <= 0.0 {
+        if let Some(parts) = st.coarse_parts(&split.d_e, &split.d_o, agg) {
+            let asym = parts_asymmetry(&parts, COARSE_SYMMETRY_TOL);
+            if let Some(level) = StencilLevel::from_parts(parts) {
+                return FirstCoarse::Stencil(level, asym);
+            }
+        }
+    }
+    FirstCoarse::Csr(st.coarse(&split.d_e, &split.d_o, agg))
 }
 
 #[cfg(test)]

@@ -25,10 +25,11 @@ use super::interior::{CoarseMaps, MapScratch};
 use super::{Moments, StencilBlock, StencilReduced, Term};
 use crate::solver::multigrid::aggregate::Aggregation;
 use crate::solver::multigrid::galerkin::build_rows_with;
+use crate::solver::multigrid::stencil_level::ClassParts;
 use crate::solver::parity::block_mat::BlockMat;
 use rayon::prelude::*;
 use sprs::CsMat;
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 impl Moments {
     /// The moments of the class `kept`, in local order (for [`Moments::locate`]).
@@ -394,6 +395,113 @@ impl StencilReduced {
             },
         );
         (a, interior_rows.into_inner())
+    }
+}
+
+impl StencilReduced {
+    /// The first Galerkin operator `Pᵀ S P` as a structured level's `f64` stencil weights
+    /// ([`ClassParts`], one block per kept moment), straight from the position maps: the
+    /// level's CSR is never formed (80³ P_5: 52 M entries, 0.8 GB, and its conversion to
+    /// the stencil level). `None` when some row has no map (see [`CoarseMaps`]) or a
+    /// correction reaches a coarse column outside its moment's terms; then
+    /// [`StencilReduced::coarse`] forms the CSR.
+    pub fn coarse_parts(
+        &self,
+        d_e: &[f64],
+        d_o: &[f64],
+        ag: &Aggregation,
+    ) -> Option<Vec<ClassParts>> {
+        let (n_e, n_o) = (d_e.len(), d_o.len());
+        let m = &self.moments;
+        let (b, c) = (&self.b, &self.c);
+        let maps = CoarseMaps::new(m, b, c, n_o, ag.coarse_len())?;
+        let (b_rows, c_rows) = (Rows::new(b, m, n_e), Rows::new(c, m, n_o));
+        let elim = m.class(false);
+        let kept: Vec<usize> = (0..m.ext.len()).filter(|&q| m.kept[q]).collect();
+        let f = maps.factor().map(|v| v as i64);
+        let failed = AtomicBool::new(false);
+        let mut parts = Vec::with_capacity(kept.len());
+        for &q in &kept {
+            let terms = maps.terms(q)?;
+            let (start, cext) = maps.coarse_box(q);
+            let plane = (cext[1] * cext[2]).max(1);
+            let kn = terms.len();
+            // Term index by (column moment, shift) for the corrections' columns.
+            const R: i64 = crate::solver::multigrid::stencil_level::REACH;
+            const W: usize = (2 * R + 1) as usize;
+            let key = |p: usize, d: [i64; 3]| -> Option<usize> {
+                d.iter().all(|v| v.abs() <= R).then(|| {
+                    let [x, y, z] = d.map(|v| (v + R) as usize);
+                    ((p * W + x) * W + y) * W + z
+                })
+            };
+            let mut index = vec![u32::MAX; m.ext.len() * W * W * W];
+            for (k, &(p, d)) in terms.iter().enumerate() {
+                index[key(p, d)?] = k as u32;
+            }
+            let mut weights = vec![0.0f64; kn * cext.iter().product::<usize>()];
+            weights
+                .par_chunks_mut((kn * plane).max(1))
+                .enumerate()
+                .for_each_init(MapScratch::default, |scr, (ix, w)| {
+                    for i in 0..plane {
+                        let ci = [ix as i64, (i / cext[2]) as i64, (i % cext[2]) as i64];
+                        let row = start + ix * plane + i;
+                        let members = &ag.members[ag.ptr[row]..ag.ptr[row + 1]];
+                        let corner: [i64; 3] = std::array::from_fn(|d| f[d] * ci[d]);
+                        let first = m.local_off[q] + m.linear(q, corner.map(|v| v as usize));
+                        let prepared = (members[0] as usize == first)
+                            .then(|| maps.prepare(m, d_o, q, corner, members, scr))
+                            .flatten();
+                        let Some(prepared) = prepared else {
+                            failed.store(true, Ordering::Relaxed);
+                            return;
+                        };
+                        maps.emit_class_terms(&prepared, d_e, scr, |k, v| {
+                            w[k * plane + i] += v;
+                        });
+                        // The corrections (as in `coarse`), each to its column's term.
+                        let mut add = |j: u32, v: f64| {
+                            let j = j as usize;
+                            let (p, pj) = (ag.coarse.class[j] as usize, ag.coarse.coords[j]);
+                            let delta = [0, 1, 2].map(|d| pj[d] as i64 - ci[d]);
+                            match key(p, delta).map(|s| index[s]) {
+                                Some(k) if k != u32::MAX => w[k as usize * plane + i] += v,
+                                _ => failed.store(true, Ordering::Relaxed),
+                            }
+                        };
+                        for &i_f in members {
+                            let i_f = i_f as usize;
+                            for fx in b_rows.fix_ptr[i_f] as usize..b_rows.fix_ptr[i_f + 1] as usize
+                            {
+                                let k = b.fix_cols[fx] as usize;
+                                let g = -b.fix_vals[fx] / d_o[k];
+                                let (r, pk) = m.locate(&elim, k);
+                                c_rows.for_row(r, pk, k, |j, _, cw| add(ag.agg[j], g * cw));
+                            }
+                        }
+                        for &(k, beta) in &scr.corrected {
+                            let g = -beta / d_o[k];
+                            for fx in c_rows.fix_ptr[k] as usize..c_rows.fix_ptr[k + 1] as usize {
+                                add(ag.agg[c.fix_cols[fx] as usize], g * c.fix_vals[fx]);
+                            }
+                        }
+                    }
+                });
+            if failed.load(Ordering::Relaxed) {
+                return None;
+            }
+            parts.push(ClassParts {
+                start,
+                ext: cext,
+                terms: terms
+                    .iter()
+                    .map(|&(p, d)| (kept.binary_search(&p).unwrap_or(usize::MAX), d))
+                    .collect(),
+                weights,
+            });
+        }
+        Some(parts)
     }
 }
 

@@ -51,6 +51,8 @@ struct PositionMap {
     ptr: Vec<u32>,
     slot: Vec<u32>,
     gamma: Vec<f64>,
+    /// Index of each term in its moment's [`MomentMaps::terms`].
+    class_term: Vec<u32>,
 }
 
 /// All the (child, `B` term, `C` term) triples of one row moment, before the grids cut
@@ -77,6 +79,8 @@ struct MomentMaps {
     moments_reached: Vec<usize>,
     /// Indexed by the class combination; `None` where the combination never occurs.
     maps: Vec<Option<PositionMap>>,
+    /// Every term of any of the maps, sorted (column moment, coarse shift).
+    terms: Vec<(usize, [i64; 3])>,
 }
 
 /// The stencil part of every coarse row of `Pᵀ S P` whose aggregate is a block of its
@@ -213,18 +217,63 @@ impl CoarseMaps {
         scratch: &MapScratch,
         mut add: impl FnMut(u32, f64),
     ) {
-        let MapRow { map, ci, first } = *row;
+        let ci = row.ci;
+        self.emit_terms(row, d_e, scratch, |k, v| {
+            let t = row.map.terms[k];
+            let e = self.coarse_ext[t.moment];
+            let j = [0, 1, 2].map(|d| (ci[d] + t.delta[d]) as usize);
+            let col = self.coarse_start[t.moment] + (j[0] * e[1] + j[1]) * e[2] + j[2];
+            add(col as u32, v);
+        });
+    }
+
+    /// Calls `add(term, value)` for the stencil part of a prepared row, `term` indexing its
+    /// moment's [`CoarseMaps::terms`].
+    pub(super) fn emit_class_terms(
+        &self,
+        row: &MapRow<'_>,
+        d_e: &[f64],
+        scratch: &MapScratch,
+        mut add: impl FnMut(usize, f64),
+    ) {
+        self.emit_terms(row, d_e, scratch, |k, v| {
+            add(row.map.class_term[k] as usize, v)
+        });
+    }
+
+    /// The terms every row of kept moment `q` may have (column moment, coarse shift), sorted;
+    /// `None` when the moment has no maps.
+    pub(super) fn terms(&self, q: usize) -> Option<&[(usize, [i64; 3])]> {
+        self.moments[q].as_ref().map(|m| m.terms.as_slice())
+    }
+
+    /// First coarse unknown and coarse extent of kept moment `q`.
+    pub(super) fn coarse_box(&self, q: usize) -> (usize, [usize; 3]) {
+        (self.coarse_start[q], self.coarse_ext[q])
+    }
+
+    /// The aggregation factor per axis.
+    pub(super) fn factor(&self) -> [usize; 3] {
+        self.factor
+    }
+
+    /// `add(k, value)` for the map's term `k` of a prepared row.
+    fn emit_terms(
+        &self,
+        row: &MapRow<'_>,
+        d_e: &[f64],
+        scratch: &MapScratch,
+        mut add: impl FnMut(usize, f64),
+    ) {
+        let MapRow { map, first, .. } = *row;
         let inv = &scratch.inv;
-        for (k, t) in map.terms.iter().enumerate() {
+        for k in 0..map.terms.len() {
             let (lo, hi) = (map.ptr[k] as usize, map.ptr[k + 1] as usize);
             let mut v = dot_gathered(&map.slot[lo..hi], &map.gamma[lo..hi], inv);
             if map.diag == Some(k) {
                 v += map.children.iter().map(|&o| d_e[first + o]).sum::<f64>();
             }
-            let e = self.coarse_ext[t.moment];
-            let j = [0, 1, 2].map(|d| (ci[d] + t.delta[d]) as usize);
-            let col = self.coarse_start[t.moment] + (j[0] * e[1] + j[1]) * e[2] + j[2];
-            add(col as u32, v);
+            add(k, v);
         }
     }
 }
@@ -296,12 +345,27 @@ impl MomentMaps {
                 }
             }
         }
+        let mut terms: Vec<(usize, [i64; 3])> = maps
+            .iter()
+            .flatten()
+            .flat_map(|m| m.terms.iter().map(|t| (t.moment, t.delta)))
+            .collect();
+        terms.sort_unstable();
+        terms.dedup();
+        for m in maps.iter_mut().flatten() {
+            m.class_term = m
+                .terms
+                .iter()
+                .map(|t| terms.binary_search(&(t.moment, t.delta)).unwrap_or(0) as u32)
+                .collect();
+        }
         Some(Self {
             lo,
             hi,
             special,
             moments_reached,
             maps,
+            terms,
         })
     }
 
@@ -460,6 +524,7 @@ impl Template {
             ptr,
             slot,
             gamma,
+            class_term: Vec::new(),
         }
     }
 }
