@@ -278,6 +278,107 @@ impl CoarseMaps {
     }
 }
 
+/// Rows computed at once by [`CoarseMaps::emit_lanes`].
+pub(super) const LANES: usize = 4;
+
+impl CoarseMaps {
+    /// The stencil parts of [`LANES`] rows of kept moment `q` that follow each other along
+    /// z, the first with its first child at `corner` and aggregate `members[0]`: calls
+    /// `add(term, values)` (`term` indexing [`CoarseMaps::terms`], one value per row) and
+    /// returns `true` when the rows share one position map and none reaches a `C`
+    /// correction; else returns `false`, adding nothing (the caller takes the rows one by
+    /// one). The multiply-adds of the rows run side by side: the same `γ` times `1 / D_o`
+    /// `f_z` positions apart.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn emit_lanes(
+        &self,
+        m: &Moments,
+        d_e: &[f64],
+        d_o: &[f64],
+        q: usize,
+        corner: [i64; 3],
+        members: [&[u32]; LANES],
+        scratch: &mut LaneScratch,
+        mut add: impl FnMut(usize, [f64; LANES]),
+    ) -> bool {
+        let Some(mm) = &self.moments[q] else {
+            return false;
+        };
+        let f = self.factor.map(|v| v as i64);
+        if (0..3).any(|d| corner[d] % f[d] != 0) {
+            return false;
+        }
+        let ci: [i64; 3] = std::array::from_fn(|d| corner[d] / f[d]);
+        let Some(cls) = mm.class_of(ci) else {
+            return false;
+        };
+        let Some(map) = mm.maps[cls].as_ref() else {
+            return false;
+        };
+        let eq = m.ext[q];
+        let mut first = [0usize; LANES];
+        for (l, mem) in members.iter().enumerate() {
+            let c = [ci[0], ci[1], ci[2] + l as i64];
+            let f0 = m.local_off[q] + m.linear(q, [0, 1, 2].map(|d| (f[d] * c[d]) as usize));
+            if c[2] as usize * f[2] as usize >= eq[2]
+                || mm.class_of(c) != Some(cls)
+                || mem.len() != map.children.len()
+                || mem
+                    .iter()
+                    .zip(&map.children)
+                    .any(|(&i, &o)| i as usize != f0 + o)
+            {
+                return false;
+            }
+            first[l] = f0;
+        }
+        let LaneScratch { inv, base } = scratch;
+        base.clear();
+        base.extend(mm.moments_reached.iter().map(|&r| {
+            let e = m.ext[r];
+            m.local_off[r] as i64 + (corner[0] * e[1] as i64 + corner[1]) * e[2] as i64 + corner[2]
+        }));
+        inv.clear();
+        let fz = f[2] as usize;
+        for (&r, &o) in map.slot_moment.iter().zip(&map.slot_offset) {
+            let k = (base[r as usize] + o) as usize;
+            let mut v = [0.0; LANES];
+            for (l, v) in v.iter_mut().enumerate() {
+                let kl = k + fz * l;
+                if self.fixed_c[kl] {
+                    return false;
+                }
+                *v = 1.0 / d_o[kl];
+            }
+            inv.push(v);
+        }
+        for k in 0..map.terms.len() {
+            let (lo, hi) = (map.ptr[k] as usize, map.ptr[k + 1] as usize);
+            let mut v = [0.0; LANES];
+            for (&s, &g) in map.slot[lo..hi].iter().zip(&map.gamma[lo..hi]) {
+                let x = &inv[s as usize];
+                for l in 0..LANES {
+                    v[l] += g * x[l];
+                }
+            }
+            if map.diag == Some(k) {
+                for l in 0..LANES {
+                    v[l] += map.children.iter().map(|&o| d_e[first[l] + o]).sum::<f64>();
+                }
+            }
+            add(map.class_term[k] as usize, v);
+        }
+        true
+    }
+}
+
+/// Per-task scratch of [`CoarseMaps::emit_lanes`].
+#[derive(Default)]
+pub(super) struct LaneScratch {
+    inv: Vec<[f64; LANES]>,
+    base: Vec<i64>,
+}
+
 /// A coarse row prepared by [`CoarseMaps::prepare`].
 #[derive(Clone, Copy)]
 pub(super) struct MapRow<'a> {
