@@ -285,6 +285,15 @@ impl StencilReduced {
         } else {
             None
         };
+        let fixes = Fixes {
+            m,
+            b,
+            c,
+            b_rows: &b_rows,
+            c_rows: &c_rows,
+            elim: &elim,
+            d_o,
+        };
         let interior_rows = AtomicUsize::new(0);
         let scratch = || Window {
             sums: vec![0.0; nm * per_moment],
@@ -309,33 +318,12 @@ impl StencilReduced {
                     .as_ref()
                     .and_then(|mp| Some((mp, mp.prepare(m, d_o, q, corner, members, inner)?)))
                 {
-                    let plain = inner.corrected.is_empty()
-                        && members
-                            .iter()
-                            .all(|&i| b_rows.fix_ptr[i as usize] == b_rows.fix_ptr[i as usize + 1]);
-                    if plain {
+                    if inner.corrected.is_empty() && fixes.plain(members) {
                         // No corrections: the map's columns are sorted and distinct.
                         maps.emit(&prepared, d_e, inner, |j, v| acc.push_sorted(j, v));
                     } else {
                         maps.emit(&prepared, d_e, inner, |j, v| acc.add(j, v));
-                        // The corrections (module `interior`): the children's B corrections
-                        // times the whole C row they reach ...
-                        for &i in members {
-                            let i = i as usize;
-                            for f in b_rows.fix_ptr[i] as usize..b_rows.fix_ptr[i + 1] as usize {
-                                let k = b.fix_cols[f] as usize;
-                                let g = -b.fix_vals[f] / d_o[k];
-                                let (r, pk) = m.locate(&elim, k);
-                                c_rows.for_row(r, pk, k, |j, _, cw| acc.add(ag.agg[j], g * cw));
-                            }
-                        }
-                        // ... and the C corrections of the slots the stencil B reaches.
-                        for &(k, beta) in &inner.corrected {
-                            let g = -beta / d_o[k];
-                            for f in c_rows.fix_ptr[k] as usize..c_rows.fix_ptr[k + 1] as usize {
-                                acc.add(ag.agg[c.fix_cols[f] as usize], g * c.fix_vals[f]);
-                            }
-                        }
+                        fixes.products(members, &inner.corrected, |j, v| acc.add(ag.agg[j], v));
                     }
                     interior_rows.fetch_add(1, Ordering::Relaxed);
                     return;
@@ -417,6 +405,15 @@ impl StencilReduced {
         let maps = CoarseMaps::new(m, b, c, n_o, ag.coarse_len())?;
         let (b_rows, c_rows) = (Rows::new(b, m, n_e), Rows::new(c, m, n_o));
         let elim = m.class(false);
+        let fixes = Fixes {
+            m,
+            b,
+            c,
+            b_rows: &b_rows,
+            c_rows: &c_rows,
+            elim: &elim,
+            d_o,
+        };
         let kept: Vec<usize> = (0..m.ext.len()).filter(|&q| m.kept[q]).collect();
         let f = maps.factor().map(|v| v as i64);
         let failed = AtomicBool::new(false);
@@ -457,9 +454,7 @@ impl StencilReduced {
                                 let members: [&[u32]; LANES] = std::array::from_fn(|l| {
                                     &ag.members[ag.ptr[row + l]..ag.ptr[row + l + 1]]
                                 });
-                                let plain = members.iter().flat_map(|m| m.iter()).all(|&i_f| {
-                                    b_rows.fix_ptr[i_f as usize] == b_rows.fix_ptr[i_f as usize + 1]
-                                });
+                                let plain = members.iter().all(|mem| fixes.plain(mem));
                                 if plain
                                     && maps.emit_lanes(
                                         m,
@@ -507,24 +502,7 @@ impl StencilReduced {
                                     _ => failed.store(true, Ordering::Relaxed),
                                 }
                             };
-                            for &i_f in members {
-                                let i_f = i_f as usize;
-                                for fx in
-                                    b_rows.fix_ptr[i_f] as usize..b_rows.fix_ptr[i_f + 1] as usize
-                                {
-                                    let k = b.fix_cols[fx] as usize;
-                                    let g = -b.fix_vals[fx] / d_o[k];
-                                    let (r, pk) = m.locate(&elim, k);
-                                    c_rows.for_row(r, pk, k, |j, _, cw| add(ag.agg[j], g * cw));
-                                }
-                            }
-                            for &(k, beta) in &scr.corrected {
-                                let g = -beta / d_o[k];
-                                for fx in c_rows.fix_ptr[k] as usize..c_rows.fix_ptr[k + 1] as usize
-                                {
-                                    add(ag.agg[c.fix_cols[fx] as usize], g * c.fix_vals[fx]);
-                                }
-                            }
+                            fixes.products(members, &scr.corrected, |j, v| add(ag.agg[j], v));
                             i = next;
                         }
                     },
@@ -543,6 +521,53 @@ impl StencilReduced {
             });
         }
         Some(parts)
+    }
+}
+
+/// The corrections' share of a coarse row whose stencil part came from a position map
+/// (module `interior`): `−Pᵀ B_fix D_o⁻¹ C P − Pᵀ B_st D_o⁻¹ C_fix P`.
+struct Fixes<'a> {
+    m: &'a Moments,
+    b: &'a StencilBlock,
+    c: &'a StencilBlock,
+    b_rows: &'a Rows<'a>,
+    c_rows: &'a Rows<'a>,
+    elim: &'a [usize],
+    d_o: &'a [f64],
+}
+
+impl Fixes<'_> {
+    /// Whether no child in `members` has a `B` correction.
+    fn plain(&self, members: &[u32]) -> bool {
+        let p = &self.b_rows.fix_ptr;
+        members.iter().all(|&i| p[i as usize] == p[i as usize + 1])
+    }
+
+    /// `add(j, v)` (`j` a fine even column) for the children's `B` corrections times the whole
+    /// `C` row they reach, and for the `C` corrections of the slots the stencil `B` reaches
+    /// (`corrected`: odd unknown and summed stencil weight `β`, from the map).
+    fn products(
+        &self,
+        members: &[u32],
+        corrected: &[(usize, f64)],
+        mut add: impl FnMut(usize, f64),
+    ) {
+        let (b, c, d_o) = (self.b, self.c, self.d_o);
+        for &i in members {
+            let i = i as usize;
+            for f in self.b_rows.fix_ptr[i] as usize..self.b_rows.fix_ptr[i + 1] as usize {
+                let k = b.fix_cols[f] as usize;
+                let g = -b.fix_vals[f] / d_o[k];
+                let (r, pk) = self.m.locate(self.elim, k);
+                self.c_rows.for_row(r, pk, k, |j, _, cw| add(j, g * cw));
+            }
+        }
+        for &(k, beta) in corrected {
+            let g = -beta / d_o[k];
+            for f in self.c_rows.fix_ptr[k] as usize..self.c_rows.fix_ptr[k + 1] as usize {
+                add(c.fix_cols[f] as usize, g * c.fix_vals[f]);
+            }
+        }
     }
 }
 
