@@ -21,9 +21,10 @@ impl Geometry {
             let (q, idx) = layout.locate(g);
             (q as u32, idx.map(|v| v as u32))
         };
+        use rayon::prelude::*;
         let (class, coords) = match subset {
-            Some(s) => s.iter().map(|&g| locate(g)).unzip(),
-            None => (0..layout.len()).map(locate).unzip(),
+            Some(s) => s.par_iter().map(|&g| locate(g)).unzip(),
+            None => (0..layout.len()).into_par_iter().map(locate).unzip(),
         };
         Self { class, coords }
     }
@@ -58,10 +59,12 @@ impl ParityCg {
             .with_layout_geometry(layout)
     }
 
-    /// Records the unknowns' classes and positions from `layout` (needed by
-    /// [`Precond::Multigrid`]; [`ParityCg::with_geometry`]).
+    /// Records that the unknowns' classes and positions come from `layout` (needed by
+    /// [`Precond::Multigrid`]): built by each solve's setup and dropped before its
+    /// iterations ([`ParityCg::with_geometry_from`]).
     pub fn with_layout_geometry(self, layout: &Layout) -> Self {
-        self.with_geometry(Geometry::from_layout(layout, None))
+        let layout = layout.clone();
+        self.with_geometry_from(move || Geometry::from_layout(&layout, None))
     }
 }
 
