@@ -48,12 +48,8 @@ fn assert_same_products(
     let (mut a, mut b) = (vec![0.0; n], vec![0.0; n]);
     blocks.apply(&x, &mut a);
     stencil.apply(&x, &mut b);
-    let scale = a.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-    let worst = a
-        .iter()
-        .zip(&b)
-        .fold(0.0f64, |m, (p, q)| m.max((p - q).abs()));
-    assert!(worst <= 1e-13 * scale, "{label}: {worst:e} of {scale:e}");
+    let d = rel_diff(&b, &a);
+    assert!(d <= 1e-13, "{label}: {d:e} of the largest");
 }
 
 /// On the heterogeneous 2D checkerboard and the 3D point source, with the reflecting and
@@ -260,15 +256,8 @@ fn same_level_as_csr(
     let (mut a, mut b) = (vec![0.0; n], vec![0.0; n]);
     pn_runtime::linalg::spmv(want, &x, &mut a);
     level.apply(&x, &mut b);
-    let scale = a.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-    let worst = a
-        .iter()
-        .zip(&b)
-        .fold(0.0f64, |m, (p, q)| m.max((p - q).abs()));
-    assert!(
-        worst <= 1e-6 * scale,
-        "{label}: product {worst:e} of {scale:e}"
-    );
+    let d = rel_diff(&b, &a);
+    assert!(d <= 1e-6, "{label}: product {d:e} of the largest");
     let d = level.diagonal();
     for (i, row) in want.outer_iterator().enumerate() {
         let w = row.get(i).copied().unwrap_or(0.0);

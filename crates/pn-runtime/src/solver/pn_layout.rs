@@ -11,6 +11,7 @@ use super::parity::split::Split;
 use super::parity::{ParityCg, Precond};
 use super::{LinearSolver, SolveStats, SolveStatus, SolverKind, SolverOptions};
 use crate::layout::Layout;
+use rayon::prelude::*;
 use sprs::CsMat;
 
 impl Geometry {
@@ -21,7 +22,6 @@ impl Geometry {
             let (q, idx) = layout.locate(g);
             (q as u32, idx.map(|v| v as u32))
         };
-        use rayon::prelude::*;
         let (class, coords) = match subset {
             Some(s) => s.par_iter().map(|&g| locate(g)).unzip(),
             None => (0..layout.len()).into_par_iter().map(locate).unzip(),

@@ -442,24 +442,20 @@ impl Shape<'_> {
         })
     }
 
-    /// Each class's term index by [`slot`] (`u32::MAX`: none).
-    fn tables(&self, terms: &[Vec<LevelTerm>]) -> Vec<Vec<u32>> {
+    /// Each class's index of its terms (`None` for a shift beyond [`REACH`]).
+    fn tables(&self, terms: &[Vec<LevelTerm>]) -> Option<Vec<TermIndex>> {
         let nb = self.starts.len();
         terms
             .iter()
-            .map(|ts| {
-                let mut table = vec![u32::MAX; nb * SPAN * SPAN * SPAN];
-                for (k, t) in ts.iter().enumerate() {
-                    table[slot(t)] = k as u32;
-                }
-                table
-            })
+            .map(|ts| TermIndex::new(nb, ts.iter().map(|t| (t.block, t.delta))))
             .collect()
     }
 
     /// The weights of `a`'s rows on the classes' `terms`, x-plane by x-plane.
     fn fill(&self, a: &CsMat<f64>, terms: &[Vec<LevelTerm>]) -> Fill {
-        let tables = self.tables(terms);
+        let Some(tables) = self.tables(terms) else {
+            return Fill::Unfit;
+        };
         let (missing, unfit) = (AtomicBool::new(false), AtomicBool::new(false));
         let (ap, ai, av) = (a.indptr(), a.indices(), a.data());
         let ap = ap.raw_storage();
@@ -479,16 +475,15 @@ impl Shape<'_> {
                                     unfit.store(true, Ordering::Relaxed);
                                     return;
                                 };
-                                let k = tables[q][slot(&t)];
-                                if k == u32::MAX {
+                                let Some(k) = tables[q].get(t.block, t.delta) else {
                                     missing.store(true, Ordering::Relaxed);
                                     return;
-                                }
+                                };
                                 let v = av[p] as f32;
                                 if !v.is_finite() || (v == 0.0 && av[p] != 0.0) {
                                     unfit.store(true, Ordering::Relaxed);
                                 }
-                                w[k as usize * plane + i] += v;
+                                w[k * plane + i] += v;
                             }
                         }
                     });
@@ -510,7 +505,7 @@ impl Shape<'_> {
         a: &CsMat<f64>,
         terms: &[Vec<LevelTerm>],
     ) -> Option<Vec<(usize, LevelTerm)>> {
-        let tables = self.tables(terms);
+        let tables = self.tables(terms)?;
         let (ap, ai) = (a.indptr(), a.indices());
         let ap = ap.raw_storage();
         (0..a.rows())
@@ -521,7 +516,7 @@ impl Shape<'_> {
                 let mut out = Vec::new();
                 for &c in &ai[ap[r]..ap[r + 1]] {
                     let t = self.term(r, c)?;
-                    if tables[q][slot(&t)] == u32::MAX {
+                    if tables[q].get(t.block, t.delta).is_none() {
                         out.push((q, t));
                     }
                 }
@@ -536,11 +531,41 @@ impl Shape<'_> {
     }
 }
 
-/// The index of `t` in a class's table of terms.
-#[inline]
-fn slot(t: &LevelTerm) -> usize {
-    let [x, y, z] = t.delta.map(|v| (v + REACH) as usize);
-    ((t.block * SPAN + x) * SPAN + y) * SPAN + z
+/// The index of each term of a stencil in its list, by (source block or class, shift), for
+/// shifts of at most [`REACH`] per axis: a dense table, no hashing (it is read once per
+/// stored entry).
+pub(crate) struct TermIndex {
+    table: Vec<u32>,
+}
+
+impl TermIndex {
+    /// The index of `terms` (`(block, shift)` in list order) over `blocks` blocks; `None`
+    /// when a shift exceeds [`REACH`] or a block is out of range.
+    pub(crate) fn new(
+        blocks: usize,
+        terms: impl IntoIterator<Item = (usize, [i64; 3])>,
+    ) -> Option<Self> {
+        let mut table = vec![u32::MAX; blocks * SPAN * SPAN * SPAN];
+        for (k, (b, d)) in terms.into_iter().enumerate() {
+            *table.get_mut(Self::slot(b, d)?)? = k as u32;
+        }
+        Some(Self { table })
+    }
+
+    /// The index of the term `(block, shift)`, if the stencil has it.
+    #[inline]
+    pub(crate) fn get(&self, block: usize, delta: [i64; 3]) -> Option<usize> {
+        let k = *self.table.get(Self::slot(block, delta)?)?;
+        (k != u32::MAX).then_some(k as usize)
+    }
+
+    #[inline]
+    fn slot(block: usize, delta: [i64; 3]) -> Option<usize> {
+        delta.iter().all(|v| v.abs() <= REACH).then(|| {
+            let [x, y, z] = delta.map(|v| (v + REACH) as usize);
+            ((block * SPAN + x) * SPAN + y) * SPAN + z
+        })
+    }
 }
 
 /// Position `idx` of a box `e`, x slowest.

@@ -25,7 +25,7 @@ use super::interior::{CoarseMaps, LaneScratch, MapScratch, LANES};
 use super::{Moments, StencilBlock, StencilReduced, Term};
 use crate::solver::multigrid::aggregate::Aggregation;
 use crate::solver::multigrid::galerkin::build_rows_with;
-use crate::solver::multigrid::stencil_level::ClassParts;
+use crate::solver::multigrid::stencil_level::{ClassParts, TermIndex};
 use crate::solver::parity::block_mat::BlockMat;
 use rayon::prelude::*;
 use sprs::CsMat;
@@ -424,18 +424,7 @@ impl StencilReduced {
             let plane = (cext[1] * cext[2]).max(1);
             let kn = terms.len();
             // Term index by (column moment, shift) for the corrections' columns.
-            const R: i64 = crate::solver::multigrid::stencil_level::REACH;
-            const W: usize = (2 * R + 1) as usize;
-            let key = |p: usize, d: [i64; 3]| -> Option<usize> {
-                d.iter().all(|v| v.abs() <= R).then(|| {
-                    let [x, y, z] = d.map(|v| (v + R) as usize);
-                    ((p * W + x) * W + y) * W + z
-                })
-            };
-            let mut index = vec![u32::MAX; m.ext.len() * W * W * W];
-            for (k, &(p, d)) in terms.iter().enumerate() {
-                index[key(p, d)?] = k as u32;
-            }
+            let index = TermIndex::new(m.ext.len(), terms.iter().copied())?;
             let mut weights = vec![0.0f64; kn * cext.iter().product::<usize>()];
             weights
                 .par_chunks_mut((kn * plane).max(1))
@@ -445,12 +434,12 @@ impl StencilReduced {
                     |(scr, lanes), (ix, w)| {
                         let mut i = 0;
                         while i < plane {
+                            let ci = [ix as i64, (i / cext[2]) as i64, (i % cext[2]) as i64];
+                            let corner: [i64; 3] = std::array::from_fn(|d| f[d] * ci[d]);
+                            let row = start + ix * plane + i;
                             // LANES rows along z at once where they share a map and no
                             // correction touches them.
                             if i % cext[2] + LANES <= cext[2] {
-                                let ci = [ix as i64, (i / cext[2]) as i64, (i % cext[2]) as i64];
-                                let corner: [i64; 3] = std::array::from_fn(|d| f[d] * ci[d]);
-                                let row = start + ix * plane + i;
                                 let members: [&[u32]; LANES] = std::array::from_fn(|l| {
                                     &ag.members[ag.ptr[row + l]..ag.ptr[row + l + 1]]
                                 });
@@ -476,16 +465,9 @@ impl StencilReduced {
                                     continue;
                                 }
                             }
-                            let next = i + 1;
-                            let ci = [ix as i64, (i / cext[2]) as i64, (i % cext[2]) as i64];
-                            let row = start + ix * plane + i;
                             let members = &ag.members[ag.ptr[row]..ag.ptr[row + 1]];
-                            let corner: [i64; 3] = std::array::from_fn(|d| f[d] * ci[d]);
-                            let first = m.local_off[q] + m.linear(q, corner.map(|v| v as usize));
-                            let prepared = (members[0] as usize == first)
-                                .then(|| maps.prepare(m, d_o, q, corner, members, scr))
-                                .flatten();
-                            let Some(prepared) = prepared else {
+                            let Some(prepared) = maps.prepare(m, d_o, q, corner, members, scr)
+                            else {
                                 failed.store(true, Ordering::Relaxed);
                                 return;
                             };
@@ -497,13 +479,13 @@ impl StencilReduced {
                                 let j = j as usize;
                                 let (p, pj) = (ag.coarse.class[j] as usize, ag.coarse.coords[j]);
                                 let delta = [0, 1, 2].map(|d| pj[d] as i64 - ci[d]);
-                                match key(p, delta).map(|s| index[s]) {
-                                    Some(k) if k != u32::MAX => w[k as usize * plane + i] += v,
-                                    _ => failed.store(true, Ordering::Relaxed),
+                                match index.get(p, delta) {
+                                    Some(k) => w[k * plane + i] += v,
+                                    None => failed.store(true, Ordering::Relaxed),
                                 }
                             };
                             fixes.products(members, &scr.corrected, |j, v| add(ag.agg[j], v));
-                            i = next;
+                            i += 1;
                         }
                     },
                 );

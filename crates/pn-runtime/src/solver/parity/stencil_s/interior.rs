@@ -155,6 +155,52 @@ impl CoarseMaps {
         })
     }
 
+    /// The maps of kept moment `q`, the coarse position of the row whose first child lies at
+    /// `corner`, and the index of its position map; `None` when the moment has no maps or
+    /// `corner` is not an aggregate's first child.
+    fn locate(&self, q: usize, corner: [i64; 3]) -> Option<(&MomentMaps, [i64; 3], usize)> {
+        let mm = self.moments[q].as_ref()?;
+        let f = self.factor.map(|v| v as i64);
+        if (0..3).any(|d| corner[d] % f[d] != 0) {
+            return None;
+        }
+        let ci: [i64; 3] = std::array::from_fn(|d| corner[d] / f[d]);
+        let cls = mm.class_of(ci)?;
+        Some((mm, ci, cls))
+    }
+
+    /// The local index of the child at `corner` of moment `q` when `members` is exactly the
+    /// block of children `map` expects there, in order.
+    fn first_child(
+        m: &Moments,
+        q: usize,
+        corner: [i64; 3],
+        map: &PositionMap,
+        members: &[u32],
+    ) -> Option<usize> {
+        let e = m.ext[q];
+        if (0..3).any(|d| corner[d] < 0 || corner[d] as usize >= e[d]) {
+            return None;
+        }
+        let first = m.local_off[q] + m.linear(q, corner.map(|v| v as usize));
+        (members.len() == map.children.len()
+            && members
+                .iter()
+                .zip(&map.children)
+                .all(|(&i, &o)| i as usize == first + o))
+        .then_some(first)
+    }
+
+    /// The local index, in each moment `mm` reaches, of the position `corner` (the slots'
+    /// offsets are relative to it).
+    fn slot_bases(m: &Moments, mm: &MomentMaps, corner: [i64; 3], base: &mut Vec<i64>) {
+        base.clear();
+        base.extend(mm.moments_reached.iter().map(|&r| {
+            let e = m.ext[r];
+            m.local_off[r] as i64 + (corner[0] * e[1] as i64 + corner[1]) * e[2] as i64 + corner[2]
+        }));
+    }
+
     /// Prepares coarse row `(q, corner / f)` (its aggregate `members`, `corner` the first
     /// child's position): gathers `1 / D_o` at its slots into `scratch`, lists the slots
     /// that carry `C` corrections in `scratch.corrected`, and returns the row to hand to
@@ -169,33 +215,15 @@ impl CoarseMaps {
         members: &[u32],
         scratch: &mut MapScratch,
     ) -> Option<MapRow<'s>> {
-        let mm = self.moments[q].as_ref()?;
-        let f = self.factor.map(|v| v as i64);
-        if (0..3).any(|d| corner[d] % f[d] != 0) {
-            return None;
-        }
-        let ci: [i64; 3] = std::array::from_fn(|d| corner[d] / f[d]);
-        let map = mm.maps[mm.class_of(ci)?].as_ref()?;
-        // The aggregate must be the map's children, in order.
-        let first = members[0] as usize;
-        if members.len() != map.children.len()
-            || members
-                .iter()
-                .zip(&map.children)
-                .any(|(&i, &o)| i as usize != first + o)
-        {
-            return None;
-        }
+        let (mm, ci, cls) = self.locate(q, corner)?;
+        let map = mm.maps[cls].as_ref()?;
+        let first = Self::first_child(m, q, corner, map, members)?;
         let MapScratch {
             inv,
             base,
             corrected,
         } = scratch;
-        base.clear();
-        base.extend(mm.moments_reached.iter().map(|&r| {
-            let e = m.ext[r];
-            m.local_off[r] as i64 + (corner[0] * e[1] as i64 + corner[1]) * e[2] as i64 + corner[2]
-        }));
+        Self::slot_bases(m, mm, corner, base);
         inv.clear();
         corrected.clear();
         for (s, (&r, &o)) in map.slot_moment.iter().zip(&map.slot_offset).enumerate() {
@@ -301,45 +329,25 @@ impl CoarseMaps {
         scratch: &mut LaneScratch,
         mut add: impl FnMut(usize, [f64; LANES]),
     ) -> bool {
-        let Some(mm) = &self.moments[q] else {
-            return false;
-        };
-        let f = self.factor.map(|v| v as i64);
-        if (0..3).any(|d| corner[d] % f[d] != 0) {
-            return false;
-        }
-        let ci: [i64; 3] = std::array::from_fn(|d| corner[d] / f[d]);
-        let Some(cls) = mm.class_of(ci) else {
+        let Some((mm, ci, cls)) = self.locate(q, corner) else {
             return false;
         };
         let Some(map) = mm.maps[cls].as_ref() else {
             return false;
         };
-        let eq = m.ext[q];
+        let fz = self.factor[2];
         let mut first = [0usize; LANES];
         for (l, mem) in members.iter().enumerate() {
             let c = [ci[0], ci[1], ci[2] + l as i64];
-            let f0 = m.local_off[q] + m.linear(q, [0, 1, 2].map(|d| (f[d] * c[d]) as usize));
-            if c[2] as usize * f[2] as usize >= eq[2]
-                || mm.class_of(c) != Some(cls)
-                || mem.len() != map.children.len()
-                || mem
-                    .iter()
-                    .zip(&map.children)
-                    .any(|(&i, &o)| i as usize != f0 + o)
-            {
-                return false;
+            let corner_l = [corner[0], corner[1], corner[2] + (fz * l) as i64];
+            match Self::first_child(m, q, corner_l, map, mem) {
+                Some(f0) if mm.class_of(c) == Some(cls) => first[l] = f0,
+                _ => return false,
             }
-            first[l] = f0;
         }
         let LaneScratch { inv, base } = scratch;
-        base.clear();
-        base.extend(mm.moments_reached.iter().map(|&r| {
-            let e = m.ext[r];
-            m.local_off[r] as i64 + (corner[0] * e[1] as i64 + corner[1]) * e[2] as i64 + corner[2]
-        }));
+        Self::slot_bases(m, mm, corner, base);
         inv.clear();
-        let fz = f[2] as usize;
         for (&r, &o) in map.slot_moment.iter().zip(&map.slot_offset) {
             let k = (base[r as usize] + o) as usize;
             let mut v = [0.0; LANES];
