@@ -484,7 +484,8 @@ pub enum FirstCoarse {
     /// decides).
     Csr(CsMat<f64>),
     /// A structured level already in stencil form, with its relative entry asymmetry
-    /// measured before the weights were rounded ([`stencil_level::parts_asymmetry`]).
+    /// measured before the weights were rounded ([`stencil_level::parts_asymmetry`]; read
+    /// only by [`FineCycle::AdditiveIfSymmetric`], 0 when not measured).
     Stencil(StencilLevel, f64),
 }
 

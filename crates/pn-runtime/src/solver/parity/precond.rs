@@ -505,13 +505,17 @@ fn first_coarse(
     opts: &crate::solver::multigrid::MgOptions,
 ) -> crate::solver::multigrid::FirstCoarse {
     use crate::solver::multigrid::stencil_level::{parts_asymmetry, StencilLevel};
-    use crate::solver::multigrid::{FirstCoarse, COARSE_SYMMETRY_TOL};
+    use crate::solver::multigrid::{FineCycle, FirstCoarse, COARSE_SYMMETRY_TOL};
     let Some(st) = stencil else {
         return FirstCoarse::Csr(super::galerkin::coarse_from_split(split, agg));
     };
     if opts.stencil_coarse && !opts.double_coarse && opts.drop <= 0.0 {
         if let Some(parts) = st.coarse_parts(&split.d_e, &split.d_o, agg) {
-            let asym = parts_asymmetry(&parts, COARSE_SYMMETRY_TOL);
+            // Only the cycle that depends on it reads the asymmetry (as for the CSR).
+            let asym = match opts.fine_cycle {
+                FineCycle::AdditiveIfSymmetric => parts_asymmetry(&parts, COARSE_SYMMETRY_TOL),
+                _ => 0.0,
+            };
             if let Some(level) = StencilLevel::from_parts(parts) {
                 return FirstCoarse::Stencil(level, asym);
             }
