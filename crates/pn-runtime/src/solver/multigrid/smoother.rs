@@ -76,33 +76,23 @@ impl Chebyshev {
         t: &mut [T],
         final_residual: bool,
     ) {
-        let theta = 0.5 * (self.lambda_max + self.lambda_min);
-        let delta = 0.5 * (self.lambda_max - self.lambda_min);
-        let sigma = theta / delta;
-        let mut rho = 1.0 / sigma;
-        let theta_t = T::of(theta);
+        let steps = self.steps();
+        let theta = T::of(steps.theta);
         d.par_iter_mut()
             .zip(x.par_iter_mut())
             .zip(r.par_iter().zip(inv.par_iter()))
             .with_min_len(super::PAR_MIN_LEN)
             .for_each(|((di, xi), (&ri, &ii))| {
-                *di = ri * ii / theta_t;
+                *di = ri * ii / theta;
                 *xi += *di;
             });
-        for k in 1..=self.degree {
-            if k == self.degree && !final_residual {
-                break;
-            }
+        for &(c1, c2) in &steps.updates {
             apply(d, t);
             r.par_iter_mut()
                 .zip(t.par_iter())
                 .with_min_len(super::PAR_MIN_LEN)
                 .for_each(|(ri, &ti)| *ri -= ti);
-            if k == self.degree {
-                break;
-            }
-            let rho_new = 1.0 / (2.0 * sigma - rho);
-            let (c1, c2) = (T::of(rho_new * rho), T::of(2.0 * rho_new / delta));
+            let (c1, c2) = (T::of(c1), T::of(c2));
             d.par_iter_mut()
                 .zip(x.par_iter_mut())
                 .zip(r.par_iter().zip(inv.par_iter()))
@@ -111,9 +101,45 @@ impl Chebyshev {
                     *di = c1 * *di + c2 * ri * ii;
                     *xi += *di;
                 });
-            rho = rho_new;
+        }
+        if final_residual {
+            apply(d, t);
+            r.par_iter_mut()
+                .zip(t.par_iter())
+                .with_min_len(super::PAR_MIN_LEN)
+                .for_each(|(ri, &ti)| *ri -= ti);
         }
     }
+
+    /// The recurrence's coefficients (Saad, Alg. 12.1): the first direction is
+    /// `d = D⁻¹ r / θ`, then each of the `degree − 1` further steps, after `r −= A d`, sets
+    /// `d = c₁ d + c₂ D⁻¹ r` with `(c₁, c₂)` from [`ChebyshevSteps::updates`] (`x += d`
+    /// after each). The fused finest level of the cycle ([`super::vcycle`]) follows the
+    /// same coefficients as [`Chebyshev::smooth_with`].
+    pub fn steps(&self) -> ChebyshevSteps {
+        let theta = 0.5 * (self.lambda_max + self.lambda_min);
+        let delta = 0.5 * (self.lambda_max - self.lambda_min);
+        let sigma = theta / delta;
+        let mut rho = 1.0 / sigma;
+        let updates = (1..self.degree)
+            .map(|_| {
+                let rho_new = 1.0 / (2.0 * sigma - rho);
+                let c = (rho_new * rho, 2.0 * rho_new / delta);
+                rho = rho_new;
+                c
+            })
+            .collect();
+        ChebyshevSteps { theta, updates }
+    }
+}
+
+/// The coefficients of one smoothing pass ([`Chebyshev::steps`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ChebyshevSteps {
+    /// Centre of the damped interval: the first direction is `D⁻¹ r / θ`.
+    pub theta: f64,
+    /// `(c₁, c₂)` of each further step `d = c₁ d + c₂ D⁻¹ r` (`degree − 1` of them).
+    pub updates: Vec<(f64, f64)>,
 }
 
 /// `λ_max(D⁻¹A)` by `steps` Lanczos steps from a fixed pseudo-random start.
