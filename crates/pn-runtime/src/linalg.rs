@@ -237,9 +237,10 @@ pub fn chunked_sum<A: Sync, B: Sync>(
 }
 
 /// `⟨a, b⟩` serially, with eight independent partial sums (so that the sum vectorises
-/// instead of waiting on one accumulator's latency).
+/// instead of waiting on one accumulator's latency); either side in `f64` or `f32` (read as
+/// `f64`).
 #[inline]
-pub fn lane_dot<V: Copy + Into<f64>>(a: &[f64], b: &[V]) -> f64 {
+pub fn lane_dot<U: Copy + Into<f64>, V: Copy + Into<f64>>(a: &[U], b: &[V]) -> f64 {
     const LANES: usize = 8;
     let mut acc = [0.0f64; LANES];
     let (ac, bc) = (a.chunks_exact(LANES), b.chunks_exact(LANES));
@@ -247,11 +248,11 @@ pub fn lane_dot<V: Copy + Into<f64>>(a: &[f64], b: &[V]) -> f64 {
         .remainder()
         .iter()
         .zip(bc.remainder())
-        .map(|(x, &y)| x * y.into())
+        .map(|(&x, &y)| x.into() * y.into())
         .sum();
     for (x, y) in ac.zip(bc) {
         for l in 0..LANES {
-            acc[l] += x[l] * y[l].into();
+            acc[l] += x[l].into() * y[l].into();
         }
     }
     acc.iter().sum::<f64>() + tail

@@ -136,9 +136,24 @@ impl BasisValue for f32 {
     }
 }
 
-/// `v / s`, stored.
-fn scaled<V: BasisValue>(v: &[f64], s: f64) -> Vec<V> {
-    v.par_iter().map(|a| V::store(a / s)).collect()
+/// `v / s`, stored; for an `f32` basis also widened into `direction` in the same pass (the
+/// `f64` copy of the newest basis vector that the preconditioner reads).
+fn scaled<V: BasisValue>(v: &[f64], s: f64, direction: &mut Vec<f64>) -> Vec<V> {
+    if V::as_f64(&[]).is_some() {
+        return v.par_iter().map(|a| V::store(a / s)).collect();
+    }
+    direction.resize(v.len(), 0.0);
+    let mut stored: Vec<V> = vec![V::store(0.0); v.len()];
+    stored
+        .par_iter_mut()
+        .zip(direction.par_iter_mut())
+        .zip(v.par_iter())
+        .with_min_len(GS_BLOCK)
+        .for_each(|((o, d), a)| {
+            *o = V::store(a / s);
+            *d = (*o).into();
+        });
+    stored
 }
 
 fn run<V: BasisValue>(
@@ -170,38 +185,27 @@ fn run<V: BasisValue>(
         h.clear();
         g.iter_mut().for_each(|v| *v = 0.0);
         g[0] = beta;
-        basis.push(scaled(&r, beta));
+        basis.push(scaled(&r, beta, &mut direction));
         let mut outcome = None;
         let mut k = 0;
         while k < m {
-            let vk: &[f64] = match V::as_f64(&basis[k]) {
-                Some(v) => v,
-                None => {
-                    direction.resize(n, 0.0);
-                    direction
-                        .par_iter_mut()
-                        .zip(&basis[k])
-                        .for_each(|(d, &b)| *d = b.into());
-                    &direction
-                }
-            };
+            // The newest basis vector, or its f64 copy made when it was stored.
+            let vk: &[f64] = V::as_f64(&basis[k]).unwrap_or(&direction);
             precond.apply(vk, &mut z);
             a.apply(&z, &mut w);
             ctl.applications += 1;
             // Classical Gram–Schmidt, fused: all projections in one sweep over the basis,
-            // all subtractions in a second (2k + 3 vector passes instead of modified
-            // Gram–Schmidt's 5k); repeated once where the first pass cancelled nearly all
+            // all subtractions and the new norm in a second (2k + 2 vector passes instead of
+            // modified Gram–Schmidt's 5k); repeated once where the first pass cancelled nearly all
             // of `w` ([`REORTHOGONALIZE`]).
             let mut col = vec![0.0; k + 2];
             let (proj, before) = project(&w, &basis);
-            subtract(&mut w, &basis, &proj);
-            let mut wn = norm(&w);
+            let mut wn = subtract(&mut w, &basis, &proj);
             col[..=k].copy_from_slice(&proj);
             if wn < REORTHOGONALIZE * before {
                 let (again, _) = project(&w, &basis);
-                subtract(&mut w, &basis, &again);
+                wn = subtract(&mut w, &basis, &again);
                 col.iter_mut().zip(&again).for_each(|(c, a)| *c += a);
-                wn = norm(&w);
             }
             col[k + 1] = wn;
             for i in 0..k {
@@ -230,7 +234,7 @@ fn run<V: BasisValue>(
             if wn == 0.0 {
                 break; // lucky breakdown: the solution lies in the current space
             }
-            basis.push(scaled(&w, wn));
+            basis.push(scaled(&w, wn, &mut direction));
         }
         // x += M⁻¹ V y with H y = g (upper triangular after the rotations).
         let mut y = vec![0.0; k];
@@ -307,8 +311,10 @@ fn project<V: BasisValue>(w: &[f64], basis: &[Vec<V>]) -> (Vec<f64>, f64) {
     (acc, wn)
 }
 
-/// `w −= Σ_i c_i v_i` over the basis vectors `v_i` paired with `c`, in one sweep.
-fn subtract<V: BasisValue>(w: &mut [f64], basis: &[Vec<V>], c: &[f64]) {
+/// `w −= Σ_i c_i v_i` over the basis vectors `v_i` paired with `c`, in one sweep; returns
+/// `‖w‖` of the result, summed in the same sweep (per block, the blocks' sums added in
+/// order: deterministic).
+fn subtract<V: BasisValue>(w: &mut [f64], basis: &[Vec<V>], c: &[f64]) -> f64 {
     let block = |b: usize, ws: &mut [f64]| {
         let (at, len) = (b * GS_BLOCK, ws.len());
         for (v, &ci) in basis.iter().zip(c) {
@@ -316,16 +322,20 @@ fn subtract<V: BasisValue>(w: &mut [f64], basis: &[Vec<V>], c: &[f64]) {
                 .zip(&v[at..at + len])
                 .for_each(|(x, &y)| *x -= ci * y.into());
         }
+        lane_dot(ws, ws)
     };
-    if w.len() < 4 * GS_BLOCK {
+    let parts: Vec<f64> = if w.len() < 4 * GS_BLOCK {
         w.chunks_mut(GS_BLOCK)
             .enumerate()
-            .for_each(|(b, ws)| block(b, ws));
+            .map(|(b, ws)| block(b, ws))
+            .collect()
     } else {
         w.par_chunks_mut(GS_BLOCK)
             .enumerate()
-            .for_each(|(b, ws)| block(b, ws));
-    }
+            .map(|(b, ws)| block(b, ws))
+            .collect()
+    };
+    parts.iter().sum::<f64>().sqrt()
 }
 
 #[cfg(test)]
@@ -399,11 +409,13 @@ mod tests {
             assert!((wn - wn_plain).abs() <= 1e-13 * wn_plain);
             let c = [0.5, -1.0, 2.0];
             let mut got = w.clone();
-            subtract(&mut got, &b32, &c);
+            let got_norm = subtract(&mut got, &b32, &c);
             for i in 0..len {
                 let want = w[i] - (0..3).map(|j| c[j] * b32[j][i] as f64).sum::<f64>();
                 assert!((got[i] - want).abs() <= 1e-14 * 4.0, "{len}: {i}");
             }
+            let norm_plain = got.iter().map(|x| x * x).sum::<f64>().sqrt();
+            assert!((got_norm - norm_plain).abs() <= 1e-13 * norm_plain, "{len}");
         }
     }
 

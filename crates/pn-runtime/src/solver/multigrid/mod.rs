@@ -544,9 +544,12 @@ fn csr_diagonal(a: &CsMat<f64>) -> Vec<f64> {
 impl Multigrid {
     /// Builds the hierarchy for a finest operator given by `fine_apply` with diagonal
     /// `fine_diag` and unknowns `geom`; `first_coarse` computes `Pᵀ A P` for the first
-    /// aggregation.
+    /// aggregation. `single`, the finest operator in `f32`, makes the finest level of the
+    /// cycle single-precision ([`Multigrid::with_single_fine`]) and estimates its `λ_max`
+    /// with it (80³ P_5 point source: 8 Lanczos steps 0.53 s in `f64`).
     pub fn build(
         fine_apply: &dyn Fn(&[f64], &mut [f64]),
+        single: Option<SingleApply>,
         fine_diag: &[f64],
         geom: &Geometry,
         first_coarse: impl FnOnce(&Aggregation) -> FirstCoarse,
@@ -592,17 +595,25 @@ impl Multigrid {
                 lambda_min: 1.0 / omega,
                 degree: 1,
             },
-            _ => Chebyshev::new(
-                fine_apply,
-                inv,
-                opts.fine_degree,
-                if opts.fine_degree <= 1 {
+            _ => {
+                let ratio = if opts.fine_degree <= 1 {
                     opts.ratio_for(1)
                 } else {
                     opts.fine_ratio
-                },
-                opts.power_steps,
-            ),
+                };
+                match &single {
+                    // With the operator the cycle will apply, in f32: half the bytes.
+                    Some(single) => {
+                        let inv32: Vec<f32> = inv.iter().map(|&v| v as f32).collect();
+                        let lambda_max =
+                            smoother::estimate_lambda_max_with(single, &inv32, opts.power_steps);
+                        Chebyshev::from_estimate(inv, lambda_max, opts.fine_degree, ratio)
+                    }
+                    None => {
+                        Chebyshev::new(fine_apply, inv, opts.fine_degree, ratio, opts.power_steps)
+                    }
+                }
+            }
         };
         let additive = matches!(fine_cycle, FineCycle::Additive { .. });
         let t_power = t0.elapsed().as_secs_f64();
@@ -689,7 +700,7 @@ impl Multigrid {
                 }
             })
             .collect();
-        Ok(Self {
+        let mg = Self {
             levels,
             coarsest: lu,
             coarsest_len: n,
@@ -702,6 +713,10 @@ impl Multigrid {
             cycle_stats: Default::default(),
             work: Mutex::new(work),
             single: None,
+        };
+        Ok(match single {
+            Some(single) => mg.with_single_fine(single),
+            None => mg,
         })
     }
 
@@ -772,6 +787,7 @@ impl Multigrid {
         };
         Self::build(
             &apply,
+            None,
             &csr_diagonal(a),
             geom,
             |agg| FirstCoarse::Csr(galerkin::coarse_from_csr(a, agg)),

@@ -40,6 +40,12 @@ impl Chebyshev {
         // without, 71² checkerboard P_5 55 against 53, the 32³ cloud P_7 / P_9 64–65 / 77–78
         // CG iterations against 61 / 73.
         let lambda_max = estimate_lambda_max(apply, &inv_diag, power_steps);
+        Self::from_estimate(inv_diag, lambda_max, degree, ratio)
+    }
+
+    /// A smoother on `[λ_max/ratio, λ_max]` for an estimate `lambda_max` made elsewhere
+    /// (the finest level's, with its `f32` operator: [`estimate_lambda_max_with`]).
+    pub fn from_estimate(inv_diag: Vec<f64>, lambda_max: f64, degree: usize, ratio: f64) -> Self {
         Self {
             inv_diag,
             lambda_max,
@@ -161,36 +167,53 @@ pub fn estimate_lambda_max(
     inv_diag: &[f64],
     steps: usize,
 ) -> f64 {
+    estimate_lambda_max_with(apply, inv_diag, steps)
+}
+
+/// [`estimate_lambda_max`] with vectors and operator in any [`Real`] type (the finest level's
+/// `f32` operator: half the bytes per step), the inner products accumulated in `f64`. The
+/// estimate is a Ritz value plus its residual bound either way; in `f32` it differs from the
+/// `f64` one by rounding (the smoother's interval has a margin far wider than that).
+pub fn estimate_lambda_max_with<T: Real + Into<f64>>(
+    apply: &dyn Fn(&[T], &mut [T]),
+    inv_diag: &[T],
+    steps: usize,
+) -> f64 {
     let n = inv_diag.len();
     if n == 0 {
         return 1.0;
     }
     // ‖x‖_D² = Σ x_i² / inv_i.
-    let d_norm = |x: &[f64]| -> f64 {
+    let d_norm = |x: &[T]| -> f64 {
         crate::linalg::chunked_sum(x, inv_diag, |x, i| {
-            x.iter().zip(i).map(|(x, i)| x * x / i).sum::<f64>()
+            x.iter()
+                .zip(i)
+                .map(|(x, i)| x.wide() * x.wide() / i.wide())
+                .sum::<f64>()
         })
         .sqrt()
     };
     // Deterministic start with all frequencies present.
-    let mut q = pseudo_random(n, 0);
+    let mut q: Vec<T> = pseudo_random(n, 0).into_iter().map(T::of).collect();
     let nq = d_norm(&q);
     if nq == 0.0 || !nq.is_finite() {
         return 1.0;
     }
-    q.par_iter_mut().for_each(|x| *x /= nq);
-    let mut q_prev = vec![0.0; n];
-    let mut w = vec![0.0; n];
+    let nq_t = T::of(nq);
+    q.par_iter_mut().for_each(|x| *x = *x / nq_t);
+    let mut q_prev = vec![T::default(); n];
+    let mut w = vec![T::default(); n];
     let (mut alpha, mut beta) = (Vec::new(), Vec::new());
     let mut b_prev = 0.0;
     for _ in 0..steps.max(1) {
         apply(&q, &mut w);
         // α = ⟨D⁻¹Aq, q⟩_D = qᵀAq.
-        let a = crate::linalg::dot(&w, &q);
+        let a = crate::linalg::chunked_sum(&w, &q, crate::linalg::lane_dot);
+        let (at, bt) = (T::of(a), T::of(b_prev));
         w.par_iter_mut()
             .zip(inv_diag.par_iter().zip(q.par_iter().zip(q_prev.par_iter())))
             .with_min_len(super::PAR_MIN_LEN)
-            .for_each(|(wi, (ii, (qi, pi)))| *wi = *wi * ii - a * qi - b_prev * pi);
+            .for_each(|(wi, (&ii, (&qi, &pi)))| *wi = *wi * ii - at * qi - bt * pi);
         let b = d_norm(&w);
         alpha.push(a);
         beta.push(b);
@@ -199,10 +222,11 @@ pub fn estimate_lambda_max(
             break;
         }
         std::mem::swap(&mut q_prev, &mut q);
+        let bt = T::of(b);
         q.par_iter_mut()
             .zip(w.par_iter())
             .with_min_len(super::PAR_MIN_LEN)
-            .for_each(|(qi, wi)| *qi = wi / b);
+            .for_each(|(qi, &wi)| *qi = wi / bt);
         b_prev = b;
     }
     let m = alpha.len();
@@ -290,6 +314,20 @@ mod tests {
         }
         let power = norm(&v);
         assert!(power < 0.95, "power iteration {power}");
+        // In f32 (the finest level's operator): the same estimate to a few f32 roundings
+        // of the 8-step recurrence, so just as safe an upper end.
+        let a32: Vec<f32> = a_diag.iter().map(|&v| v as f32).collect();
+        let apply32 = |x: &[f32], y: &mut [f32]| {
+            for i in 0..n {
+                y[i] = a32[i] * x[i];
+            }
+        };
+        let inv32: Vec<f32> = inv.iter().map(|&v| v as f32).collect();
+        let est32 = estimate_lambda_max_with(&apply32, &inv32, 8);
+        assert!(
+            (est32 - est).abs() <= 1e-5 * est,
+            "f32 {est32} vs f64 {est}"
+        );
     }
 
     /// 1D Laplacian tridiag(−1, 2, −1): λ_max(D⁻¹A) = 1 + cos(π/(n+1)) → 2.

@@ -188,7 +188,7 @@ impl Built {
         opts: &crate::solver::multigrid::MgOptions,
         fine: &super::reduced::ReducedOperator<'_>,
     ) -> Result<Self, ParityError> {
-        use crate::solver::multigrid::{Geometry, Multigrid};
+        use crate::solver::multigrid::{Geometry, Multigrid, SingleApply};
         let n = split.even.len() + split.odd.len();
         if geometry.len() != n {
             return Err(ParityError::BlockMapLength {
@@ -207,26 +207,27 @@ impl Built {
             Some(st) => st.diagonal(&split.d_e, &split.d_o),
             None => diagonal(split),
         };
+        // The finest level in single precision where S has an f32 form (its stencils).
+        let single: Option<SingleApply> = match (opts.single_fine, fine.stencil_shared()) {
+            (Some(true), Some(st)) => {
+                let d_e: Vec<f32> = split.d_e.iter().map(|&v| v as f32).collect();
+                let d_o: Vec<f32> = split.d_o.iter().map(|&v| v as f32).collect();
+                let tmp = std::sync::Mutex::new(vec![0.0f32; d_o.len()]);
+                Some(Box::new(move |x: &[f32], y: &mut [f32]| {
+                    let mut t = tmp.lock().unwrap_or_else(|e| e.into_inner());
+                    st.apply_with(&d_e, &d_o, x, y, &mut t);
+                }))
+            }
+            _ => None,
+        };
         let mg = Multigrid::build(
             &apply,
+            single,
             &diag,
             &even,
             |agg| first_coarse(split, stencil, agg, opts),
             opts,
         )?;
-        // The finest level in single precision where S has an f32 form (its stencils).
-        let mg = match (opts.single_fine, fine.stencil_shared()) {
-            (Some(true), Some(st)) => {
-                let d_e: Vec<f32> = split.d_e.iter().map(|&v| v as f32).collect();
-                let d_o: Vec<f32> = split.d_o.iter().map(|&v| v as f32).collect();
-                let tmp = std::sync::Mutex::new(vec![0.0f32; d_o.len()]);
-                mg.with_single_fine(Box::new(move |x: &[f32], y: &mut [f32]| {
-                    let mut t = tmp.lock().unwrap_or_else(|e| e.into_inner());
-                    st.apply_with(&d_e, &d_o, x, y, &mut t);
-                }))
-            }
-            _ => mg,
-        };
         Ok(Built::Multigrid(mg))
     }
 
