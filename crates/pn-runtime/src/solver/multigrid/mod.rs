@@ -89,6 +89,19 @@ pub struct MgOptions {
     /// Chebyshev degree on the finest level (each costs one application of `S`, twice per
     /// cycle: before and after the coarse correction).
     pub fine_degree: usize,
+    /// The finest level's degree instead of `fine_degree` where
+    /// [`FineCycle::AdditiveIfSymmetric`] finds the operator nonsymmetric, which the parity
+    /// solver then solves with GMRES: a GMRES iteration costs more than a CG iteration (its
+    /// own `f64` product and an orthogonalisation against the growing basis), so a
+    /// stronger smoother that saves iterations pays there. Measured (`pn solve … --tol 1e-6`
+    /// except the checkerboard's 1e-10, GMRES iterations and solve seconds, degree 2 → 3, two
+    /// runs each, 2026-12-06): 71² checkerboard P_5 53 → 44 it (0.19–0.28 → 0.18–0.19 s),
+    /// 40³ point source P_5 14 → 11 it (0.95–1.04 → 0.91–0.92 s), P_3 11 → 10 it (0.29 →
+    /// 0.28–0.30 s), 80³ P_5 19 → 15 it (10.6 → 10.3–10.4 s); degree 4 at 80³ P_5: 15 it,
+    /// 11.2 s. Under CG the cheaper iteration favours degree 2 at low orders (32³ cloud
+    /// P_4 / P_5 render solves 0.65 / 0.88 s at degree 2 against 0.74 / 0.94 s at 3; P_7
+    /// equal, P_9 6.1 → 5.7 s).
+    pub fine_degree_nonsymmetric: usize,
     /// Chebyshev degree on the coarse levels (they are cheap).
     pub coarse_degree: usize,
     /// Chebyshev degree on the coarse levels where aggregation coarsens by at most 4 per
@@ -189,6 +202,7 @@ impl Default for MgOptions {
     fn default() -> Self {
         Self {
             fine_degree: 2,
+            fine_degree_nonsymmetric: 3,
             coarse_degree: 2,
             coarse_degree_2d: 2,
             ratio: 10.0,
@@ -209,7 +223,8 @@ impl Default for MgOptions {
 
 impl MgOptions {
     /// The defaults with overrides from named variables (`get("PN_MG_RATIO")` etc.):
-    /// `PN_MG_FINE_DEGREE`, `PN_MG_COARSE_DEGREE`, `PN_MG_COARSE_DEGREE_2D`, `PN_MG_RATIO`,
+    /// `PN_MG_FINE_DEGREE` (both finest degrees unless `PN_MG_FINE_DEGREE_NONSYMMETRIC` sets
+    /// the second), `PN_MG_COARSE_DEGREE`, `PN_MG_COARSE_DEGREE_2D`, `PN_MG_RATIO`,
     /// `PN_MG_FINE_RATIO`, `PN_MG_POWER_STEPS`, `PN_MG_COARSE_MAX`, `PN_MG_SCALE`;
     /// `PN_MG_ADDITIVE=ω` (ω > 0) forces [`FineCycle::Additive`], `PN_MG_ADDITIVE=0`
     /// [`FineCycle::Multiplicative`]; `PN_MG_DOUBLE_COARSE` (set) keeps the coarse levels in
@@ -225,6 +240,9 @@ impl MgOptions {
         let d = Self::default();
         Self {
             fine_degree: parse(get, "PN_MG_FINE_DEGREE").unwrap_or(d.fine_degree),
+            fine_degree_nonsymmetric: parse(get, "PN_MG_FINE_DEGREE_NONSYMMETRIC")
+                .or(parse(get, "PN_MG_FINE_DEGREE"))
+                .unwrap_or(d.fine_degree_nonsymmetric),
             coarse_degree: parse(get, "PN_MG_COARSE_DEGREE").unwrap_or(d.coarse_degree),
             coarse_degree_2d: parse(get, "PN_MG_COARSE_DEGREE_2D").unwrap_or(d.coarse_degree_2d),
             ratio: parse(get, "PN_MG_RATIO").unwrap_or(d.ratio),
@@ -586,6 +604,11 @@ impl Multigrid {
             }
             c => (c, 0.0),
         };
+        let fine_degree = if first_coarse_asymmetry > COARSE_SYMMETRY_TOL {
+            opts.fine_degree_nonsymmetric
+        } else {
+            opts.fine_degree
+        };
         let t_sym = t0.elapsed().as_secs_f64();
         let smoother = match fine_cycle {
             // The additive term ω D⁻¹ needs no spectrum: no `λ_max` estimate.
@@ -596,7 +619,7 @@ impl Multigrid {
                 degree: 1,
             },
             _ => {
-                let ratio = if opts.fine_degree <= 1 {
+                let ratio = if fine_degree <= 1 {
                     opts.ratio_for(1)
                 } else {
                     opts.fine_ratio
@@ -607,11 +630,9 @@ impl Multigrid {
                         let inv32: Vec<f32> = inv.iter().map(|&v| v as f32).collect();
                         let lambda_max =
                             smoother::estimate_lambda_max_with(single, &inv32, opts.power_steps);
-                        Chebyshev::from_estimate(inv, lambda_max, opts.fine_degree, ratio)
+                        Chebyshev::from_estimate(inv, lambda_max, fine_degree, ratio)
                     }
-                    None => {
-                        Chebyshev::new(fine_apply, inv, opts.fine_degree, ratio, opts.power_steps)
-                    }
+                    None => Chebyshev::new(fine_apply, inv, fine_degree, ratio, opts.power_steps),
                 }
             }
         };
