@@ -372,7 +372,8 @@ impl<'a> FastRows<'a> {
         }
     }
 
-    /// Takes row `g` if it can (see [`FastRows`]), adding its entry counts and largest entry
+    /// Takes row `g` (at moment `q`, position `idx`: [`Layout::positions_from`]) if it can
+    /// (see [`FastRows`]), adding its entry counts and largest entry
     /// to `out` (the caller appends its diagonal and right-hand side, after any rows before
     /// it that had to be assembled).
     #[allow(clippy::too_many_arguments)]
@@ -382,12 +383,11 @@ impl<'a> FastRows<'a> {
         layout: &Layout,
         ctx: &mut RowContext<'_>,
         weights: &mut Vec<f64>,
-        g: usize,
+        (g, (q, idx)): (usize, (usize, [usize; 3])),
         eliminated: bool,
         out: &mut StencilChunk,
     ) -> FastRow {
         use crate::solver::parity::stencil_s::SAME_WEIGHT;
-        let (q, idx) = layout.locate(g);
         let reference = &self.reference[q];
         let (lo, hi) = self.boxes[q];
         if reference.is_empty()
@@ -585,14 +585,14 @@ fn assemble_stencil_retaining(
             let mut ctx = RowContext::new(problem, [0; 3]);
             let mut weights = Vec::new();
             let mut pending = rows.start..rows.start;
-            for g in rows.clone() {
+            for (g, at) in rows.clone().zip(layout.positions_from(rows.start)) {
                 let eliminated = !even[g];
                 match fast.row(
                     kernel,
                     layout,
                     &mut ctx,
                     &mut weights,
-                    g,
+                    (g, at),
                     eliminated,
                     &mut out,
                 ) {

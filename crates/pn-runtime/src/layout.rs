@@ -78,6 +78,22 @@ impl Layout {
         (q, [r / (e[1] * e[2]), (r / e[2]) % e[1], r % e[2]])
     }
 
+    /// The moments and positions of the global indices `g, g + 1, …` in turn, as
+    /// [`Layout::locate`] gives them, each found from the previous one by a step instead of
+    /// a search and three divisions (the assembly walks its rows in order).
+    pub fn positions_from(&self, g: usize) -> Positions<'_> {
+        let (q, idx) = if g < self.len() {
+            self.locate(g)
+        } else {
+            (self.moments.len(), [0; 3])
+        };
+        Positions {
+            layout: self,
+            q,
+            idx,
+        }
+    }
+
     /// Absolute half-cell coordinate of position `idx` of moment `q`
     /// (`2i+1` for a centre, `2s` for a face).
     pub fn half_coord(&self, q: usize, idx: [usize; 3]) -> [i64; 3] {
@@ -141,6 +157,44 @@ impl Layout {
     }
 }
 
+/// Iterator of [`Layout::positions_from`].
+pub struct Positions<'a> {
+    layout: &'a Layout,
+    q: usize,
+    idx: [usize; 3],
+}
+
+impl Iterator for Positions<'_> {
+    type Item = (usize, [usize; 3]);
+
+    fn next(&mut self) -> Option<Self::Item> {
+        let ext = &self.layout.extents;
+        if self.q >= ext.len() {
+            return None;
+        }
+        let here = (self.q, self.idx);
+        let e = ext[self.q];
+        // z fastest, then y, then x, then the next non-empty moment.
+        self.idx[2] += 1;
+        if self.idx[2] == e[2] {
+            self.idx[2] = 0;
+            self.idx[1] += 1;
+            if self.idx[1] == e[1] {
+                self.idx[1] = 0;
+                self.idx[0] += 1;
+                if self.idx[0] == e[0] {
+                    self.idx[0] = 0;
+                    self.q += 1;
+                    while self.q < ext.len() && ext[self.q].iter().product::<usize>() == 0 {
+                        self.q += 1;
+                    }
+                }
+            }
+        }
+        Some(here)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -166,6 +220,12 @@ mod tests {
         for g in 0..l.len() {
             let (q, idx) = l.locate(g);
             assert_eq!(l.index(q, idx), g);
+        }
+        // Stepping through the positions gives what locate gives, from any start.
+        for start in [0, 1, 23, 24, 50, l.len() - 1, l.len()] {
+            let walked: Vec<_> = l.positions_from(start).collect();
+            let located: Vec<_> = (start..l.len()).map(|g| l.locate(g)).collect();
+            assert_eq!(walked, located, "from {start}");
         }
     }
 
