@@ -97,7 +97,7 @@ pub struct MgOptions {
     /// except the checkerboard's 1e-10, GMRES iterations and solve seconds, degree 2 → 3, two
     /// runs each, 2026-12-06): 71² checkerboard P_5 53 → 44 it (0.19–0.28 → 0.18–0.19 s),
     /// 40³ point source P_5 14 → 11 it (0.95–1.04 → 0.91–0.92 s), P_3 11 → 10 it (0.29 →
-    /// 0.28–0.30 s), 80³ P_5 19 → 15 it (10.6 → 10.3–10.4 s); degree 4 at 80³ P_5: 15 it,
+    /// 0.28–0.30 s), 80³ P_5 19 → 15 it (solve 10.6 → 10.3–10.4 s); degree 4 at 80³ P_5: 15 it,
     /// 11.2 s. Under CG the cheaper iteration favours degree 2 at low orders (32³ cloud
     /// P_4 / P_5 render solves 0.65 / 0.88 s at degree 2 against 0.74 / 0.94 s at 3; P_7
     /// equal, P_9 6.1 → 5.7 s).
