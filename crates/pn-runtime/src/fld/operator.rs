@@ -135,17 +135,15 @@ impl<'a> Operator<'a> {
         g
     }
 
-    /// `D_f` on the upper face along `axis` of cell `c = ijk` (the face to `c + e_axis`, which
-    /// must exist), as in the module docs.
+    /// `D_f` on the upper face along `axis` of cell `c` (the face to `c + e_axis`, which must
+    /// exist), as in the module docs; `grad` holds every cell's [`Operator::gradient`] (empty
+    /// for the linear limiter, which does not read it).
     #[inline]
-    fn face_coefficient(&self, phi: &[f64], c: usize, ijk: [usize; 3], axis: usize) -> f64 {
+    fn face_coefficient(&self, phi: &[f64], grad: &[[f64; 3]], c: usize, axis: usize) -> f64 {
         let nb = c + self.strides()[axis];
         let sigma = (0.5 * (self.sigma_t[c] + self.sigma_t[nb])).max(self.sigma_eps);
         let f = if self.limiter.is_nonlinear() {
-            let mut ijk_nb = ijk;
-            ijk_nb[axis] += 1;
-            let gc = self.gradient(phi, c, ijk);
-            let gn = self.gradient(phi, nb, ijk_nb);
+            let (gc, gn) = (grad[c], grad[nb]);
             let mut g2 = 0.0;
             for b in 0..3 {
                 let g = if b == axis {
@@ -166,10 +164,24 @@ impl<'a> Operator<'a> {
     }
 
     /// Fills `d` with the face diffusion coefficients `D_f = F(R_f)/σ_f` of `phi` (the upper
-    /// faces of every cell; faces on the upper domain boundary get 0).
+    /// faces of every cell; faces on the upper domain boundary get 0). Each cell's gradient
+    /// is computed once and read by the six faces around it.
     pub fn face_coefficients(&self, phi: &[f64], d: &mut FaceCoefficients) {
         let plane = self.plane();
         let [nx, ny, nz] = self.grid.n;
+        let mut grad = Vec::new();
+        if self.limiter.is_nonlinear() {
+            grad.resize(self.grid.len(), [0.0; 3]);
+            grad.par_chunks_mut(plane).enumerate().for_each(|(i, gp)| {
+                for j in 0..ny {
+                    for k in 0..nz {
+                        let local = j * nz + k;
+                        gp[local] = self.gradient(phi, i * plane + local, [i, j, k]);
+                    }
+                }
+            });
+        }
+        let grad = &grad[..];
         d.grid = self.grid;
         d.d.resize(self.grid.len(), [0.0; 3]);
         d.d.par_chunks_mut(plane).enumerate().for_each(|(i, dp)| {
@@ -181,7 +193,7 @@ impl<'a> Operator<'a> {
                     let mut out = [0.0; 3];
                     for (axis, (o, m)) in out.iter_mut().zip([nx, ny, nz]).enumerate() {
                         if ijk[axis] + 1 < m {
-                            *o = self.face_coefficient(phi, c, ijk, axis);
+                            *o = self.face_coefficient(phi, grad, c, axis);
                         }
                     }
                     dp[local] = out;
