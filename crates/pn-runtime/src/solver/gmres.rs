@@ -111,12 +111,15 @@ pub fn gmres_with(
 
 /// A stored basis entry: `f64`, or `f32` (read as `f64` by `linalg::dot` and `axpy`).
 trait BasisValue: Copy + Into<f64> + Send + Sync {
+    /// Whether the stored value is the `f64` itself (no separate `f64` direction needed).
+    const IS_F64: bool;
     fn store(v: f64) -> Self;
     /// The slice itself where it is already `f64`.
     fn as_f64(v: &[Self]) -> Option<&[f64]>;
 }
 
 impl BasisValue for f64 {
+    const IS_F64: bool = true;
     #[inline]
     fn store(v: f64) -> Self {
         v
@@ -127,6 +130,7 @@ impl BasisValue for f64 {
 }
 
 impl BasisValue for f32 {
+    const IS_F64: bool = false;
     #[inline]
     fn store(v: f64) -> Self {
         v as f32
@@ -139,7 +143,7 @@ impl BasisValue for f32 {
 /// `v / s`, stored; for an `f32` basis also widened into `direction` in the same pass (the
 /// `f64` copy of the newest basis vector that the preconditioner reads).
 fn scaled<V: BasisValue>(v: &[f64], s: f64, direction: &mut Vec<f64>) -> Vec<V> {
-    if V::as_f64(&[]).is_some() {
+    if V::IS_F64 {
         return v.par_iter().map(|a| V::store(a / s)).collect();
     }
     direction.resize(v.len(), 0.0);

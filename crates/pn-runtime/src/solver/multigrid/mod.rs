@@ -610,6 +610,8 @@ impl Multigrid {
             opts.fine_degree
         };
         let t_sym = t0.elapsed().as_secs_f64();
+        // The inverse diagonal in f32, where the finest level runs in single precision.
+        let mut inv32: Option<Vec<f32>> = None;
         let smoother = match fine_cycle {
             // The additive term ω D⁻¹ needs no spectrum: no `λ_max` estimate.
             FineCycle::Additive { omega } => Chebyshev {
@@ -627,9 +629,12 @@ impl Multigrid {
                 match &single {
                     // With the operator the cycle will apply, in f32: half the bytes.
                     Some(single) => {
-                        let inv32: Vec<f32> = inv.iter().map(|&v| v as f32).collect();
-                        let lambda_max =
-                            smoother::estimate_lambda_max_with(single, &inv32, opts.power_steps);
+                        let inv_single = inv32.insert(inv.iter().map(|&v| v as f32).collect());
+                        let lambda_max = smoother::estimate_lambda_max_with(
+                            single,
+                            inv_single,
+                            opts.power_steps,
+                        );
                         Chebyshev::from_estimate(inv, lambda_max, fine_degree, ratio)
                     }
                     None => Chebyshev::new(fine_apply, inv, fine_degree, ratio, opts.power_steps),
@@ -735,9 +740,10 @@ impl Multigrid {
             work: Mutex::new(work),
             single: None,
         };
-        Ok(match single {
-            Some(single) => mg.with_single_fine(single),
-            None => mg,
+        // (The additive finest level never applies the finest operator: no single form.)
+        Ok(match (single, inv32) {
+            (Some(apply), Some(inv_diag)) => mg.attach_single(apply, inv_diag),
+            _ => mg,
         })
     }
 
@@ -748,7 +754,7 @@ impl Multigrid {
     /// stay in `f64` with the finest operator, so the answer meets the same tolerance; the
     /// finest level's traffic (vectors and diagonals) halves. Ignored for the additive
     /// finest level, which never applies the finest operator.
-    pub fn with_single_fine(mut self, apply: SingleApply) -> Self {
+    pub fn with_single_fine(self, apply: SingleApply) -> Self {
         if self.additive || self.levels.is_empty() {
             return self;
         }
@@ -758,6 +764,11 @@ impl Multigrid {
             .iter()
             .map(|&v| v as f32)
             .collect();
+        self.attach_single(apply, inv_diag)
+    }
+
+    /// [`Multigrid::with_single_fine`] with the finest inverse diagonal already in `f32`.
+    fn attach_single(mut self, apply: SingleApply, inv_diag: Vec<f32>) -> Self {
         let n = inv_diag.len();
         self.single = Some(Box::new(SingleFine {
             apply,

@@ -250,20 +250,16 @@ fn step_single(
 /// `b_c = Pᵀ (r − t)` without storing `r − t` (the difference taken in `T`, as
 /// `r −= t` would, then widened).
 fn restrict_difference<T: Real>(agg: &Aggregation, r: &[T], t: &[T], b_next: &mut [f64]) {
-    b_next
-        .par_iter_mut()
-        .enumerate()
-        .with_min_len(super::PAR_MIN_LEN)
-        .for_each(|(c, bc)| {
-            *bc = agg.members[agg.ptr[c]..agg.ptr[c + 1]]
-                .iter()
-                .map(|&i| (r[i as usize] - t[i as usize]).wide())
-                .sum();
-        });
+    restrict_values(agg, b_next, |i| (r[i] - t[i]).wide());
 }
 
 /// The restriction `b_c = Pᵀ r`: each aggregate's sum of its members' residuals (in `f64`).
 fn restrict<T: Real>(agg: &Aggregation, r: &[T], b_next: &mut [f64]) {
+    restrict_values(agg, b_next, |i| r[i].wide());
+}
+
+/// `b_c = Σ_{i in aggregate c} value(i)`, the members summed in order.
+fn restrict_values(agg: &Aggregation, b_next: &mut [f64], value: impl Fn(usize) -> f64 + Sync) {
     b_next
         .par_iter_mut()
         .enumerate()
@@ -271,7 +267,7 @@ fn restrict<T: Real>(agg: &Aggregation, r: &[T], b_next: &mut [f64]) {
         .for_each(|(c, bc)| {
             *bc = agg.members[agg.ptr[c]..agg.ptr[c + 1]]
                 .iter()
-                .map(|&i| r[i as usize].wide())
+                .map(|&i| value(i as usize))
                 .sum();
         });
 }
