@@ -694,4 +694,80 @@ mod tests {
         h.coords.swap(0, 1);
         assert!(StencilLevel::from_csr(&a, &h).is_none());
     }
+
+    /// A level from parts whose weights are non-zero everywhere, also where the reference
+    /// leaves the source box (along x, y or z; between boxes of equal and of different
+    /// extents): the product equals the row-by-row sum over the in-box references — no
+    /// weight whose reference leaves its box contributes (a product reading a plane as one
+    /// line would wrap such a reference to the neighbouring line), and none is dropped.
+    #[test]
+    fn product_from_parts_skips_every_reference_outside_its_box() {
+        let boxes = [[4usize, 5, 3], [4, 5, 3], [3, 4, 3]];
+        let starts: Vec<usize> = boxes
+            .iter()
+            .scan(0, |at, e| {
+                let s = *at;
+                *at += e.iter().product::<usize>();
+                Some(s)
+            })
+            .collect();
+        let n: usize = boxes.iter().map(|e| e.iter().product::<usize>()).sum();
+        let mut seed = 7u64;
+        let mut rnd = || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            0.25 + ((seed >> 33) as f64 / (1u64 << 31) as f64)
+        };
+        let mut terms = vec![];
+        for b in 0..boxes.len() {
+            for delta in [
+                [0, 0, 0],
+                [1, 0, -1],
+                [0, -1, 1],
+                [-1, 1, 0],
+                [0, 2, -1],
+                [0, 0, 2],
+            ] {
+                terms.push((b, delta));
+            }
+        }
+        let parts: Vec<ClassParts> = boxes
+            .iter()
+            .zip(&starts)
+            .map(|(&ext, &start)| ClassParts {
+                start,
+                ext,
+                terms: terms.clone(),
+                weights: (0..terms.len() * ext.iter().product::<usize>())
+                    .map(|_| rnd())
+                    .collect(),
+            })
+            .collect();
+        let x: Vec<f64> = (0..n).map(|i| (i as f64 * 0.37).sin()).collect();
+        let mut want = vec![0.0; n];
+        for (c, part) in parts.iter().enumerate() {
+            let e = part.ext;
+            let plane = e[1] * e[2];
+            for r in 0..e.iter().product::<usize>() {
+                let (ix, i) = (r / plane, r % plane);
+                let pos = [ix as i64, (i / e[2]) as i64, (i % e[2]) as i64];
+                for (k, &(b, d)) in part.terms.iter().enumerate() {
+                    let ep = boxes[b];
+                    let j = [0, 1, 2].map(|a| pos[a] + d[a]);
+                    if (0..3).all(|a| j[a] >= 0 && j[a] < ep[a] as i64) {
+                        let w = part.weights[(ix * terms.len() + k) * plane + i] as f32;
+                        want[starts[c] + r] +=
+                            w as f64 * x[starts[b] + linear(ep, j.map(|v| v as usize))];
+                    }
+                }
+            }
+        }
+        let level = StencilLevel::from_parts(parts).expect("in reach");
+        let mut got = vec![f64::NAN; n];
+        level.apply(&x, &mut got);
+        for (w, v) in want.iter().zip(&got) {
+            assert!((w - v).abs() <= 1e-12 * w.abs().max(1.0), "{w} vs {v}");
+        }
+    }
 }
