@@ -3,9 +3,12 @@
 //! # Method ([`measure`])
 //!
 //! A STREAM-like measurement (McCalpin's STREAM, <https://www.cs.virginia.edu/stream/>):
-//! three `f64` arrays `a`, `b`, `c` of [`DEFAULT_ARRAY_BYTES`] each (64 MiB, 192 MiB in all:
-//! far beyond any last-level cache of the machines this runs on), first touched by the
-//! threads that later stream them. Two kernels:
+//! three `f64` arrays `a`, `b`, `c`, first touched by the threads that later stream them.
+//! [`measure_default`] sizes each array by STREAM's rule, at least four times the
+//! last-level cache ([`default_array_bytes`]): with arrays that fit in the cache the
+//! kernels measure the cache, not the memory. (On a VM reporting a 300 MiB L3, the fixed
+//! 3 × 64 MiB arrays used before gave a "triad" of 48–59 GB/s, the L3's; 3 × 256 MiB and
+//! more give 29–30 GB/s, the DRAM's.) Two kernels:
 //!
 //! * **copy** `c[i] = a[i]`: 16 bytes per element (one read, one write);
 //! * **triad** `a[i] = b[i] + s·c[i]`: 24 bytes per element (two reads, one write).
@@ -31,8 +34,11 @@ use rayon::prelude::*;
 use std::hint::black_box;
 use std::time::Instant;
 
-/// Bytes of each of the three arrays of [`measure_default`]: 64 MiB.
+/// Smallest bytes of each of the three arrays of [`measure_default`]: 64 MiB (used as is
+/// where the last-level cache is unknown or under 16 MiB).
 pub const DEFAULT_ARRAY_BYTES: usize = 64 << 20;
+/// STREAM's rule: each array at least this many times the last-level cache.
+pub const CACHE_MULTIPLE: usize = 4;
 /// Repetitions of each kernel in [`measure_default`] (the best is kept).
 pub const DEFAULT_REPETITIONS: usize = 10;
 /// Elements per rayon task in the parallel kernels (512 KiB of each array).
@@ -75,9 +81,59 @@ impl Bandwidth {
     }
 }
 
-/// [`measure`] with 3 × 64 MiB arrays, best of 10 (about a second on a 2-core VM).
+/// [`measure`] with three arrays of [`default_array_bytes`], best of 10 (one to ten
+/// seconds, depending on the cache).
 pub fn measure_default() -> Bandwidth {
-    measure(DEFAULT_ARRAY_BYTES, DEFAULT_REPETITIONS)
+    measure(default_array_bytes(), DEFAULT_REPETITIONS)
+}
+
+/// Bytes of each array of [`measure_default`]: [`CACHE_MULTIPLE`] times the last-level
+/// cache ([`last_level_cache_bytes`]), at least [`DEFAULT_ARRAY_BYTES`], and at most an
+/// eighth of the memory available now (the three arrays then take at most 3/8 of it).
+pub fn default_array_bytes() -> usize {
+    let wanted = last_level_cache_bytes().map_or(DEFAULT_ARRAY_BYTES, |c| {
+        (CACHE_MULTIPLE * c).max(DEFAULT_ARRAY_BYTES)
+    });
+    match available_memory_bytes() {
+        Some(avail) => wanted.min((avail / 8).max(DEFAULT_ARRAY_BYTES)),
+        None => wanted,
+    }
+}
+
+/// The largest cache of CPU 0 (Linux `sysfs`, `/sys/devices/system/cpu/cpu0/cache`), in
+/// bytes; `None` where it is not reported.
+pub fn last_level_cache_bytes() -> Option<usize> {
+    let dir = std::fs::read_dir("/sys/devices/system/cpu/cpu0/cache").ok()?;
+    dir.filter_map(|e| {
+        let size = std::fs::read_to_string(e.ok()?.path().join("size")).ok()?;
+        parse_cache_size(&size)
+    })
+    .max()
+}
+
+/// A `sysfs` cache size (`"48K"`, `"2048K"`, `"300M"`, `"1G"` or plain bytes) in bytes.
+fn parse_cache_size(text: &str) -> Option<usize> {
+    let t = text.trim();
+    let (digits, unit) = match t.char_indices().find(|(_, c)| !c.is_ascii_digit()) {
+        Some((i, _)) => (&t[..i], t[i..].trim()),
+        None => (t, ""),
+    };
+    let shift = match unit {
+        "" => 0,
+        "K" | "k" => 10,
+        "M" => 20,
+        "G" => 30,
+        _ => return None,
+    };
+    digits.parse::<usize>().ok()?.checked_mul(1 << shift)
+}
+
+/// `MemAvailable` of `/proc/meminfo` in bytes; `None` where it is not reported.
+fn available_memory_bytes() -> Option<usize> {
+    let info = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = info.lines().find(|l| l.starts_with("MemAvailable:"))?;
+    let kb: usize = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb * 1024)
 }
 
 /// Measures copy and triad bandwidth with three arrays of `array_bytes` each (rounded down
@@ -196,6 +252,23 @@ mod tests {
         assert_eq!((bw.array_bytes, bw.repetitions), (1 << 20, 2));
         assert!(bw.threads >= 1);
         assert!(bw.describe().contains("triad"), "{}", bw.describe());
+    }
+
+    #[test]
+    fn cache_sizes_parse_as_sysfs_writes_them() {
+        assert_eq!(parse_cache_size("48K\n"), Some(48 << 10));
+        assert_eq!(parse_cache_size("307200K"), Some(300 << 20));
+        assert_eq!(parse_cache_size("32M"), Some(32 << 20));
+        assert_eq!(parse_cache_size("4096"), Some(4096));
+        assert_eq!(parse_cache_size("12 X"), None);
+        assert_eq!(parse_cache_size(""), None);
+        // The default arrays are never smaller than the floor, and, where the cache is
+        // reported, at least four times it (unless memory is short).
+        let bytes = default_array_bytes();
+        assert!(bytes >= DEFAULT_ARRAY_BYTES);
+        if let (Some(c), Some(avail)) = (last_level_cache_bytes(), available_memory_bytes()) {
+            assert!(bytes >= (CACHE_MULTIPLE * c).min(avail / 8));
+        }
     }
 
     #[test]
