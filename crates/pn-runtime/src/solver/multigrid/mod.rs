@@ -529,10 +529,29 @@ impl Building {
         }
     }
 
-    fn galerkin(&self, agg: &Aggregation, drop: f64) -> CsMat<f64> {
+    /// `Pᵀ A P` of `agg`: from a stencil level straight as the next stencil level
+    /// ([`StencilLevel::galerkin_level`]) where the options store coarse levels as stencils
+    /// and drop nothing, otherwise as CSR.
+    fn galerkin(&self, agg: &Aggregation, opts: &MgOptions) -> Building {
         match self {
-            Building::Csr(a) => sparsify(galerkin::coarse_from_csr(a, agg), drop),
-            Building::Stencil(s) => sparsify(s.galerkin(agg), drop),
+            Building::Csr(a) => {
+                Building::Csr(sparsify(galerkin::coarse_from_csr(a, agg), opts.drop))
+            }
+            Building::Stencil(s) => {
+                if opts.drop <= 0.0 && opts.stencil_coarse && !opts.double_coarse {
+                    if let Some(next) = s.galerkin_level(agg) {
+                        return Building::Stencil(next);
+                    }
+                }
+                Building::Csr(sparsify(s.galerkin(agg), opts.drop))
+            }
+        }
+    }
+
+    fn nonzeros(&self) -> usize {
+        match self {
+            Building::Csr(a) => a.nnz(),
+            Building::Stencil(s) => s.nonzeros(),
         }
     }
 
@@ -655,17 +674,14 @@ impl Multigrid {
             smoother,
             agg,
         }];
-        let mut coarse_nnz = vec![match &a {
-            Building::Csr(c) => c.nnz(),
-            Building::Stencil(s) => s.nonzeros(),
-        }];
+        let mut coarse_nnz = vec![a.nonzeros()];
         while a.rows() > opts.coarse_max && levels.len() + 1 < opts.max_levels {
             let agg = aggregate(&g);
             if agg.coarse_len() as f64 > 0.9 * a.rows() as f64 {
                 break;
             }
             let inv = inverse_diagonal(levels.len(), &a.diagonal())?;
-            let next = a.galerkin(&agg, opts.drop);
+            let next = a.galerkin(&agg, opts);
             let op = a.into_op(&g, opts);
             // λ_max of the operator the cycle applies, whose stored f32 form reads fewer bytes
             // than the f64 CSR (80³ P_5 point source, coarser levels 1.1 → 0.78 s).
@@ -677,13 +693,13 @@ impl Multigrid {
                 opts.power_steps.max(10),
             );
             g = agg.coarse.clone();
-            coarse_nnz.push(next.nnz());
+            coarse_nnz.push(next.nonzeros());
             levels.push(Level {
                 op: Some(op),
                 smoother,
                 agg,
             });
-            a = Building::Csr(next);
+            a = next;
         }
         let setup_seconds = [
             t_agg,

@@ -68,6 +68,40 @@ impl ClassBlock {
     fn len(&self) -> usize {
         self.ext.iter().product()
     }
+
+    /// Sets to zero the weights whose reference lies outside its source box (`ext`: the
+    /// boxes of all blocks), so that [`StencilLevel::galerkin_level`] may sum weights
+    /// without testing each reference. Where the level came from a matrix they are zero
+    /// already (no column there); the products, [`StencilLevel::for_row`] and the CSR
+    /// Galerkin product skip such references in any case, so the operator is unchanged.
+    fn zero_outside(&mut self, ext: &[[usize; 3]]) {
+        let (e, plane, kn) = (self.ext, self.plane(), self.terms.len());
+        for (k, t) in self.terms.iter().enumerate() {
+            let ep = ext[t.block];
+            let [dx, dy, dz] = t.delta;
+            let (xs, ys, zs) = (
+                range(e[0], ep[0], dx),
+                range(e[1], ep[1], dy),
+                range(e[2], ep[2], dz),
+            );
+            for ix in 0..e[0] {
+                let wk = &mut self.weights[(ix * kn + k) * plane..(ix * kn + k + 1) * plane];
+                if !xs.contains(&ix) {
+                    wk.fill(0.0);
+                    continue;
+                }
+                for iy in 0..e[1] {
+                    let line = &mut wk[iy * e[2]..(iy + 1) * e[2]];
+                    if ys.contains(&iy) {
+                        line[..zs.start].fill(0.0);
+                        line[zs.end.max(zs.start)..].fill(0.0);
+                    } else {
+                        line.fill(0.0);
+                    }
+                }
+            }
+        }
+    }
 }
 
 /// A square operator on a structured level as per-class stencils with per-row `f32`
@@ -133,7 +167,15 @@ impl StencilLevel {
                 weights,
             })
             .collect();
-        Some(Self { blocks, n })
+        Some(Self::masked(blocks, n))
+    }
+
+    /// The level of `blocks`, their weights whose reference leaves its source box set to
+    /// zero ([`ClassBlock::zero_outside`]).
+    fn masked(mut blocks: Vec<ClassBlock>, n: usize) -> Self {
+        let ext: Vec<[usize; 3]> = blocks.iter().map(|b| b.ext).collect();
+        blocks.par_iter_mut().for_each(|b| b.zero_outside(&ext));
+        Self { blocks, n }
     }
 
     /// Rows (and columns).
@@ -343,7 +385,7 @@ impl StencilLevel {
                 })
             })
             .collect::<Option<Vec<_>>>()?;
-        Some(Self { blocks, n })
+        Some(Self::masked(blocks, n))
     }
 
     /// Non-zero weights.
@@ -375,20 +417,27 @@ impl StencilLevel {
         }
     }
 
-    /// The diagonal.
+    /// The diagonal: the weights of each class's term on its own class at shift zero (the
+    /// only term that can reach a row's own column), zero where a class has none.
     pub fn diagonal(&self) -> Vec<f64> {
-        (0..self.n)
-            .into_par_iter()
-            .map(|r| {
-                let mut d = 0.0;
-                self.for_row(r, |c, w| {
-                    if c == r {
-                        d += w;
-                    }
-                });
-                d
-            })
-            .collect()
+        let mut d = vec![0.0; self.n];
+        for (q, b) in self.blocks.iter().enumerate() {
+            let mine = &mut d[b.start..b.start + b.len()];
+            let (plane, kn) = (b.plane(), b.terms.len());
+            let own = b
+                .terms
+                .iter()
+                .position(|t| t.block == q && t.delta == [0; 3]);
+            if let Some(k) = own {
+                mine.par_chunks_mut(plane)
+                    .enumerate()
+                    .for_each(|(ix, out)| {
+                        let w = &b.weights[(ix * kn + k) * plane..(ix * kn + k + 1) * plane];
+                        out.iter_mut().zip(w).for_each(|(o, &w)| *o = w as f64);
+                    });
+            }
+        }
+        d
     }
 
     /// The Galerkin operator `Pᵀ A P` of the aggregation `ag` of this level's unknowns.
@@ -398,6 +447,152 @@ impl StencilLevel {
                 self.for_row(r as usize, |c, w| acc.add(ag.agg[c], w));
             }
         })
+    }
+
+    /// The Galerkin operator `Pᵀ A P` of the aggregation `ag` as a stencil level, computed
+    /// from the stored weights without forming its CSR; `None` where `ag` is not the
+    /// halving of this level's class boxes ([`super::aggregate::aggregate`]'s rule) or the
+    /// result is not a stencil level ([`StencilLevel::from_csr`]'s conditions: padding,
+    /// `f32` range).
+    ///
+    /// With aggregation by two, a row at fine position `2I + π` (`π ∈ {0, 1}` per halved
+    /// axis) reaching shift `d` reaches the coarse shift `⌊(π + d)/2⌋` from `I`,
+    /// whatever `I`: every (fine term, `π`) pair adds one fine weight plane to one coarse
+    /// term's plane. The pairs are added members first (`π` in the members' order), terms
+    /// second, into `f64` sums from zero — the order in which [`StencilLevel::galerkin`]
+    /// accumulates each entry, so the sums are the same; the coarse terms are ordered as
+    /// [`StencilLevel::from_csr`] orders them (by source block, then shift), those whose
+    /// weights all vanish dropped. 80³ P_5 point source, level 1 → 2: CSR product and
+    /// conversion 0.27 + 0.05 s.
+    pub fn galerkin_level(&self, ag: &super::aggregate::Aggregation) -> Option<Self> {
+        let (starts, cext, _) = class_blocks(&ag.coarse)?;
+        if starts.len() != self.blocks.len() {
+            return None;
+        }
+        let halve: [bool; 3] = std::array::from_fn(|d| self.blocks.iter().any(|b| b.ext[d] > 1));
+        let coarse_of = |v: [usize; 3]| -> [usize; 3] {
+            std::array::from_fn(|d| if halve[d] { v[d] / 2 } else { v[d] })
+        };
+        // The aggregation must be the halving, class block by class block.
+        for (q, b) in self.blocks.iter().enumerate() {
+            let last = coarse_of(b.ext.map(|v| v.max(1) - 1)).map(|v| v + 1);
+            if cext[q] != last {
+                return None;
+            }
+            let plane = b.plane();
+            let ok = (0..b.len()).into_par_iter().all(|l| {
+                let pos = [l / plane, (l % plane) / b.ext[2], l % b.ext[2]];
+                ag.agg[b.start + l] as usize == starts[q] + linear(cext[q], coarse_of(pos))
+            });
+            if !ok {
+                return None;
+            }
+        }
+        // Member offsets in the members' order (fine index ascending: x, then y, then z).
+        let offsets: Vec<[usize; 3]> = (0..8usize)
+            .map(|m| [m >> 2 & 1, m >> 1 & 1, m & 1])
+            .filter(|o| (0..3).all(|d| halve[d] || o[d] == 0))
+            .collect();
+        let mut blocks = Vec::with_capacity(self.blocks.len());
+        let mut nonzeros = 0usize;
+        for (q, b) in self.blocks.iter().enumerate() {
+            let (e, ce) = (b.ext, cext[q]);
+            let (plane, cplane, kn) = (b.plane(), (ce[1] * ce[2]).max(1), b.terms.len());
+            // Coarse term of each (member offset, fine term).
+            let shift = |o: &[usize; 3], t: &LevelTerm| LevelTerm {
+                block: t.block,
+                delta: std::array::from_fn(|d| {
+                    if halve[d] {
+                        (o[d] as i64 + t.delta[d]).div_euclid(2)
+                    } else {
+                        t.delta[d]
+                    }
+                }),
+            };
+            let mut terms: Vec<LevelTerm> = offsets
+                .iter()
+                .flat_map(|o| b.terms.iter().map(move |t| shift(o, t)))
+                .collect();
+            terms.sort_unstable();
+            terms.dedup();
+            let map: Vec<Vec<usize>> = offsets
+                .iter()
+                .map(|o| {
+                    b.terms
+                        .iter()
+                        .map(|t| terms.binary_search(&shift(o, t)).unwrap_or(usize::MAX))
+                        .collect()
+                })
+                .collect();
+            let ckn = terms.len();
+            let mut sums = vec![0.0f64; ckn * cplane * ce[0]];
+            sums.par_chunks_mut((ckn * cplane).max(1))
+                .enumerate()
+                .for_each(|(cx, out)| {
+                    for (o, to) in offsets.iter().zip(&map) {
+                        let ix = if halve[0] { 2 * cx + o[0] } else { cx };
+                        if ix >= e[0] {
+                            continue;
+                        }
+                        for (k, &ck) in to.iter().enumerate() {
+                            let wk = &b.weights[(ix * kn + k) * plane..(ix * kn + k + 1) * plane];
+                            let ok = &mut out[ck * cplane..(ck + 1) * cplane];
+                            for cy in 0..ce[1] {
+                                let iy = if halve[1] { 2 * cy + o[1] } else { cy };
+                                if iy >= e[1] {
+                                    continue;
+                                }
+                                let (src, dst) = (
+                                    &wk[iy * e[2]..(iy + 1) * e[2]],
+                                    &mut ok[cy * ce[2]..(cy + 1) * ce[2]],
+                                );
+                                if halve[2] {
+                                    dst.iter_mut()
+                                        .zip(src.iter().skip(o[2]).step_by(2))
+                                        .for_each(|(s, &w)| *s += w as f64);
+                                } else {
+                                    dst.iter_mut().zip(src).for_each(|(s, &w)| *s += w as f64);
+                                }
+                            }
+                        }
+                    }
+                });
+            // Drop the terms whose weights all vanish; round to f32 as from_csr does.
+            let keep: Vec<bool> = (0..ckn)
+                .map(|ck| {
+                    (0..ce[0]).any(|cx| {
+                        let at = (cx * ckn + ck) * cplane;
+                        sums[at..at + cplane].iter().any(|&v| v != 0.0)
+                    })
+                })
+                .collect();
+            let kept: Vec<usize> = (0..ckn).filter(|&ck| keep[ck]).collect();
+            let mut weights = Vec::with_capacity(kept.len() * cplane * ce[0]);
+            for cx in 0..ce[0] {
+                for &ck in &kept {
+                    let at = (cx * ckn + ck) * cplane;
+                    for &v in &sums[at..at + cplane] {
+                        let w = v as f32;
+                        if !w.is_finite() || (w == 0.0 && v != 0.0) {
+                            return None;
+                        }
+                        nonzeros += (v != 0.0) as usize;
+                        weights.push(w);
+                    }
+                }
+            }
+            blocks.push(ClassBlock {
+                start: starts[q],
+                ext: ce,
+                terms: kept.iter().map(|&ck| terms[ck]).collect(),
+                weights,
+            });
+        }
+        let stored: usize = blocks.iter().map(|b| b.weights.len()).sum();
+        if stored as f64 > MAX_PADDING * nonzeros.max(1) as f64 {
+            return None;
+        }
+        Some(Self::masked(blocks, ag.coarse_len()))
     }
 
     /// The operator as a CSR matrix (its `f32` weights).
@@ -686,6 +881,12 @@ mod tests {
         for (w, v) in want.iter().zip(&got) {
             assert!((w - v).abs() <= 1e-6 * scale, "{w} vs {v}");
         }
+        // The diagonal is the f32-rounded matrix diagonal.
+        let diag = s.diagonal();
+        for (r, &d) in diag.iter().enumerate() {
+            let want = a.get(r, r).copied().unwrap_or(0.0) as f32;
+            assert_eq!(d, want as f64, "row {r}");
+        }
         // The aggregated geometry is structured as well.
         let agg = aggregate(&g);
         assert!(class_blocks(&agg.coarse).is_some());
@@ -693,6 +894,98 @@ mod tests {
         let mut h = g.clone();
         h.coords.swap(0, 1);
         assert!(StencilLevel::from_csr(&a, &h).is_none());
+    }
+
+    /// Unknowns of `boxes` numbered class by class, x slowest.
+    fn boxes_geometry(boxes: &[[usize; 3]]) -> Geometry {
+        let mut g = Geometry {
+            class: Vec::new(),
+            coords: Vec::new(),
+        };
+        for (c, e) in boxes.iter().enumerate() {
+            for i in 0..e[0] {
+                for j in 0..e[1] {
+                    for k in 0..e[2] {
+                        g.class.push(c as u32);
+                        g.coords.push([i as u32, j as u32, k as u32]);
+                    }
+                }
+            }
+        }
+        g
+    }
+
+    /// Parts on `boxes` (numbered as [`boxes_geometry`]) with every class reaching every
+    /// class at `shifts`, all weights non-zero (also where the reference leaves its box).
+    fn random_parts(boxes: &[[usize; 3]], shifts: &[[i64; 3]], seed: u64) -> Vec<ClassParts> {
+        let mut seed = seed;
+        let mut rnd = || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            0.25 + ((seed >> 33) as f64 / (1u64 << 31) as f64)
+        };
+        let terms: Vec<(usize, [i64; 3])> = (0..boxes.len())
+            .flat_map(|b| shifts.iter().map(move |&d| (b, d)))
+            .collect();
+        let mut start = 0;
+        boxes
+            .iter()
+            .map(|&ext| {
+                let len = ext.iter().product::<usize>();
+                let part = ClassParts {
+                    start,
+                    ext,
+                    terms: terms.clone(),
+                    weights: (0..terms.len() * len).map(|_| rnd()).collect(),
+                };
+                start += len;
+                part
+            })
+            .collect()
+    }
+
+    /// The Galerkin product formed straight as a stencil level equals the CSR product of
+    /// the same level (rounded to `f32` as a stencil level stores it), in 3D with odd and
+    /// even box extents and in 2D (z not halved), and its diagonal the CSR's.
+    #[test]
+    fn galerkin_level_equals_the_csr_galerkin_product() {
+        let shifts = [
+            [0, 0, 0],
+            [1, 0, -1],
+            [0, -1, 1],
+            [-1, 1, 0],
+            [0, 2, -1],
+            [0, 0, 2],
+        ];
+        let shifts_2d = [[0, 0, 0], [1, 0, 0], [0, -1, 0], [-1, 1, 0], [2, -2, 0]];
+        for (boxes, shifts) in [
+            (vec![[11usize, 10, 9], [10, 11, 9], [9, 9, 10]], &shifts[..]),
+            (vec![[15usize, 14, 1], [14, 15, 1]], &shifts_2d[..]),
+        ] {
+            let g = boxes_geometry(&boxes);
+            let level = StencilLevel::from_parts(random_parts(&boxes, shifts, 3)).unwrap();
+            let ag = aggregate(&g);
+            let want = level.galerkin(&ag);
+            let coarse = level.galerkin_level(&ag).expect("a stencil level");
+            let got = coarse.to_csr();
+            assert_eq!(got.rows(), want.rows());
+            for (r, row) in want.outer_iterator().enumerate() {
+                for (c, &v) in row.iter() {
+                    let w = got.get(r, c).copied().unwrap_or(0.0);
+                    assert_eq!(w, v as f32 as f64, "entry ({r}, {c})");
+                }
+            }
+            assert_eq!(got.nnz(), want.iter().filter(|(&v, _)| v != 0.0).count());
+            let diag = coarse.diagonal();
+            for (r, &d) in diag.iter().enumerate() {
+                assert_eq!(d, want.get(r, r).copied().unwrap_or(0.0) as f32 as f64);
+            }
+            // An aggregation that is not the halving is refused.
+            let mut other = ag.clone();
+            other.agg.swap(0, ag.agg.len() - 1);
+            assert!(level.galerkin_level(&other).is_none());
+        }
     }
 
     /// A level from parts whose weights are non-zero everywhere, also where the reference
@@ -712,38 +1005,15 @@ mod tests {
             })
             .collect();
         let n: usize = boxes.iter().map(|e| e.iter().product::<usize>()).sum();
-        let mut seed = 7u64;
-        let mut rnd = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            0.25 + ((seed >> 33) as f64 / (1u64 << 31) as f64)
-        };
-        let mut terms = vec![];
-        for b in 0..boxes.len() {
-            for delta in [
-                [0, 0, 0],
-                [1, 0, -1],
-                [0, -1, 1],
-                [-1, 1, 0],
-                [0, 2, -1],
-                [0, 0, 2],
-            ] {
-                terms.push((b, delta));
-            }
-        }
-        let parts: Vec<ClassParts> = boxes
-            .iter()
-            .zip(&starts)
-            .map(|(&ext, &start)| ClassParts {
-                start,
-                ext,
-                terms: terms.clone(),
-                weights: (0..terms.len() * ext.iter().product::<usize>())
-                    .map(|_| rnd())
-                    .collect(),
-            })
-            .collect();
+        let shifts = [
+            [0, 0, 0],
+            [1, 0, -1],
+            [0, -1, 1],
+            [-1, 1, 0],
+            [0, 2, -1],
+            [0, 0, 2],
+        ];
+        let parts = random_parts(&boxes, &shifts, 7);
         let x: Vec<f64> = (0..n).map(|i| (i as f64 * 0.37).sin()).collect();
         let mut want = vec![0.0; n];
         for (c, part) in parts.iter().enumerate() {
@@ -756,7 +1026,7 @@ mod tests {
                     let ep = boxes[b];
                     let j = [0, 1, 2].map(|a| pos[a] + d[a]);
                     if (0..3).all(|a| j[a] >= 0 && j[a] < ep[a] as i64) {
-                        let w = part.weights[(ix * terms.len() + k) * plane + i] as f32;
+                        let w = part.weights[(ix * part.terms.len() + k) * plane + i] as f32;
                         want[starts[c] + r] +=
                             w as f64 * x[starts[b] + linear(ep, j.map(|v| v as usize))];
                     }
