@@ -23,6 +23,7 @@
 
 use super::interior::{CoarseMaps, LaneScratch, MapScratch, LANES};
 use super::{Moments, StencilBlock, StencilReduced, Term};
+use crate::matfree::range;
 use crate::solver::multigrid::aggregate::Aggregation;
 use crate::solver::multigrid::galerkin::build_rows_with;
 use crate::solver::multigrid::stencil_level::{ClassParts, TermIndex};
@@ -217,21 +218,44 @@ impl StencilReduced {
         for &col in &c.fix_cols {
             irregular[col as usize] = true;
         }
+        // The regular rows plane by plane, as `S` is applied (`stencil_slab`): from `D_e`,
+        // each term subtracts `(w_B w_C) / D_o` at its shifted positions, line by line — the
+        // same operations in the same order as row by row, without locating each row and
+        // each reference (80³ P_5 point source: 0.45 → 0.05 s).
+        let mut diag = d_e.to_vec();
+        super::for_slabs(m, true, &mut diag, |q, ix, _, out| {
+            let e = m.ext[q];
+            for (t, w) in b.terms[q].iter().zip(&back[q]) {
+                let ep = m.ext[t.moment];
+                let [dx, dy, dz] = t.delta;
+                let ixr = ix as i64 + dx;
+                let zs = range(e[2], ep[2], dz);
+                if ixr < 0 || ixr >= ep[0] as i64 || zs.is_empty() {
+                    continue;
+                }
+                let plane = m.local_off[t.moment] + ixr as usize * ep[1] * ep[2];
+                let tw = t.weight * w;
+                for iy in range(e[1], ep[1], dy) {
+                    let iyr = (iy as i64 + dy) as usize;
+                    let first =
+                        (plane as i64 + (iyr * ep[2]) as i64 + zs.start as i64 + dz) as usize;
+                    let ds = &d_o[first..first + zs.len()];
+                    out[iy * e[2] + zs.start..iy * e[2] + zs.end]
+                        .iter_mut()
+                        .zip(ds)
+                        .for_each(|(o, &d)| *o -= tw / d);
+                }
+            }
+        });
+        // The irregular rows over their actual entries.
         let (kept, elim) = (m.class(true), m.class(false));
-        (0..n_e)
-            .into_par_iter()
-            .with_min_len(4096)
-            .map(|i| {
+        let rows: Vec<usize> = (0..n_e).filter(|&i| irregular[i]).collect();
+        let sums: Vec<f64> = rows
+            .par_iter()
+            .with_min_len(1024)
+            .map(|&i| {
                 let (q, pos) = m.locate(&kept, i);
                 let mut s = d_e[i];
-                if !irregular[i] {
-                    for (t, w) in b.terms[q].iter().zip(&back[q]) {
-                        if let Some(k) = m.index(t.moment, add(pos, t.delta)) {
-                            s -= t.weight * w / d_o[k];
-                        }
-                    }
-                    return s;
-                }
                 b_rows.for_row(q, pos, i, |k, place, bw| {
                     let (r, pk) = place.unwrap_or_else(|| m.locate(&elim, k));
                     let delta = [0, 1, 2].map(|d| pos[d] - pk[d]);
@@ -245,7 +269,11 @@ impl StencilReduced {
                 });
                 s
             })
-            .collect()
+            .collect();
+        for (&i, s) in rows.iter().zip(sums) {
+            diag[i] = s;
+        }
+        diag
     }
 
     /// The first Galerkin operator `Pᵀ S P` of the aggregation `ag` of the kept unknowns
