@@ -33,6 +33,7 @@ pub use aggregate::Geometry;
 use crate::linalg::{spmv, CompactCsr};
 use crate::operator::{LinearOperator, Preconditioner};
 use aggregate::{aggregate, Aggregation};
+use rayon::prelude::*;
 use smoother::Chebyshev;
 use sprs::CsMat;
 use std::sync::Mutex;
@@ -648,7 +649,7 @@ impl Multigrid {
                 match &single {
                     // With the operator the cycle will apply, in f32: half the bytes.
                     Some(single) => {
-                        let inv_single = inv32.insert(inv.iter().map(|&v| v as f32).collect());
+                        let inv_single = inv32.insert(inv.par_iter().map(|&v| v as f32).collect());
                         let lambda_max = smoother::estimate_lambda_max_with(
                             single,
                             inv_single,

@@ -194,7 +194,7 @@ pub fn estimate_lambda_max_with<T: Real + Into<f64>>(
         .sqrt()
     };
     // Deterministic start with all frequencies present.
-    let mut q: Vec<T> = pseudo_random(n, 0).into_iter().map(T::of).collect();
+    let mut q: Vec<T> = pseudo_random(n, 0).into_par_iter().map(T::of).collect();
     let nq = d_norm(&q);
     if nq == 0.0 || !nq.is_finite() {
         return 1.0;
@@ -265,7 +265,9 @@ pub fn estimate_lambda_max_with<T: Real + Into<f64>>(
 
 /// `n` deterministic pseudo-random values in [−½, ½) (SplitMix64 of index and `seed`).
 pub fn pseudo_random(n: usize, seed: u64) -> Vec<f64> {
+    // Each value depends on its index only: generated in parallel, the same values.
     (0..n as u64)
+        .into_par_iter()
         .map(|i| {
             let mut z = i
                 .wrapping_add(seed.wrapping_mul(0x2545_f491_4f6c_dd1d))

@@ -197,8 +197,8 @@ impl Built {
             });
         }
         let even = Geometry {
-            class: split.even.iter().map(|&g| geometry.class[g]).collect(),
-            coords: split.even.iter().map(|&g| geometry.coords[g]).collect(),
+            class: split.even.par_iter().map(|&g| geometry.class[g]).collect(),
+            coords: split.even.par_iter().map(|&g| geometry.coords[g]).collect(),
         };
         let apply = |x: &[f64], y: &mut [f64]| fine.apply(x, y);
         // From the stencils where `S` is applied from them (no pass over the blocks).
@@ -210,8 +210,8 @@ impl Built {
         // The finest level in single precision where S has an f32 form (its stencils).
         let single: Option<SingleApply> = match (opts.single_fine, fine.stencil_shared()) {
             (Some(true), Some(st)) => {
-                let d_e: Vec<f32> = split.d_e.iter().map(|&v| v as f32).collect();
-                let d_o: Vec<f32> = split.d_o.iter().map(|&v| v as f32).collect();
+                let d_e: Vec<f32> = split.d_e.par_iter().map(|&v| v as f32).collect();
+                let d_o: Vec<f32> = split.d_o.par_iter().map(|&v| v as f32).collect();
                 let tmp = std::sync::Mutex::new(vec![0.0f32; d_o.len()]);
                 Some(Box::new(move |x: &[f32], y: &mut [f32]| {
                     let mut t = tmp.lock().unwrap_or_else(|e| e.into_inner());
