@@ -24,7 +24,26 @@ impl Geometry {
         };
         let (class, coords) = match subset {
             Some(s) => s.par_iter().map(|&g| locate(g)).unzip(),
-            None => (0..layout.len()).into_par_iter().map(locate).unzip(),
+            None => {
+                // Chunk by chunk, each position stepped from the previous one
+                // (`Layout::positions_from`) instead of located by a search and divisions.
+                const CHUNK: usize = 1 << 14;
+                let n = layout.len();
+                let mut class = vec![0u32; n];
+                let mut coords = vec![[0u32; 3]; n];
+                class
+                    .par_chunks_mut(CHUNK)
+                    .zip(coords.par_chunks_mut(CHUNK))
+                    .enumerate()
+                    .for_each(|(c, (cl, co))| {
+                        let steps = layout.positions_from(c * CHUNK);
+                        for ((cl, co), (q, idx)) in cl.iter_mut().zip(co).zip(steps) {
+                            *cl = q as u32;
+                            *co = idx.map(|v| v as u32);
+                        }
+                    });
+                (class, coords)
+            }
         };
         Self { class, coords }
     }
@@ -309,4 +328,42 @@ pub fn cell_blocks(layout: &Layout) -> Vec<usize> {
         debug_assert_eq!(out.len(), layout.offsets[q + 1]);
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::layout::Layout;
+    use crate::problem::Grid;
+    use pn_stencil::{Dim, MomentPlacement};
+
+    /// The geometry of a whole layout, built chunk by chunk by stepping, is what
+    /// [`Layout::locate`] gives for every unknown, across chunk and moment boundaries; the
+    /// subset route agrees with it.
+    #[test]
+    fn geometry_from_layout_locates_every_unknown() {
+        let grid = Grid {
+            dim: Dim::Three,
+            min: [0.0; 3],
+            max: [1.0; 3],
+            res: [29, 23, 19],
+        };
+        let moments: Vec<MomentPlacement> = [[0, 0, 0], [1, 0, 0], [0, 1, 1], [1, 1, 1]]
+            .iter()
+            .map(|&shift| MomentPlacement { l: 0, m: 0, shift })
+            .collect();
+        let layout = Layout::new(&grid, &moments).unwrap();
+        assert!(layout.len() > 2 * (1 << 14));
+        let g = Geometry::from_layout(&layout, None);
+        assert_eq!(g.len(), layout.len());
+        for i in 0..layout.len() {
+            let (q, idx) = layout.locate(i);
+            assert_eq!((g.class[i], g.coords[i]), (q as u32, idx.map(|v| v as u32)));
+        }
+        let subset: Vec<usize> = (0..layout.len()).step_by(7).collect();
+        let s = Geometry::from_layout(&layout, Some(&subset));
+        for (k, &i) in subset.iter().enumerate() {
+            assert_eq!((s.class[k], s.coords[k]), (g.class[i], g.coords[i]));
+        }
+    }
 }
