@@ -896,6 +896,16 @@ mod tests {
         assert!(StencilLevel::from_csr(&a, &h).is_none());
     }
 
+    /// Shifts of the random 3D levels: along one, two and three axes, reaching two.
+    const SHIFTS_3D: [[i64; 3]; 6] = [
+        [0, 0, 0],
+        [1, 0, -1],
+        [0, -1, 1],
+        [-1, 1, 0],
+        [0, 2, -1],
+        [0, 0, 2],
+    ];
+
     /// Unknowns of `boxes` numbered class by class, x slowest.
     fn boxes_geometry(boxes: &[[usize; 3]]) -> Geometry {
         let mut g = Geometry {
@@ -950,17 +960,12 @@ mod tests {
     /// even box extents and in 2D (z not halved), and its diagonal the CSR's.
     #[test]
     fn galerkin_level_equals_the_csr_galerkin_product() {
-        let shifts = [
-            [0, 0, 0],
-            [1, 0, -1],
-            [0, -1, 1],
-            [-1, 1, 0],
-            [0, 2, -1],
-            [0, 0, 2],
-        ];
         let shifts_2d = [[0, 0, 0], [1, 0, 0], [0, -1, 0], [-1, 1, 0], [2, -2, 0]];
         for (boxes, shifts) in [
-            (vec![[11usize, 10, 9], [10, 11, 9], [9, 9, 10]], &shifts[..]),
+            (
+                vec![[11usize, 10, 9], [10, 11, 9], [9, 9, 10]],
+                &SHIFTS_3D[..],
+            ),
             (vec![[15usize, 14, 1], [14, 15, 1]], &shifts_2d[..]),
         ] {
             let g = boxes_geometry(&boxes);
@@ -1005,15 +1010,7 @@ mod tests {
             })
             .collect();
         let n: usize = boxes.iter().map(|e| e.iter().product::<usize>()).sum();
-        let shifts = [
-            [0, 0, 0],
-            [1, 0, -1],
-            [0, -1, 1],
-            [-1, 1, 0],
-            [0, 2, -1],
-            [0, 0, 2],
-        ];
-        let parts = random_parts(&boxes, &shifts, 7);
+        let parts = random_parts(&boxes, &SHIFTS_3D, 7);
         let x: Vec<f64> = (0..n).map(|i| (i as f64 * 0.37).sin()).collect();
         let mut want = vec![0.0; n];
         for (c, part) in parts.iter().enumerate() {
