@@ -30,6 +30,7 @@
 //! application is than the memory-bandwidth limit (1 = at the limit; below 1 when the data
 //! stay in cache between applications, so the DRAM limit does not bind).
 
+use crate::memory_estimate::available_memory_bytes;
 use rayon::prelude::*;
 use std::hint::black_box;
 use std::time::Instant;
@@ -95,7 +96,7 @@ pub fn default_array_bytes() -> usize {
         (CACHE_MULTIPLE * c).max(DEFAULT_ARRAY_BYTES)
     });
     match available_memory_bytes() {
-        Some(avail) => wanted.min((avail / 8).max(DEFAULT_ARRAY_BYTES)),
+        Some(avail) => wanted.min((avail as usize / 8).max(DEFAULT_ARRAY_BYTES)),
         None => wanted,
     }
 }
@@ -126,14 +127,6 @@ fn parse_cache_size(text: &str) -> Option<usize> {
         _ => return None,
     };
     digits.parse::<usize>().ok()?.checked_mul(1 << shift)
-}
-
-/// `MemAvailable` of `/proc/meminfo` in bytes; `None` where it is not reported.
-fn available_memory_bytes() -> Option<usize> {
-    let info = std::fs::read_to_string("/proc/meminfo").ok()?;
-    let line = info.lines().find(|l| l.starts_with("MemAvailable:"))?;
-    let kb: usize = line.split_whitespace().nth(1)?.parse().ok()?;
-    Some(kb * 1024)
 }
 
 /// Measures copy and triad bandwidth with three arrays of `array_bytes` each (rounded down
@@ -267,7 +260,7 @@ mod tests {
         let bytes = default_array_bytes();
         assert!(bytes >= DEFAULT_ARRAY_BYTES);
         if let (Some(c), Some(avail)) = (last_level_cache_bytes(), available_memory_bytes()) {
-            assert!(bytes >= (CACHE_MULTIPLE * c).min(avail / 8));
+            assert!(bytes >= (CACHE_MULTIPLE * c).min(avail as usize / 8));
         }
     }
 

@@ -176,9 +176,22 @@ pub fn physical_memory_bytes() -> Option<u64> {
     parse_meminfo_total(&info)
 }
 
+/// Memory available now in bytes (`MemAvailable` from `/proc/meminfo`), if reported.
+pub fn available_memory_bytes() -> Option<u64> {
+    let info = std::fs::read_to_string("/proc/meminfo").ok()?;
+    parse_meminfo_field(&info, "MemAvailable")
+}
+
 /// Parses the `MemTotal:  <kB> kB` line of a `/proc/meminfo` text.
 pub fn parse_meminfo_total(info: &str) -> Option<u64> {
-    let line = info.lines().find(|l| l.starts_with("MemTotal:"))?;
+    parse_meminfo_field(info, "MemTotal")
+}
+
+/// Parses the `<field>:  <kB> kB` line of a `/proc/meminfo` text, in bytes.
+pub fn parse_meminfo_field(info: &str, field: &str) -> Option<u64> {
+    let line = info
+        .lines()
+        .find(|l| l.strip_prefix(field).is_some_and(|r| r.starts_with(':')))?;
     let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
     kb.checked_mul(1024)
 }
@@ -267,6 +280,9 @@ mod tests {
         let t = "MemTotal:       24500000 kB\nMemFree: 1 kB\n";
         assert_eq!(parse_meminfo_total(t), Some(24_500_000 * 1024));
         assert_eq!(parse_meminfo_total("nothing"), None);
+        let t = "MemTotal: 8 kB\nMemAvailable:    3 kB\n";
+        assert_eq!(parse_meminfo_field(t, "MemAvailable"), Some(3 * 1024));
+        assert_eq!(parse_meminfo_field(t, "MemFree"), None);
     }
 
     #[test]
