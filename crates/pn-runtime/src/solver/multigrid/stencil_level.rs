@@ -47,7 +47,7 @@ struct LevelTerm {
 }
 
 /// The rows of one class: a whole box of positions, x slowest.
-#[derive(Debug)]
+#[derive(Clone, Debug)]
 struct ClassBlock {
     /// First unknown of the class.
     start: usize,
@@ -71,8 +71,7 @@ impl ClassBlock {
 
     /// Sets to zero the weights whose reference lies outside its source box (`ext`: the
     /// boxes of all blocks), so that [`StencilLevel::galerkin_level`] may sum weights
-    /// without testing each reference. Where the level came from a matrix they are zero
-    /// already (no column there); the products, [`StencilLevel::for_row`] and the CSR
+    /// without testing each reference. The products, [`StencilLevel::for_row`] and the CSR
     /// Galerkin product skip such references in any case, so the operator is unchanged.
     fn zero_outside(&mut self, ext: &[[usize; 3]]) {
         let (e, plane, kn) = (self.ext, self.plane(), self.terms.len());
@@ -167,11 +166,14 @@ impl StencilLevel {
                 weights,
             })
             .collect();
-        Some(Self::masked(blocks, n))
+        // Weights whose reference leaves its box are zero: no column there.
+        Some(Self { blocks, n })
     }
 
     /// The level of `blocks`, their weights whose reference leaves its source box set to
-    /// zero ([`ClassBlock::zero_outside`]).
+    /// zero ([`ClassBlock::zero_outside`]): for weights given from outside
+    /// ([`StencilLevel::from_parts`]); [`StencilLevel::from_csr`] and
+    /// [`StencilLevel::galerkin_level`] produce no such weights.
     fn masked(mut blocks: Vec<ClassBlock>, n: usize) -> Self {
         let ext: Vec<[usize; 3]> = blocks.iter().map(|b| b.ext).collect();
         blocks.par_iter_mut().for_each(|b| b.zero_outside(&ext));
@@ -592,7 +594,12 @@ impl StencilLevel {
         if stored as f64 > MAX_PADDING * nonzeros.max(1) as f64 {
             return None;
         }
-        Some(Self::masked(blocks, ag.coarse_len()))
+        // Each coarse weight sums fine weights whose references lie in their boxes, so
+        // the coarse references lie in theirs: nothing to zero.
+        Some(Self {
+            blocks,
+            n: ag.coarse_len(),
+        })
     }
 
     /// The operator as a CSR matrix (its `f32` weights).
@@ -817,22 +824,8 @@ mod tests {
     #[test]
     fn stencil_level_equals_the_csr_product() {
         let boxes = [[5usize, 4, 3], [4, 4, 3]];
-        let mut g = Geometry {
-            class: Vec::new(),
-            coords: Vec::new(),
-        };
-        let mut start = vec![];
-        for (c, e) in boxes.iter().enumerate() {
-            start.push(g.len());
-            for i in 0..e[0] {
-                for j in 0..e[1] {
-                    for k in 0..e[2] {
-                        g.class.push(c as u32);
-                        g.coords.push([i as u32, j as u32, k as u32]);
-                    }
-                }
-            }
-        }
+        let g = boxes_geometry(&boxes);
+        let start = [0, boxes[0].iter().product::<usize>()];
         let n = g.len();
         let idx = |c: usize, p: [i64; 3]| -> Option<usize> {
             let e = boxes[c];
@@ -872,6 +865,7 @@ mod tests {
         let a: CsMat<f64> = t.to_csr();
         let s = StencilLevel::from_csr(&a, &g).expect("structured");
         assert!(s.stored() >= a.nnz());
+        assert!(zero_outside_already(&s));
         let x: Vec<f64> = (0..n).map(|i| (i as f64 * 0.37).sin()).collect();
         let mut want = vec![0.0; n];
         crate::linalg::spmv(&a, &x, &mut want);
@@ -905,6 +899,16 @@ mod tests {
         [0, 2, -1],
         [0, 0, 2],
     ];
+
+    /// Whether every weight of `level` whose reference leaves its box is zero already.
+    fn zero_outside_already(level: &StencilLevel) -> bool {
+        let ext: Vec<[usize; 3]> = level.blocks.iter().map(|b| b.ext).collect();
+        level.blocks.iter().all(|b| {
+            let mut masked = b.clone();
+            masked.zero_outside(&ext);
+            masked.weights == b.weights
+        })
+    }
 
     /// Unknowns of `boxes` numbered class by class, x slowest.
     fn boxes_geometry(boxes: &[[usize; 3]]) -> Geometry {
@@ -973,6 +977,7 @@ mod tests {
             let ag = aggregate(&g);
             let want = level.galerkin(&ag);
             let coarse = level.galerkin_level(&ag).expect("a stencil level");
+            assert!(zero_outside_already(&coarse));
             let got = coarse.to_csr();
             assert_eq!(got.rows(), want.rows());
             for (r, row) in want.outer_iterator().enumerate() {
@@ -1001,16 +1006,9 @@ mod tests {
     #[test]
     fn product_from_parts_skips_every_reference_outside_its_box() {
         let boxes = [[4usize, 5, 3], [4, 5, 3], [3, 4, 3]];
-        let starts: Vec<usize> = boxes
-            .iter()
-            .scan(0, |at, e| {
-                let s = *at;
-                *at += e.iter().product::<usize>();
-                Some(s)
-            })
-            .collect();
         let n: usize = boxes.iter().map(|e| e.iter().product::<usize>()).sum();
         let parts = random_parts(&boxes, &SHIFTS_3D, 7);
+        let starts: Vec<usize> = parts.iter().map(|p| p.start).collect();
         let x: Vec<f64> = (0..n).map(|i| (i as f64 * 0.37).sin()).collect();
         let mut want = vec![0.0; n];
         for (c, part) in parts.iter().enumerate() {
