@@ -341,6 +341,31 @@ pub(crate) fn range(n: usize, m: usize, d: i64) -> std::ops::Range<usize> {
     lo.min(hi)..hi
 }
 
+/// The y-lines of an output plane of extent `e` (its y and z) whose references at shift
+/// `(dy, dz)` lie in a source plane of extent `ep` starting at `src_plane`: for each line,
+/// the range of output positions within the plane and the source index of the first
+/// (the walk of the ∂z-type stencil terms, line by line, in
+/// [`crate::solver::parity::stencil_s`] and the multigrid's stencil levels).
+pub(crate) fn shifted_lines(
+    e: [usize; 3],
+    ep: [usize; 3],
+    src_plane: usize,
+    dy: i64,
+    dz: i64,
+) -> impl Iterator<Item = (std::ops::Range<usize>, usize)> {
+    let zs = range(e[2], ep[2], dz);
+    let ys = if zs.is_empty() {
+        0..0
+    } else {
+        range(e[1], ep[1], dy)
+    };
+    ys.map(move |iy| {
+        let iyr = (iy as i64 + dy) as usize;
+        let first = (src_plane as i64 + (iyr * ep[2]) as i64 + zs.start as i64 + dz) as usize;
+        (iy * e[2] + zs.start..iy * e[2] + zs.end, first)
+    })
+}
+
 /// `line[idx.start + k] += w_k · xs[k]` for `k` over `idx`, where `w_k` is the constant
 /// weight or the varying weight of row `wrow + k` of `b`.
 #[inline]

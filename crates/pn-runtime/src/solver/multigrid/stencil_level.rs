@@ -22,7 +22,7 @@
 //! [`MAX_PADDING`] are left to the compact CSR ([`StencilLevel::from_csr`] returns `None`).
 
 use super::Geometry;
-use crate::matfree::{for_planes_across, range};
+use crate::matfree::{for_planes_across, range, shifted_lines};
 use rayon::prelude::*;
 use sprs::CsMat;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -248,16 +248,8 @@ impl StencilLevel {
                     .for_each(|((o, &w), &x)| *o += w as f64 * x);
                 continue;
             }
-            let zs = range(e[2], ep[2], dz);
-            if zs.is_empty() {
-                continue;
-            }
-            for iy in ys {
-                let iyr = (iy as i64 + dy) as usize;
-                let first =
-                    (src_plane as i64 + (iyr * ep[2]) as i64 + zs.start as i64 + dz) as usize;
-                let xs = &x[first..first + zs.len()];
-                let at = iy * e[2] + zs.start..iy * e[2] + zs.end;
+            for (at, first) in shifted_lines(e, ep, src_plane, dy, dz) {
+                let xs = &x[first..first + at.len()];
                 out[at.clone()]
                     .iter_mut()
                     .zip(&wk[at])

@@ -25,7 +25,7 @@ mod interior;
 
 use super::block_mat::BlockMat;
 use crate::linalg::Real;
-use crate::matfree::{for_planes_across, range};
+use crate::matfree::{for_planes_across, range, shifted_lines};
 use crate::solver::multigrid::Geometry;
 use rayon::prelude::*;
 use std::sync::Mutex;
@@ -370,16 +370,9 @@ fn stencil_slab<T: Real>(
         let ep = m.ext[t.moment];
         let [_, dy, dz] = t.delta;
         let w = T::of(t.weight);
-        let zs = range(e[2], ep[2], dz);
-        if zs.is_empty() {
-            continue;
-        }
-        for iy in range(e[1], ep[1], dy) {
-            let iyr = (iy as i64 + dy) as usize;
-            let first = (plane as i64 + (iyr * ep[2]) as i64 + zs.start as i64 + dz) as usize;
-            let xs = &src[first..first + zs.len()];
-            let line = &mut out[iy * e[2] + zs.start..iy * e[2] + zs.end];
-            line.iter_mut().zip(xs).for_each(|(o, &x)| *o += w * x);
+        for (at, first) in shifted_lines(e, ep, plane, dy, dz) {
+            let xs = &src[first..first + at.len()];
+            out[at].iter_mut().zip(xs).for_each(|(o, &x)| *o += w * x);
         }
     }
 }

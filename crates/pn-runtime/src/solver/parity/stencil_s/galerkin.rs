@@ -23,7 +23,7 @@
 
 use super::interior::{CoarseMaps, LaneScratch, MapScratch, LANES};
 use super::{Moments, StencilBlock, StencilReduced, Term};
-use crate::matfree::range;
+use crate::matfree::shifted_lines;
 use crate::solver::multigrid::aggregate::Aggregation;
 use crate::solver::multigrid::galerkin::build_rows_with;
 use crate::solver::multigrid::stencil_level::{ClassParts, TermIndex};
@@ -229,21 +229,14 @@ impl StencilReduced {
                 let ep = m.ext[t.moment];
                 let [dx, dy, dz] = t.delta;
                 let ixr = ix as i64 + dx;
-                let zs = range(e[2], ep[2], dz);
-                if ixr < 0 || ixr >= ep[0] as i64 || zs.is_empty() {
+                if ixr < 0 || ixr >= ep[0] as i64 {
                     continue;
                 }
                 let plane = m.local_off[t.moment] + ixr as usize * ep[1] * ep[2];
                 let tw = t.weight * w;
-                for iy in range(e[1], ep[1], dy) {
-                    let iyr = (iy as i64 + dy) as usize;
-                    let first =
-                        (plane as i64 + (iyr * ep[2]) as i64 + zs.start as i64 + dz) as usize;
-                    let ds = &d_o[first..first + zs.len()];
-                    out[iy * e[2] + zs.start..iy * e[2] + zs.end]
-                        .iter_mut()
-                        .zip(ds)
-                        .for_each(|(o, &d)| *o -= tw / d);
+                for (at, first) in shifted_lines(e, ep, plane, dy, dz) {
+                    let ds = &d_o[first..first + at.len()];
+                    out[at].iter_mut().zip(ds).for_each(|(o, &d)| *o -= tw / d);
                 }
             }
         });
