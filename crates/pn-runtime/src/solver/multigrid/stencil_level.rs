@@ -32,6 +32,9 @@ use std::sync::atomic::{AtomicBool, Ordering};
 /// two; three leaves room for the staggered grids' half-cell offsets.
 pub const REACH: i64 = 3;
 
+/// Values per parallel task when weights are rounded to `f32`.
+const CONVERT_CHUNK: usize = 1 << 14;
+
 /// Width of the shift table per axis.
 const SPAN: usize = (2 * REACH + 1) as usize;
 
@@ -71,8 +74,10 @@ impl ClassBlock {
 
     /// Sets to zero the weights whose reference lies outside its source box (`ext`: the
     /// boxes of all blocks), so that [`StencilLevel::galerkin_level`] may sum weights
-    /// without testing each reference. The products, [`StencilLevel::for_row`] and the CSR
+    /// without testing each reference and a product may run over a whole plane of lines
+    /// without cutting them at the box's ends. [`StencilLevel::for_row`] and the CSR
     /// Galerkin product skip such references in any case, so the operator is unchanged.
+    /// Every level holds no other (the tests check it for each way a level is built).
     fn zero_outside(&mut self, ext: &[[usize; 3]]) {
         let (e, plane, kn) = (self.ext, self.plane(), self.terms.len());
         for (k, t) in self.terms.iter().enumerate() {
@@ -236,14 +241,26 @@ impl StencilLevel {
             if ys.is_empty() {
                 continue;
             }
-            if dz == 0 && ep[2] == e[2] {
-                // Same z positions: the y-lines are one contiguous run.
-                let (lo, len) = (ys.start * e[2], ys.len() * e[2]);
-                let first = src_plane + (ys.start as i64 + dy) as usize * e[2];
-                let xs = &x[first..first + len];
-                out[lo..lo + len]
+            if ep[2] == e[2] {
+                // Lines of equal length: the y-lines are one contiguous run from the first
+                // in-box reference to the last. The rows in between whose reference leaves
+                // the box along z (at the ends of the lines) have zero weights (the level's
+                // invariant, see `ClassBlock::zero_outside`) and read a source value inside
+                // the source plane, so they add nothing.
+                let zs = range(e[2], ep[2], dz);
+                if zs.is_empty() {
+                    continue;
+                }
+                let lo = ys.start * e[2] + zs.start;
+                let hi = (ys.end - 1) * e[2] + zs.end;
+                let first = (src_plane as i64
+                    + (ys.start as i64 + dy) * e[2] as i64
+                    + zs.start as i64
+                    + dz) as usize;
+                let xs = &x[first..first + (hi - lo)];
+                out[lo..hi]
                     .iter_mut()
-                    .zip(&wk[lo..lo + len])
+                    .zip(&wk[lo..hi])
                     .zip(xs)
                     .for_each(|((o, &w), &x)| *o += w as f64 * x);
                 continue;
@@ -285,20 +302,22 @@ impl ClassParts {
 /// measures it on a CSR matrix: `|a_ij − a_ji| / (max_k |a_ik| + max_k |a_jk|)` of some
 /// entry where it exceeds `tol`, or 0 when every entry is within `tol`.
 pub fn parts_asymmetry(parts: &[ClassParts], tol: f64) -> f64 {
-    // Row scales, per class in row order.
+    // Row scales (largest |weight|), per class in row order, plane by plane: each term's
+    // weights of a plane are contiguous.
     let scale: Vec<Vec<f64>> = parts
         .iter()
         .map(|c| {
             let (plane, kn) = (c.plane(), c.terms.len());
-            (0..c.ext.iter().product::<usize>())
-                .into_par_iter()
-                .map(|r| {
-                    let (ix, i) = (r / plane, r % plane);
-                    (0..kn).fold(0.0f64, |m, k| {
-                        m.max(c.weights[(ix * kn + k) * plane + i].abs())
-                    })
-                })
-                .collect()
+            let mut s = vec![0.0f64; c.ext.iter().product::<usize>()];
+            s.par_chunks_mut(plane).enumerate().for_each(|(ix, out)| {
+                for k in 0..kn {
+                    let wk = &c.weights[(ix * kn + k) * plane..(ix * kn + k + 1) * plane];
+                    out.iter_mut()
+                        .zip(wk)
+                        .for_each(|(m, &w)| *m = m.max(w.abs()));
+                }
+            });
+            s
         })
         .collect();
     // The transposed term of each term: (block, index in the block's terms).
@@ -359,14 +378,25 @@ impl StencilLevel {
                 if c.terms.iter().any(|t| t.1.iter().any(|v| v.abs() > REACH)) {
                     return None;
                 }
-                let weights: Vec<f32> = c
-                    .weights
-                    .par_iter()
-                    .map(|&v| {
-                        let w = v as f32;
-                        (w.is_finite() && (w != 0.0 || v == 0.0)).then_some(w)
-                    })
-                    .collect::<Option<_>>()?;
+                // Into a buffer of known length (an indexed pass: collecting into an
+                // `Option<Vec<_>>` in parallel goes through per-task lists).
+                let mut weights = vec![0.0f32; c.weights.len()];
+                let fits = AtomicBool::new(true);
+                weights
+                    .par_chunks_mut(CONVERT_CHUNK)
+                    .zip(c.weights.par_chunks(CONVERT_CHUNK))
+                    .for_each(|(out, from)| {
+                        for (o, &v) in out.iter_mut().zip(from) {
+                            let w = v as f32;
+                            if !(w.is_finite() && (w != 0.0 || v == 0.0)) {
+                                fits.store(false, Ordering::Relaxed);
+                            }
+                            *o = w;
+                        }
+                    });
+                if !fits.into_inner() {
+                    return None;
+                }
                 Some(ClassBlock {
                     start: c.start,
                     ext: c.ext,
