@@ -94,13 +94,25 @@ struct Rows<'a> {
 impl<'a> Rows<'a> {
     /// The rows of `block`, which has `n_rows` rows.
     fn new(block: &'a StencilBlock, m: &'a Moments, n_rows: usize) -> Self {
+        // `fix_ptr[r]`: the corrections of the rows before `r` (they are sorted by row),
+        // stepped chunk by chunk in parallel from a search for each chunk's first row.
+        const ROWS: usize = 8192;
+        let fix_rows = &block.fix_rows;
+        debug_assert!(fix_rows.windows(2).all(|w| w[0] <= w[1]));
         let mut fix_ptr = vec![0u32; n_rows + 1];
-        for &r in &block.fix_rows {
-            fix_ptr[r as usize + 1] += 1;
-        }
-        for r in 0..n_rows {
-            fix_ptr[r + 1] += fix_ptr[r];
-        }
+        fix_ptr
+            .par_chunks_mut(ROWS)
+            .enumerate()
+            .for_each(|(c, out)| {
+                let r0 = c * ROWS;
+                let mut p = fix_rows.partition_point(|&x| (x as usize) < r0);
+                for (r, o) in (r0..).zip(out) {
+                    while p < fix_rows.len() && (fix_rows[p] as usize) < r {
+                        p += 1;
+                    }
+                    *o = p as u32;
+                }
+            });
         let interior = block
             .terms
             .iter()
@@ -249,17 +261,27 @@ impl StencilReduced {
             .map(|&i| {
                 let (q, pos) = m.locate(&kept, i);
                 let mut s = d_e[i];
-                b_rows.for_row(q, pos, i, |k, place, bw| {
-                    let (r, pk) = place.unwrap_or_else(|| m.locate(&elim, k));
-                    let delta = [0, 1, 2].map(|d| pos[d] - pk[d]);
-                    let mut cw = weight_of(&c.terms[r], q, delta);
-                    for f in c_rows.fix_ptr[k] as usize..c_rows.fix_ptr[k + 1] as usize {
-                        if c.fix_cols[f] as usize == i {
-                            cw += c.fix_vals[f];
-                        }
+                // `C̃_ki`: the stencil's weight back (`back`, or found for a correction's
+                // column) plus the corrections of row `k` in column `i`.
+                let c_back = |k: usize, stencil_weight: f64| {
+                    let fixes = c_rows.fix_ptr[k] as usize..c_rows.fix_ptr[k + 1] as usize;
+                    fixes
+                        .filter(|&f| c.fix_cols[f] as usize == i)
+                        .fold(stencil_weight, |cw, f| cw + c.fix_vals[f])
+                };
+                // The row's entries in `Rows::for_row`'s order: the stencil terms inside the
+                // grid (each with its `C` weight back from `back`), then the corrections.
+                for (t, &w) in b.terms[q].iter().zip(&back[q]) {
+                    if let Some(k) = m.index(t.moment, add(pos, t.delta)) {
+                        s -= t.weight * c_back(k, w) / d_o[k];
                     }
-                    s -= bw * cw / d_o[k];
-                });
+                }
+                for f in b_rows.fix_ptr[i] as usize..b_rows.fix_ptr[i + 1] as usize {
+                    let k = b.fix_cols[f] as usize;
+                    let (r, pk) = m.locate(&elim, k);
+                    let delta = [0, 1, 2].map(|d| pos[d] - pk[d]);
+                    s -= b.fix_vals[f] * c_back(k, weight_of(&c.terms[r], q, delta)) / d_o[k];
+                }
                 s
             })
             .collect();
@@ -447,6 +469,24 @@ impl StencilReduced {
             // Term index by (column moment, shift) for the corrections' columns.
             let index = TermIndex::new(m.ext.len(), terms.iter().copied())?;
             let mut weights = vec![0.0f64; kn * cext.iter().product::<usize>()];
+            // The corrections of coarse row `i` of a plane `w` (at coarse position `ci`,
+            // aggregate `members`, corrected slots `corrected`: as in `coarse`), each added
+            // to its column's term.
+            let correct = |w: &mut [f64],
+                           i: usize,
+                           ci: [i64; 3],
+                           members: &[u32],
+                           corrected: &[(usize, f64)]| {
+                fixes.products(members, corrected, |j, v| {
+                    let j = ag.agg[j] as usize;
+                    let (p, pj) = (ag.coarse.class[j] as usize, ag.coarse.coords[j]);
+                    let delta = [0, 1, 2].map(|d| pj[d] as i64 - ci[d]);
+                    match index.get(p, delta) {
+                        Some(k) => w[k * plane + i] += v,
+                        None => failed.store(true, Ordering::Relaxed),
+                    }
+                });
+            };
             weights
                 .par_chunks_mut((kn * plane).max(1))
                 .enumerate()
@@ -458,30 +498,30 @@ impl StencilReduced {
                             let ci = [ix as i64, (i / cext[2]) as i64, (i % cext[2]) as i64];
                             let corner: [i64; 3] = std::array::from_fn(|d| f[d] * ci[d]);
                             let row = start + ix * plane + i;
-                            // LANES rows along z at once where they share a map and no
-                            // correction touches them.
+                            // LANES rows along z at once where they share a map.
                             if i % cext[2] + LANES <= cext[2] {
                                 let members: [&[u32]; LANES] = std::array::from_fn(|l| {
                                     &ag.members[ag.ptr[row + l]..ag.ptr[row + l + 1]]
                                 });
-                                let plain = members.iter().all(|mem| fixes.plain(mem));
-                                if plain
-                                    && maps.emit_lanes(
-                                        m,
-                                        d_e,
-                                        d_o,
-                                        q,
-                                        corner,
-                                        members,
-                                        lanes,
-                                        |k, v| {
-                                            w[k * plane + i..k * plane + i + LANES]
-                                                .iter_mut()
-                                                .zip(v)
-                                                .for_each(|(o, v)| *o += v);
-                                        },
-                                    )
-                                {
+                                if maps.emit_lanes(
+                                    m,
+                                    d_e,
+                                    d_o,
+                                    q,
+                                    corner,
+                                    members,
+                                    lanes,
+                                    |k, v| {
+                                        w[k * plane + i..k * plane + i + LANES]
+                                            .iter_mut()
+                                            .zip(v)
+                                            .for_each(|(o, v)| *o += v);
+                                    },
+                                ) {
+                                    for (l, mem) in members.iter().enumerate() {
+                                        let cl = [ci[0], ci[1], ci[2] + l as i64];
+                                        correct(w, i + l, cl, mem, &lanes.corrected[l]);
+                                    }
                                     i += LANES;
                                     continue;
                                 }
@@ -495,17 +535,7 @@ impl StencilReduced {
                             maps.emit_class_terms(&prepared, d_e, scr, |k, v| {
                                 w[k * plane + i] += v;
                             });
-                            // The corrections (as in `coarse`), each to its column's term.
-                            let mut add = |j: u32, v: f64| {
-                                let j = j as usize;
-                                let (p, pj) = (ag.coarse.class[j] as usize, ag.coarse.coords[j]);
-                                let delta = [0, 1, 2].map(|d| pj[d] as i64 - ci[d]);
-                                match index.get(p, delta) {
-                                    Some(k) => w[k * plane + i] += v,
-                                    None => failed.store(true, Ordering::Relaxed),
-                                }
-                            };
-                            fixes.products(members, &scr.corrected, |j, v| add(ag.agg[j], v));
+                            correct(w, i, ci, members, &scr.corrected);
                             i += 1;
                         }
                     },

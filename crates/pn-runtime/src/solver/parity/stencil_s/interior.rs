@@ -313,10 +313,12 @@ impl CoarseMaps {
     /// The stencil parts of [`LANES`] rows of kept moment `q` that follow each other along
     /// z, the first with its first child at `corner` and aggregate `members[0]`: calls
     /// `add(term, values)` (`term` indexing [`CoarseMaps::terms`], one value per row) and
-    /// returns `true` when the rows share one position map and none reaches a `C`
-    /// correction; else returns `false`, adding nothing (the caller takes the rows one by
-    /// one). The multiply-adds of the rows run side by side: the same `γ` times `1 / D_o`
-    /// `f_z` positions apart.
+    /// returns `true` when the rows share one position map, listing in
+    /// `scratch.corrected[l]` the slots of row `l` with `C` corrections (as
+    /// [`CoarseMaps::prepare`] does for one row: the caller adds the corrections); else
+    /// returns `false`, adding nothing (the caller takes the rows one by one). The
+    /// multiply-adds of the rows run side by side: the same `γ` times `1 / D_o` `f_z`
+    /// positions apart.
     #[allow(clippy::too_many_arguments)]
     pub(super) fn emit_lanes(
         &self,
@@ -345,16 +347,21 @@ impl CoarseMaps {
                 _ => return false,
             }
         }
-        let LaneScratch { inv, base } = scratch;
+        let LaneScratch {
+            inv,
+            base,
+            corrected,
+        } = scratch;
         Self::slot_bases(m, mm, corner, base);
         inv.clear();
-        for (&r, &o) in map.slot_moment.iter().zip(&map.slot_offset) {
+        corrected.iter_mut().for_each(Vec::clear);
+        for (s, (&r, &o)) in map.slot_moment.iter().zip(&map.slot_offset).enumerate() {
             let k = (base[r as usize] + o) as usize;
             let mut v = [0.0; LANES];
             for (l, v) in v.iter_mut().enumerate() {
                 let kl = k + fz * l;
                 if self.fixed_c[kl] {
-                    return false;
+                    corrected[l].push((kl, map.slot_beta[s]));
                 }
                 *v = 1.0 / d_o[kl];
             }
@@ -385,6 +392,8 @@ impl CoarseMaps {
 pub(super) struct LaneScratch {
     inv: Vec<[f64; LANES]>,
     base: Vec<i64>,
+    /// Each row's slots with `C` corrections: odd-local index and `β`.
+    pub(super) corrected: [Vec<(usize, f64)>; LANES],
 }
 
 /// A coarse row prepared by [`CoarseMaps::prepare`].
