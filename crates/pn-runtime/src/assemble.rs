@@ -138,6 +138,18 @@ pub(crate) fn assemble_chunk(
     robin: Option<&RobinFaces<'_>>,
     rows: std::ops::Range<usize>,
 ) -> anyhow::Result<Chunk> {
+    assemble_rows(problem, kernel, layout, marshak, robin, rows)
+}
+
+/// [`assemble_chunk`] for any rows, in the order given (the chunk's rows follow that order).
+pub(crate) fn assemble_rows(
+    problem: &Problem,
+    kernel: &dyn StencilKernel,
+    layout: &Layout,
+    marshak: Option<&MarshakRows>,
+    robin: Option<&RobinFaces<'_>>,
+    rows: impl ExactSizeIterator<Item = usize>,
+) -> anyhow::Result<Chunk> {
     let len = rows.len();
     let mut out = Chunk {
         row_nnz: Vec::with_capacity(len),

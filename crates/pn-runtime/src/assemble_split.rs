@@ -11,14 +11,14 @@
 //! removes entries, and a Marshak face row counts with its own length), so they are never reallocated; each block of rows is copied into them in
 //! parallel.
 
-use crate::assemble::{assemble_chunk, check_kernel, face_closures, Chunk, CHUNK};
+use crate::assemble::{assemble_chunk, assemble_rows, check_kernel, face_closures, Chunk, CHUNK};
 use crate::context::RowContext;
 use crate::layout::Layout;
 use crate::marshak::MarshakRows;
 use crate::problem::Problem;
 use crate::solver::parity::split::{classes, BlockMat, Classes, ParityError, Split};
 use crate::solver::pn_layout::{retained_mask, Retained};
-use pn_stencil::StencilKernel;
+use pn_stencil::{StencilKernel, TermPattern};
 use rayon::prelude::*;
 
 /// Rows assembled before they are split and appended (about 3.4 M entries, ~100 MB of
@@ -159,7 +159,7 @@ pub fn assemble_split_retaining(
                     None,
                     rows.clone(),
                 )?;
-                Ok(split_chunk(&chunk, rows.start, &even, &local))
+                Ok(split_chunk(&chunk, rows, &even, &local))
             })
             .collect::<anyhow::Result<_>>()?;
         let t1 = std::time::Instant::now();
@@ -252,12 +252,10 @@ pub fn assemble_split_stencil(
     })
 }
 
-/// What one chunk of rows leaves in the stencil assembly.
+/// What one chunk of rows leaves in the stencil assembly besides its diagonals and
+/// right-hand sides ([`RowOut`]).
 #[derive(Default)]
 struct StencilChunk {
-    d_e: Vec<f64>,
-    d_o: Vec<f64>,
-    rhs: Vec<f64>,
     b_fixes: Vec<(u32, u32, f64)>,
     c_fixes: Vec<(u32, u32, f64)>,
     b_nnz: usize,
@@ -266,15 +264,29 @@ struct StencilChunk {
     max_entry: f64,
 }
 
-impl StencilChunk {
-    /// Appends a row's diagonal and right-hand side (to `d_o` when `eliminated`).
-    fn push_row(&mut self, diag: f64, rhs: f64, eliminated: bool) {
+/// Where one chunk of rows writes its diagonals and right-hand sides: its ranges of the
+/// system's `D_e`, `D_o` and right-hand side (no per-chunk vectors to gather afterwards).
+struct RowOut<'a> {
+    d_e: &'a mut [f64],
+    d_o: &'a mut [f64],
+    rhs: &'a mut [f64],
+    /// The chunk's first row, and its first kept and first eliminated unknowns' indices
+    /// within their classes.
+    first: usize,
+    first_kept: usize,
+    first_eliminated: usize,
+}
+
+impl RowOut<'_> {
+    /// Writes row `g`'s diagonal (at its index `local` in `D_o` when `eliminated`, else in
+    /// `D_e`) and right-hand side.
+    fn set(&mut self, g: usize, local: u32, eliminated: bool, diag: f64, rhs: f64) {
         if eliminated {
-            self.d_o.push(diag);
+            self.d_o[local as usize - self.first_eliminated] = diag;
         } else {
-            self.d_e.push(diag);
+            self.d_e[local as usize - self.first_kept] = diag;
         }
-        self.rhs.push(rhs);
+        self.rhs[g - self.first] = rhs;
     }
 }
 
@@ -301,11 +313,54 @@ enum FastRow {
 struct FastRows<'a> {
     /// Per moment: the box of positions whose terms all lie inside the grid, `[lo, hi)`.
     boxes: Vec<([usize; 3], [usize; 3])>,
-    /// Per moment: the reference row's weights (empty: no fast path for the moment).
-    reference: Vec<Vec<f64>>,
-    /// Per moment: which pattern terms are the centred term of the row's own moment.
-    centre: Vec<Vec<bool>>,
+    /// Per moment: the reference row (its weights empty: no fast path for the moment).
+    reference: Vec<ReferenceRow>,
     marshak: Option<&'a MarshakRows>,
+}
+
+/// A moment's reference row for [`FastRows`], with what a row equal to it needs.
+struct ReferenceRow {
+    /// The weights, in the pattern's order.
+    weights: Vec<f64>,
+    /// How far each weight of a row may differ from them: `SAME_WEIGHT · |w|`, and `∞`
+    /// for the centred terms of the row's own moment (the diagonal, which varies).
+    tolerance: Vec<f64>,
+    /// The centred terms.
+    centre: Vec<usize>,
+    /// Non-zero weights off the centre (equal weights are non-zero at the same terms),
+    /// and the largest of their magnitudes.
+    off_nonzeros: usize,
+    off_max: f64,
+}
+
+impl ReferenceRow {
+    fn new(pattern: &[TermPattern], q: usize, weights: Vec<f64>) -> Self {
+        use crate::solver::parity::stencil_s::SAME_WEIGHT;
+        let is_centre = |t: &TermPattern| t.moment == q && t.offset == [0, 0, 0];
+        let off = || {
+            pattern
+                .iter()
+                .zip(&weights)
+                .filter(|(t, _)| !is_centre(t))
+                .map(|(_, &w)| w)
+        };
+        Self {
+            tolerance: pattern
+                .iter()
+                .zip(&weights)
+                .map(|(t, &w)| match is_centre(t) {
+                    true => f64::INFINITY,
+                    false => SAME_WEIGHT * w.abs(),
+                })
+                .collect(),
+            centre: (0..pattern.len())
+                .filter(|&k| is_centre(&pattern[k]))
+                .collect(),
+            off_nonzeros: off().filter(|&w| w != 0.0).count(),
+            off_max: off().fold(0.0f64, |m, w| m.max(w.abs())),
+            weights,
+        }
+    }
 }
 
 impl<'a> FastRows<'a> {
@@ -316,7 +371,7 @@ impl<'a> FastRows<'a> {
         marshak: Option<&'a MarshakRows>,
     ) -> Self {
         let nm = layout.moments.len();
-        let (mut boxes, mut reference, mut centre) = (Vec::new(), Vec::new(), Vec::new());
+        let (mut boxes, mut reference) = (Vec::new(), Vec::new());
         let mut ctx = RowContext::new(problem, [0; 3]);
         for q in 0..nm {
             let e = layout.extents[q];
@@ -356,26 +411,20 @@ impl<'a> FastRows<'a> {
                 w.clear();
             }
             boxes.push(bx);
-            reference.push(w);
-            centre.push(
-                pattern
-                    .iter()
-                    .map(|t| t.moment == q && t.offset == [0, 0, 0])
-                    .collect(),
-            );
+            reference.push(ReferenceRow::new(pattern, q, w));
         }
         Self {
             boxes,
             reference,
-            centre,
             marshak,
         }
     }
 
     /// Takes row `g` (at moment `q`, position `idx`: [`Layout::positions_from`]) if it can
-    /// (see [`FastRows`]), adding its entry counts and largest entry
-    /// to `out` (the caller appends its diagonal and right-hand side, after any rows before
-    /// it that had to be assembled).
+    /// (see [`FastRows`]), adding its entry counts and largest entry to `out` (the caller
+    /// writes its diagonal and right-hand side). The largest entry off the diagonal is the
+    /// reference row's (equal to the row's to [`SAME_WEIGHT`](crate::solver::parity::stencil_s::SAME_WEIGHT), relatively): it only bounds the
+    /// system's magnitudes.
     #[allow(clippy::too_many_arguments)]
     fn row(
         &self,
@@ -387,10 +436,9 @@ impl<'a> FastRows<'a> {
         eliminated: bool,
         out: &mut StencilChunk,
     ) -> FastRow {
-        use crate::solver::parity::stencil_s::SAME_WEIGHT;
         let reference = &self.reference[q];
         let (lo, hi) = self.boxes[q];
-        if reference.is_empty()
+        if reference.weights.is_empty()
             || (0..3).any(|d| idx[d] < lo[d] || idx[d] >= hi[d])
             || self.marshak.is_some_and(|m| m.face_of(q, idx).is_some())
         {
@@ -398,27 +446,28 @@ impl<'a> FastRows<'a> {
         }
         ctx.set_row(layout.half_coord(q, idx));
         weights.clear();
-        weights.resize(reference.len(), 0.0);
+        weights.resize(reference.weights.len(), 0.0);
         let rhs = kernel.eval_row(q, ctx, weights);
-        if ctx.take_error().is_some() || !rhs.is_finite() || weights.iter().any(|w| !w.is_finite())
-        {
-            // The assembly of the row reports the error with its position.
+        // Every weight off the centre within its tolerance (a NaN or infinite one is not),
+        // tested without branching; the centre's through the diagonal's finiteness.
+        let differs = weights
+            .iter()
+            .zip(&reference.weights)
+            .zip(&reference.tolerance)
+            .fold(false, |d, ((&w, &r), &tol)| {
+                let within = (w - r).abs() <= tol;
+                d | !within
+            });
+        let diag = reference.centre.iter().fold(0.0, |s, &k| s + weights[k]);
+        if differs || !diag.is_finite() || !rhs.is_finite() || ctx.take_error().is_some() {
+            // The assembly of the row reports an error with its position.
             return FastRow::NotTaken;
         }
-        let centre = &self.centre[q];
-        let (mut diag, mut has_diag, mut off, mut max) = (0.0, false, 0usize, 0.0f64);
-        for ((&w, &r), &c) in weights.iter().zip(reference).zip(centre) {
-            if c {
-                diag += w;
-                has_diag = true;
-            } else {
-                if (w - r).abs() > SAME_WEIGHT * r.abs() {
-                    return FastRow::NotTaken;
-                }
-                off += usize::from(w != 0.0);
-                max = max.max(w.abs());
-            }
-        }
+        let (has_diag, off, max) = (
+            !reference.centre.is_empty(),
+            reference.off_nonzeros,
+            reference.off_max,
+        );
         if eliminated && (diag == 0.0 || !diag.is_finite()) {
             return FastRow::Singular(ParityError::SingularOddDiagonal {
                 row: g,
@@ -473,19 +522,18 @@ fn assemble_stencil_retaining(
         let (q, idx) = layout.locate(g);
         (q, idx.map(|v| v as i64))
     };
-    // One split row: its local entries, `C` (not `C̃`) for an eliminated row.
-    let split_rows =
-        |rows: std::ops::Range<usize>| -> anyhow::Result<Result<SplitChunk, ParityError>> {
-            let chunk = assemble_chunk(
-                problem,
-                kernel,
-                layout,
-                marshak.as_ref(),
-                None,
-                rows.clone(),
-            )?;
-            Ok(split_chunk(&chunk, rows.start, &even, &local))
-        };
+    // Split rows: their local entries, `C` (not `C̃`) for an eliminated row.
+    let split_rows = |rows: &[usize]| -> anyhow::Result<Result<SplitChunk, ParityError>> {
+        let chunk = assemble_rows(
+            problem,
+            kernel,
+            layout,
+            marshak.as_ref(),
+            None,
+            rows.iter().copied(),
+        )?;
+        Ok(split_chunk(&chunk, rows.iter().copied(), &even, &local))
+    };
     // Each moment's stencil from its row nearest the middle of its grid.
     let mut mid = Vec::with_capacity(layout.moments.len());
     for (q, &kept_q) in kept.iter().enumerate() {
@@ -495,7 +543,7 @@ fn assemble_stencil_retaining(
             continue;
         }
         let g = layout.index(q, e.map(|v| v / 2));
-        let sc = match split_rows(g..g + 1)? {
+        let sc = match split_rows(&[g])? {
             Ok(sc) => sc,
             Err(e) => return Ok(Err(e)),
         };
@@ -518,23 +566,51 @@ fn assemble_stencil_retaining(
     let b_terms = stencil_terms(&m, true, |q| mid[q].clone());
     let c_terms = stencil_terms(&m, false, |q| mid[q].clone());
     let fast = FastRows::new(problem, kernel, layout, marshak.as_ref());
-    let chunks: Vec<Result<StencilChunk, ParityError>> = (0..n)
-        .step_by(CHUNK)
-        .collect::<Vec<_>>()
+    // Each chunk's share of the outputs: its rows of the right-hand side, and of `D_e` and
+    // `D_o` from the kept rows before it (`local` counts the rows of a row's class before it).
+    let (ne, no) = (ev.len(), od.len());
+    let (mut d_e, mut d_o, mut rhs) = (vec![0.0; ne], vec![0.0; no], vec![0.0; n]);
+    let kept_before = |r: usize| match r {
+        r if r >= n => ne,
+        r if even[r] => local[r] as usize,
+        r => r - local[r] as usize,
+    };
+    let mut shares = Vec::with_capacity(n.div_ceil(CHUNK));
+    let (mut de, mut dd, mut rh) = (&mut d_e[..], &mut d_o[..], &mut rhs[..]);
+    for r0 in (0..n).step_by(CHUNK) {
+        let r1 = (r0 + CHUNK).min(n);
+        let kept = kept_before(r1) - kept_before(r0);
+        let (e, rest) = std::mem::take(&mut de).split_at_mut(kept);
+        de = rest;
+        let (o, rest) = std::mem::take(&mut dd).split_at_mut(r1 - r0 - kept);
+        dd = rest;
+        let (r, rest) = std::mem::take(&mut rh).split_at_mut(r1 - r0);
+        rh = rest;
+        let out = RowOut {
+            d_e: e,
+            d_o: o,
+            rhs: r,
+            first: r0,
+            first_kept: kept_before(r0),
+            first_eliminated: r0 - kept_before(r0),
+        };
+        shares.push((r0, out));
+    }
+    let chunks: Vec<Result<StencilChunk, ParityError>> = shares
         .into_par_iter()
-        .map(|r0| {
+        .map(|(r0, mut w)| {
             let rows = r0..(r0 + CHUNK).min(n);
             let mut out = StencilChunk::default();
             let mut implied = Vec::new();
             // The rows the fast path cannot take are assembled, split and compared with
-            // their stencil as a run (`slow`).
-            let mut slow = |run: std::ops::Range<usize>, out: &mut StencilChunk| {
-                let sc = match split_rows(run.clone())? {
+            // their stencil together, in row order (`slow`).
+            let mut slow = |run: &[usize], out: &mut StencilChunk, w: &mut RowOut<'_>| {
+                let sc = match split_rows(run)? {
                     Ok(sc) => sc,
                     Err(e) => return Ok(Err(e)),
                 };
                 let (mut bp, mut cp, mut bk, mut ck) = (0usize, 0usize, 0usize, 0usize);
-                for g in run {
+                for (&g, &rhs) in run.iter().zip(&sc.rhs) {
                     let (q, ri) = pos(g);
                     let r = local[g] as usize;
                     if even[g] {
@@ -550,6 +626,7 @@ fn assemble_stencil_retaining(
                             &mut implied,
                             &mut out.b_fixes,
                         );
+                        w.set(g, local[g], false, sc.d_e[bk], rhs);
                         bp += len;
                         bk += 1;
                     } else {
@@ -569,22 +646,20 @@ fn assemble_stencil_retaining(
                             &mut implied,
                             &mut out.c_fixes,
                         );
+                        w.set(g, local[g], true, d, rhs);
                         cp += len;
                         ck += 1;
                     }
                 }
                 out.b_nnz += sc.b_cols.len();
                 out.c_nnz += sc.c_cols.len();
-                out.d_e.extend_from_slice(&sc.d_e);
-                out.d_o.extend_from_slice(&sc.d_o);
-                out.rhs.extend_from_slice(&sc.rhs);
                 out.diag_entries += sc.diag_entries;
                 out.max_entry = out.max_entry.max(sc.max_entry);
                 anyhow::Ok(Ok(()))
             };
             let mut ctx = RowContext::new(problem, [0; 3]);
             let mut weights = Vec::new();
-            let mut pending = rows.start..rows.start;
+            let mut slow_rows = Vec::new();
             for (g, at) in rows.clone().zip(layout.positions_from(rows.start)) {
                 let eliminated = !even[g];
                 match fast.row(
@@ -596,22 +671,15 @@ fn assemble_stencil_retaining(
                     eliminated,
                     &mut out,
                 ) {
-                    FastRow::Taken { diag, rhs } => {
-                        // Keep the rows in order: the run before this row goes first.
-                        if !pending.is_empty() {
-                            if let Err(e) = slow(pending.clone(), &mut out)? {
-                                return Ok(Err(e));
-                            }
-                        }
-                        out.push_row(diag, rhs, eliminated);
-                        pending = g + 1..g + 1;
-                    }
+                    FastRow::Taken { diag, rhs } => w.set(g, local[g], eliminated, diag, rhs),
                     FastRow::Singular(e) => return Ok(Err(e)),
-                    FastRow::NotTaken => pending.end = g + 1,
+                    FastRow::NotTaken => slow_rows.push(g),
                 }
             }
-            if !pending.is_empty() {
-                if let Err(e) = slow(pending, &mut out)? {
+            // One assembly for all of them: the rows with corrections come in row order,
+            // so the corrections stay sorted by row.
+            if !slow_rows.is_empty() {
+                if let Err(e) = slow(&slow_rows, &mut out, &mut w)? {
                     return Ok(Err(e));
                 }
             }
@@ -633,17 +701,9 @@ fn assemble_stencil_retaining(
     {
         return assemble_split_retaining(problem, kernel, layout, retained);
     }
-    let (mut d_e, mut d_o, mut rhs) = (
-        Vec::with_capacity(ev.len()),
-        Vec::with_capacity(od.len()),
-        Vec::with_capacity(n),
-    );
     let (mut max_entry, mut diag_entries) = (0.0f64, 0usize);
     let (mut b_chunks, mut c_chunks) = (Vec::new(), Vec::new());
     for c in chunks {
-        d_e.extend_from_slice(&c.d_e);
-        d_o.extend_from_slice(&c.d_o);
-        rhs.extend_from_slice(&c.rhs);
         max_entry = max_entry.max(c.max_entry);
         diag_entries += c.diag_entries;
         b_chunks.push(c.b_fixes);
@@ -655,15 +715,15 @@ fn assemble_stencil_retaining(
         StencilBlock::from_fixes(c_terms, c_chunks),
         od.len(),
     );
-    let (ne, no) = (ev.len(), od.len());
     Ok(Ok(SplitSystem {
         split: Split {
             even: ev,
             odd: od,
             d_e,
             d_o,
-            b: BlockMat::new((ne, no), vec![0; ne + 1], Vec::new(), Vec::new()),
-            c_scaled: BlockMat::new((no, ne), vec![0; no + 1], Vec::new(), Vec::new()),
+            // Empty blocks, never read (their row pointers are zero pages until touched).
+            b: BlockMat::zero((ne, no)),
+            c_scaled: BlockMat::zero((no, ne)),
             nnz_a: b_nnz + c_nnz + diag_entries,
             stencil: Some(std::sync::Arc::new(stencil)),
         },
@@ -728,12 +788,12 @@ fn extend_indptr(ptr: &mut Vec<usize>, row_nnz: &[usize]) {
     }));
 }
 
-/// Splits the assembled rows `first..` of `chunk` by parity, as
+/// Splits the assembled rows of `chunk` (the global rows `rows`, in its order) by parity, as
 /// [`crate::solver::parity::split::split`] does for a whole matrix (same checks, same
 /// scaling `C̃ = D_o⁻¹ C`).
 fn split_chunk(
     chunk: &Chunk,
-    first: usize,
+    rows: impl Iterator<Item = usize>,
     even: &[bool],
     local: &[u32],
 ) -> Result<SplitChunk, ParityError> {
@@ -751,8 +811,7 @@ fn split_chunk(
         max_entry: 0.0,
     };
     let mut p = 0usize;
-    for (k, &len) in chunk.row_nnz.iter().enumerate() {
-        let row = first + k;
+    for (row, &len) in rows.zip(&chunk.row_nnz) {
         let (cols, vals) = (&chunk.cols[p..p + len], &chunk.vals[p..p + len]);
         p += len;
         let row_even = even[row];

@@ -6,15 +6,23 @@
 //! [`crate::field`]). Invalid coefficients are recorded and reported after the row.
 
 use crate::field::{Point, Sampling};
+use crate::problem::Coefficients;
 use crate::problem::{CoefficientError, Problem, Scattering};
 use pn_stencil::{FieldContext, FieldRef, HalfOffset};
-use std::cell::RefCell;
+use std::cell::{Cell, RefCell};
 
 /// The field context of one row location.
 pub struct RowContext<'a> {
     problem: &'a Problem,
     inv_h: [f64; 3],
+    /// Half a cell per axis, `h / 2` ([`crate::problem::Grid::coord`] as `min + half · h/2`,
+    /// the same value: halving is exact).
+    half_h: [f64; 3],
     row: [i64; 3],
+    /// The coefficients last evaluated for this row, at that offset: a row's σ_t and σ_s
+    /// at one position (its collision weight `σ_t − λ_l σ_s` reads both) come from one
+    /// evaluation.
+    last: Cell<Option<(HalfOffset, Coefficients)>>,
     error: RefCell<Option<CoefficientError>>,
 }
 
@@ -25,7 +33,9 @@ impl<'a> RowContext<'a> {
         Self {
             problem,
             inv_h: [1.0 / g.h(0), 1.0 / g.h(1), 1.0 / g.h(2)],
+            half_h: [0.5 * g.h(0), 0.5 * g.h(1), 0.5 * g.h(2)],
             row,
+            last: Cell::new(None),
             error: RefCell::new(None),
         }
     }
@@ -33,6 +43,20 @@ impl<'a> RowContext<'a> {
     /// Moves the context to another row, clearing nothing but the position.
     pub fn set_row(&mut self, row: [i64; 3]) {
         self.row = row;
+        self.last.set(None);
+    }
+
+    /// The coefficients at `offset` from the row (see [`Problem::coefficients`]), from the
+    /// last evaluation where it was at the same offset.
+    fn coefficients(&self, offset: HalfOffset) -> Result<Coefficients, CoefficientError> {
+        if let Some((at, c)) = self.last.get() {
+            if at == offset {
+                return Ok(c);
+            }
+        }
+        let c = self.problem.coefficients(self.point(offset))?;
+        self.last.set(Some((offset, c)));
+        Ok(c)
     }
 
     /// The first invalid coefficient met since the last call, if any.
@@ -42,8 +66,8 @@ impl<'a> RowContext<'a> {
 
     /// World position of the row plus `offset`.
     pub fn point(&self, offset: HalfOffset) -> Point {
-        let g = &self.problem.grid;
-        [0, 1, 2].map(|d| g.coord(d, self.row[d] + offset[d] as i64))
+        let min = &self.problem.grid.min;
+        std::array::from_fn(|d| min[d] + (self.row[d] + offset[d] as i64) as f64 * self.half_h[d])
     }
 
     fn record<T: Default>(&self, r: Result<T, CoefficientError>) -> T {
@@ -62,17 +86,20 @@ impl<'a> RowContext<'a> {
 
 impl FieldContext for RowContext<'_> {
     fn field(&self, field: &FieldRef, offset: HalfOffset) -> f64 {
-        let p = self.point(offset);
         let pb = self.problem;
         match field {
-            FieldRef::SigmaT => self.record(pb.coefficients(p).map(|c| c.sigma_t)),
-            FieldRef::SigmaS => self.record(pb.coefficients(p).map(|c| c.sigma_s)),
-            FieldRef::SigmaA => self.record(pb.coefficients(p).map(|c| c.sigma_t - c.sigma_s)),
+            FieldRef::SigmaT => self.record(self.coefficients(offset).map(|c| c.sigma_t)),
+            FieldRef::SigmaS => self.record(self.coefficients(offset).map(|c| c.sigma_s)),
+            FieldRef::SigmaA => {
+                self.record(self.coefficients(offset).map(|c| c.sigma_t - c.sigma_s))
+            }
             FieldRef::PhaseMoment(l) => pb.phase.moment(*l),
-            FieldRef::Source { l, m } => self.record(pb.source(*l, *m, p)),
+            FieldRef::Source { l, m } => self.record(pb.source(*l, *m, self.point(offset))),
             // Classical diffusion coefficient D = 1/(3 σ_tr), σ_tr = σ_t − σ_s λ_1 p_1
             // (docs/design.md §2.2).
-            FieldRef::Diffusion => self.record(pb.coefficients(p).map(|c| c.diffusion(&pb.phase))),
+            FieldRef::Diffusion => {
+                self.record(self.coefficients(offset).map(|c| c.diffusion(&pb.phase)))
+            }
         }
     }
 
