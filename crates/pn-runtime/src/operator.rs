@@ -134,8 +134,12 @@ impl LinearOperator for Counted<'_> {
 
 /// `r = b − A x` for any operator.
 pub fn op_residual(a: &dyn LinearOperator, x: &[f64], b: &[f64], r: &mut [f64]) {
+    use rayon::prelude::*;
     a.apply(x, r);
-    r.iter_mut().zip(b).for_each(|(ri, bi)| *ri = bi - *ri);
+    r.par_iter_mut()
+        .zip(b.par_iter())
+        .with_min_len(1 << 14)
+        .for_each(|(ri, bi)| *ri = bi - *ri);
 }
 
 /// Products with a CSR matrix directly (`Aᵀx` through sprs' transposed view, serial).

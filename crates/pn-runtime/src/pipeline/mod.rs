@@ -247,8 +247,9 @@ fn check_magnitudes(a: &sprs::CsMat<f64>, b: &[f64]) -> anyhow::Result<()> {
 /// [`check_magnitudes`] given the matrix's largest magnitude and finiteness (for the
 /// parity blocks and the matrix-free operator, which hold no CSR `A`).
 pub(crate) fn check_magnitude_values(max_a: f64, finite_a: bool, b: &[f64]) -> anyhow::Result<()> {
-    let max_b = b.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-    let finite = finite_a && max_a.is_finite() && b.iter().all(|v| v.is_finite());
+    use rayon::prelude::*;
+    let max_b = b.par_iter().map(|v| v.abs()).reduce(|| 0.0f64, f64::max);
+    let finite = finite_a && max_a.is_finite() && b.par_iter().all(|v| v.is_finite());
     anyhow::ensure!(
         finite && max_a <= MAX_ENTRY_MAGNITUDE && max_b <= MAX_ENTRY_MAGNITUDE,
         "the system has entries up to {max_a:.3e} (matrix) and {max_b:.3e} \

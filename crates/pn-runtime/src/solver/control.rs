@@ -16,6 +16,7 @@
 use super::{SolveStats, SolveStatus, SolverOptions};
 use crate::linalg::norm;
 use crate::operator::{op_residual, Counted, LinearOperator};
+use rayon::prelude::*;
 
 /// How many times a method may restart from (or re-check against) the true residual after
 /// its recurrence met the target while the recomputed residual did not.
@@ -199,7 +200,8 @@ impl Control {
     }
 }
 
-/// The true residual `r = f − A x` (one application of `A`, counted in `ctl`).
+/// The true residual `r = f − A x` (one application of `A`, counted in `ctl`; none when `x`
+/// is zero).
 pub(crate) fn true_residual(
     a: &dyn LinearOperator,
     f: &[f64],
@@ -207,6 +209,11 @@ pub(crate) fn true_residual(
     r: &mut [f64],
     ctl: &mut Control,
 ) {
+    // From a zero guess `A x = 0`: the residual is `f`, without an application of `A`.
+    if x.par_iter().all(|&v| v == 0.0) {
+        r.copy_from_slice(f);
+        return;
+    }
     op_residual(a, x, f, r);
     ctl.applications += 1;
 }
