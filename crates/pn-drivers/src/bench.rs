@@ -209,6 +209,34 @@ fn pointsource_rows(args: &BenchRequest, rows: &mut Vec<Row>) -> anyhow::Result<
         }
         roofline(&mut rows[start..], "pointsource", &opts, order)?;
     }
+    // The half-resolution P_5 point source with the default solver (issue 19 sets a target
+    // for 40³ next to the 80³ one), so that one run shows both.
+    if !args.quick && n > 40 {
+        let m = n / 2;
+        let (_, half_opts) = pointsource_options(m);
+        let (h, cm) = (2.0 * params.half_width / m as f64, m / 2);
+        let modes = pn_point_source(5, params.albedo, params.g)?;
+        reset_peak_memory();
+        let (sol, res) = run_pipeline(
+            &args.tuning,
+            "pointsource",
+            &half_opts,
+            "pn",
+            5,
+            SolverKind::ParityMg,
+            1e-6,
+        )?;
+        let l00 = sol.l00();
+        let err = profile_error(
+            params.sigma_t * h,
+            m - 1 - cm,
+            |k| l00[((cm + k) * m + cm) * m + cm] * norm,
+            |t| modes.fluence(t),
+        );
+        let row = row_from("pointsource", "pn", 5, res, &sol, err, "pn_exact");
+        eprintln!("bench: {}", row.csv());
+        rows.push(row);
+    }
     // CDA through the same pipeline (input PDE): the cgnr baseline and multigrid-CG
     // (`parity-mg` solves this scalar system with MG-preconditioned CG on A itself).
     for solver in [SolverKind::Cgnr, SolverKind::ParityMg] {
