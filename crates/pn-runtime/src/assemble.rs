@@ -75,7 +75,7 @@ pub fn assemble(
         .into_par_iter()
         .map(|c| {
             let rows = c * CHUNK..((c + 1) * CHUNK).min(n);
-            assemble_chunk(
+            assemble_rows(
                 problem,
                 kernel,
                 layout,
@@ -127,21 +127,10 @@ pub(crate) fn face_closures<'a>(
     Ok((robin, marshak))
 }
 
-/// Assembles the rows `rows` (storage indices) into a [`Chunk`]; the rows on Marshak faces
-/// (when `marshak` is given) are the Marshak conditions, and references across a Marshak
-/// face closed by the PDE's own conditions (when `robin` is given) are their ghost values.
-pub(crate) fn assemble_chunk(
-    problem: &Problem,
-    kernel: &dyn StencilKernel,
-    layout: &Layout,
-    marshak: Option<&MarshakRows>,
-    robin: Option<&RobinFaces<'_>>,
-    rows: std::ops::Range<usize>,
-) -> anyhow::Result<Chunk> {
-    assemble_rows(problem, kernel, layout, marshak, robin, rows)
-}
-
-/// [`assemble_chunk`] for any rows, in the order given (the chunk's rows follow that order).
+/// Assembles the rows `rows` (storage indices, in the order given: the chunk's rows follow
+/// it) into a [`Chunk`]; the rows on Marshak faces (when `marshak` is given) are the Marshak
+/// conditions, and references across a Marshak face closed by the PDE's own conditions
+/// (when `robin` is given) are their ghost values.
 pub(crate) fn assemble_rows(
     problem: &Problem,
     kernel: &dyn StencilKernel,

@@ -4,14 +4,14 @@
 //! The parity solvers only need `D_e`, `D_o`, `B` and `C̃ = D_o⁻¹ C`
 //! ([`crate::solver::parity::split::Split`]); building them from an assembled `A` holds both
 //! at once, about twice the matrix (on the 80³ P_5 point source 3.8 GB each). Here the rows
-//! are assembled block by block ([`crate::assemble::assemble_chunk`], the same row code as
+//! are assembled block by block ([`crate::assemble::assemble_rows`], the same row code as
 //! [`crate::assemble::assemble`]) and each block is split and appended before the next is
 //! assembled, so the peak is the blocks plus one block of rows. The capacity of `B` and
 //! `C̃` is reserved up front from the stencil pattern (an upper bound: boundary closure only
 //! removes entries, and a Marshak face row counts with its own length), so they are never reallocated; each block of rows is copied into them in
 //! parallel.
 
-use crate::assemble::{assemble_chunk, assemble_rows, check_kernel, face_closures, Chunk, CHUNK};
+use crate::assemble::{assemble_rows, check_kernel, face_closures, Chunk, CHUNK};
 use crate::context::RowContext;
 use crate::layout::Layout;
 use crate::marshak::MarshakRows;
@@ -151,7 +151,7 @@ pub fn assemble_split_retaining(
             .into_par_iter()
             .map(|r0| {
                 let rows = r0..(r0 + CHUNK).min(end);
-                let chunk = assemble_chunk(
+                let chunk = assemble_rows(
                     problem,
                     kernel,
                     layout,
