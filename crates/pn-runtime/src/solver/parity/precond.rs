@@ -203,7 +203,7 @@ impl Built {
         let apply = |x: &[f64], y: &mut [f64]| fine.apply(x, y);
         // From the stencils where `S` is applied from them (no pass over the blocks).
         let stencil = fine.stencil();
-        let diag = match stencil {
+        let diag = || match stencil {
             Some(st) => st.diagonal(&split.d_e, &split.d_o),
             None => diagonal(split),
         };
@@ -223,7 +223,7 @@ impl Built {
         let mg = Multigrid::build(
             &apply,
             single,
-            &diag,
+            diag,
             &even,
             |agg| first_coarse(split, stencil, agg, opts),
             opts,
