@@ -14,6 +14,7 @@
 use crate::assemble::{assemble_rows, check_kernel, face_closures, Chunk, CHUNK};
 use crate::context::RowContext;
 use crate::layout::Layout;
+use crate::linalg::split_runs;
 use crate::marshak::MarshakRows;
 use crate::problem::Problem;
 use crate::solver::parity::split::{classes, BlockMat, Classes, ParityError, Split};
@@ -151,15 +152,8 @@ pub fn assemble_split_retaining(
             .into_par_iter()
             .map(|r0| {
                 let rows = r0..(r0 + CHUNK).min(end);
-                let chunk = assemble_rows(
-                    problem,
-                    kernel,
-                    layout,
-                    marshak.as_ref(),
-                    None,
-                    rows.clone(),
-                )?;
-                Ok(split_chunk(&chunk, rows, &even, &local))
+                let m = marshak.as_ref();
+                assemble_and_split(problem, kernel, layout, m, rows, &even, &local)
             })
             .collect::<anyhow::Result<_>>()?;
         let t1 = std::time::Instant::now();
@@ -169,26 +163,22 @@ pub fn assemble_split_retaining(
             Err(e) => return Ok(Err(e)),
         };
         // Each chunk's entries go to their own disjoint ranges of the blocks, in parallel.
-        let mut copies = Vec::with_capacity(chunks.len());
-        {
-            let (mut bi, mut bv) = (&mut b_idx[b_len..], &mut b_val[b_len..]);
-            let (mut ci, mut cv) = (&mut c_idx[c_len..], &mut c_val[c_len..]);
-            for chunk in &chunks {
-                let (nb, nc) = (chunk.b_cols.len(), chunk.c_cols.len());
-                anyhow::ensure!(
-                    nb <= bi.len() && nc <= ci.len(),
-                    "internal error: the parity blocks outgrew the stencil-pattern bound"
-                );
-                let (bi_head, bi_tail) = std::mem::take(&mut bi).split_at_mut(nb);
-                let (bv_head, bv_tail) = std::mem::take(&mut bv).split_at_mut(nb);
-                let (ci_head, ci_tail) = std::mem::take(&mut ci).split_at_mut(nc);
-                let (cv_head, cv_tail) = std::mem::take(&mut cv).split_at_mut(nc);
-                copies.push((chunk, bi_head, bv_head, ci_head, cv_head));
-                (bi, bv, ci, cv) = (bi_tail, bv_tail, ci_tail, cv_tail);
-                b_len += nb;
-                c_len += nc;
-            }
-        }
+        let nbs = chunks.iter().map(|c| c.b_cols.len());
+        let ncs = chunks.iter().map(|c| c.c_cols.len());
+        let (nb, nc): (usize, usize) = (nbs.clone().sum(), ncs.clone().sum());
+        anyhow::ensure!(
+            b_len + nb <= b_idx.len() && c_len + nc <= c_idx.len(),
+            "internal error: the parity blocks outgrew the stencil-pattern bound"
+        );
+        let bis = split_runs(&mut b_idx[b_len..], nbs.clone());
+        let bvs = split_runs(&mut b_val[b_len..], nbs);
+        let cis = split_runs(&mut c_idx[c_len..], ncs.clone());
+        let cvs = split_runs(&mut c_val[c_len..], ncs);
+        let copies: Vec<_> = (chunks.iter().zip(bis.into_iter().zip(bvs)))
+            .zip(cis.into_iter().zip(cvs))
+            .map(|((chunk, (bi, bv)), (ci, cv))| (chunk, bi, bv, ci, cv))
+            .collect();
+        (b_len, c_len) = (b_len + nb, c_len + nc);
         copies.into_par_iter().for_each(|(chunk, bi, bv, ci, cv)| {
             bi.copy_from_slice(&chunk.b_cols);
             bv.copy_from_slice(&chunk.b_vals);
@@ -523,16 +513,9 @@ fn assemble_stencil_retaining(
         (q, idx.map(|v| v as i64))
     };
     // Split rows: their local entries, `C` (not `C̃`) for an eliminated row.
-    let split_rows = |rows: &[usize]| -> anyhow::Result<Result<SplitChunk, ParityError>> {
-        let chunk = assemble_rows(
-            problem,
-            kernel,
-            layout,
-            marshak.as_ref(),
-            None,
-            rows.iter().copied(),
-        )?;
-        Ok(split_chunk(&chunk, rows.iter().copied(), &even, &local))
+    let split_rows = |rows: &[usize]| {
+        let (m, rows) = (marshak.as_ref(), rows.iter().copied());
+        assemble_and_split(problem, kernel, layout, m, rows, &even, &local)
     };
     // Each moment's stencil from its row nearest the middle of its grid.
     let mut mid = Vec::with_capacity(layout.moments.len());
@@ -575,27 +558,25 @@ fn assemble_stencil_retaining(
         r if even[r] => local[r] as usize,
         r => r - local[r] as usize,
     };
-    let mut shares = Vec::with_capacity(n.div_ceil(CHUNK));
-    let (mut de, mut dd, mut rh) = (&mut d_e[..], &mut d_o[..], &mut rhs[..]);
-    for r0 in (0..n).step_by(CHUNK) {
-        let r1 = (r0 + CHUNK).min(n);
-        let kept = kept_before(r1) - kept_before(r0);
-        let (e, rest) = std::mem::take(&mut de).split_at_mut(kept);
-        de = rest;
-        let (o, rest) = std::mem::take(&mut dd).split_at_mut(r1 - r0 - kept);
-        dd = rest;
-        let (r, rest) = std::mem::take(&mut rh).split_at_mut(r1 - r0);
-        rh = rest;
-        let out = RowOut {
-            d_e: e,
-            d_o: o,
-            rhs: r,
-            first: r0,
-            first_kept: kept_before(r0),
-            first_eliminated: r0 - kept_before(r0),
-        };
-        shares.push((r0, out));
-    }
+    let starts: Vec<usize> = (0..n).step_by(CHUNK).collect();
+    let kept = |r0: usize| kept_before((r0 + CHUNK).min(n)) - kept_before(r0);
+    let eliminated = |r0: usize| (r0 + CHUNK).min(n) - r0 - kept(r0);
+    let e_runs = split_runs(&mut d_e, starts.iter().map(|&r0| kept(r0)));
+    let o_runs = split_runs(&mut d_o, starts.iter().map(|&r0| eliminated(r0)));
+    let shares: Vec<(usize, RowOut<'_>)> = (starts.iter().zip(rhs.chunks_mut(CHUNK)))
+        .zip(e_runs.into_iter().zip(o_runs))
+        .map(|((&r0, r), (e, o))| {
+            let out = RowOut {
+                d_e: e,
+                d_o: o,
+                rhs: r,
+                first: r0,
+                first_kept: kept_before(r0),
+                first_eliminated: r0 - kept_before(r0),
+            };
+            (r0, out)
+        })
+        .collect();
     let chunks: Vec<Result<StencilChunk, ParityError>> = shares
         .into_par_iter()
         .map(|(r0, mut w)| {
@@ -786,6 +767,21 @@ fn extend_indptr(ptr: &mut Vec<usize>, row_nnz: &[usize]) {
         last += k;
         last
     }));
+}
+
+/// Assembles the rows `rows` ([`assemble_rows`], the split assemblies take no PDE's own
+/// boundary conditions) and splits them by parity ([`split_chunk`]).
+fn assemble_and_split(
+    problem: &Problem,
+    kernel: &dyn StencilKernel,
+    layout: &Layout,
+    marshak: Option<&MarshakRows>,
+    rows: impl ExactSizeIterator<Item = usize> + Clone,
+    even: &[bool],
+    local: &[u32],
+) -> anyhow::Result<Result<SplitChunk, ParityError>> {
+    let chunk = assemble_rows(problem, kernel, layout, marshak, None, rows.clone())?;
+    Ok(split_chunk(&chunk, rows, even, local))
 }
 
 /// Splits the assembled rows of `chunk` (the global rows `rows`, in its order) by parity, as

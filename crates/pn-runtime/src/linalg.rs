@@ -289,6 +289,20 @@ pub fn xpby(s: &[f64], beta: f64, p: &mut [f64]) {
     }
 }
 
+/// `v` cut into consecutive runs of the lengths `lens` (from the start; what is left after
+/// the last run is not returned), so that parallel tasks can each fill their own run.
+/// Panics when the lengths add up to more than `v.len()`.
+pub fn split_runs<T>(v: &mut [T], lens: impl IntoIterator<Item = usize>) -> Vec<&mut [T]> {
+    let mut rest = v;
+    lens.into_iter()
+        .map(|len| {
+            let (run, tail) = std::mem::take(&mut rest).split_at_mut(len);
+            rest = tail;
+            run
+        })
+        .collect()
+}
+
 /// `r = b − A x`.
 pub fn residual(a: &CsMat<f64>, x: &[f64], b: &[f64], r: &mut [f64]) {
     spmv(a, x, r);
@@ -383,6 +397,14 @@ impl Real for f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn split_runs_cuts_consecutive_runs() {
+        let mut v: Vec<u32> = (0..10).collect();
+        let runs = split_runs(&mut v, [3, 0, 4]);
+        let runs: Vec<Vec<u32>> = runs.into_iter().map(|r| r.to_vec()).collect();
+        assert_eq!(runs, vec![vec![0, 1, 2], vec![], vec![3, 4, 5, 6]]);
+    }
 
     /// `dot` gives the same bits on 1, 2 and 3 threads (and on the caller's pool), and
     /// equals the plain sum to rounding, on lengths below and above the parallel threshold.

@@ -7,7 +7,7 @@
 //! two plain sparse products).
 
 use super::stencil_s::StencilReduced;
-use crate::linalg::spmv;
+use crate::linalg::{split_runs, spmv};
 use rayon::prelude::*;
 use sprs::CsMat;
 use std::borrow::Cow;
@@ -133,26 +133,31 @@ pub fn classes(even: &[bool]) -> Result<Classes, ParityError> {
     check_index_range(evens, even.len() - evens)?;
     let mut local = vec![0u32; even.len()];
     let (mut ev, mut od) = (vec![0usize; evens], vec![0usize; even.len() - evens]);
-    // Each block's share of the two lists and its first local index in each.
-    let mut shares = Vec::with_capacity(counts.len());
-    let (mut e_rest, mut o_rest) = (&mut ev[..], &mut od[..]);
-    let (mut e_before, mut o_before) = (0usize, 0usize);
-    for (k, &c) in counts.iter().enumerate() {
-        let odd = BLOCK.min(even.len() - k * BLOCK) - c;
-        let (e, r) = std::mem::take(&mut e_rest).split_at_mut(c);
-        e_rest = r;
-        let (o, r) = std::mem::take(&mut o_rest).split_at_mut(odd);
-        o_rest = r;
-        shares.push((e, o, e_before, o_before));
-        e_before += c;
-        o_before += odd;
-    }
+    // Each block's runs of the two lists, and its first even index (its first odd index is
+    // then the block's start minus that).
+    let odds = counts
+        .iter()
+        .enumerate()
+        .map(|(k, &c)| BLOCK.min(even.len() - k * BLOCK) - c);
+    let (e_runs, o_runs) = (
+        split_runs(&mut ev, counts.iter().copied()),
+        split_runs(&mut od, odds),
+    );
+    let e_firsts: Vec<usize> = counts
+        .iter()
+        .scan(0, |before, &c| {
+            *before += c;
+            Some(*before - c)
+        })
+        .collect();
     local
         .par_chunks_mut(BLOCK)
         .zip(even.par_chunks(BLOCK))
-        .zip(shares)
+        .zip(e_runs.into_par_iter().zip(o_runs))
+        .zip(e_firsts)
         .enumerate()
-        .for_each(|(k, ((loc, mask), (e, o, e0, o0)))| {
+        .for_each(|(k, (((loc, mask), (e, o)), e0))| {
+            let o0 = k * BLOCK - e0;
             let (mut ne, mut no) = (0, 0);
             for (i, (l, &is_even)) in loc.iter_mut().zip(mask).enumerate() {
                 let g = k * BLOCK + i;
@@ -288,27 +293,33 @@ pub fn split(a: &CsMat<f64>, even: &[bool]) -> Result<Split, ParityError> {
     // and hence disjoint slices of the outputs (no second copy of the blocks).
     let (mut b_idx, mut b_val) = (vec![0u32; b_ptr[ev.len()]], vec![0.0; b_ptr[ev.len()]]);
     let (mut c_idx, mut c_val) = (vec![0u32; c_ptr[od.len()]], vec![0.0; c_ptr[od.len()]]);
-    let mut tasks = Vec::new();
-    {
-        let (mut bi, mut bv) = (&mut b_idx[..], &mut b_val[..]);
-        let (mut ci, mut cv) = (&mut c_idx[..], &mut c_val[..]);
-        // Even and odd rows before `row` = local index of the next row of each parity.
-        let (mut row, mut e0, mut o0) = (0, 0, 0);
-        while row < n {
-            let end = (row + SPLIT_CHUNK).min(n);
-            let evens = even[row..end].iter().filter(|&&e| e).count();
-            let (e1, o1) = (e0 + evens, o0 + (end - row - evens));
-            let nb = b_ptr[e1] - b_ptr[e0];
-            let nc = c_ptr[o1] - c_ptr[o0];
-            let (bi_head, bi_tail) = std::mem::take(&mut bi).split_at_mut(nb);
-            let (bv_head, bv_tail) = std::mem::take(&mut bv).split_at_mut(nb);
-            let (ci_head, ci_tail) = std::mem::take(&mut ci).split_at_mut(nc);
-            let (cv_head, cv_tail) = std::mem::take(&mut cv).split_at_mut(nc);
-            tasks.push((row, end, bi_head, bv_head, ci_head, cv_head));
-            (bi, bv, ci, cv) = (bi_tail, bv_tail, ci_tail, cv_tail);
-            (row, e0, o0) = (end, e1, o1);
-        }
+    // Each chunk of rows and its entries' counts in `B` and `C̃` (from the even and odd rows
+    // before it = the local index of the next row of each parity).
+    let mut spans = Vec::new();
+    let (mut row, mut e0, mut o0) = (0, 0, 0);
+    while row < n {
+        let end = (row + SPLIT_CHUNK).min(n);
+        let evens = even[row..end].iter().filter(|&&e| e).count();
+        let (e1, o1) = (e0 + evens, o0 + (end - row - evens));
+        spans.push((row, end, b_ptr[e1] - b_ptr[e0], c_ptr[o1] - c_ptr[o0]));
+        (row, e0, o0) = (end, e1, o1);
     }
+    let (nbs, ncs) = (spans.iter().map(|s| s.2), spans.iter().map(|s| s.3));
+    let (bis, bvs) = (
+        split_runs(&mut b_idx, nbs.clone()),
+        split_runs(&mut b_val, nbs),
+    );
+    let (cis, cvs) = (
+        split_runs(&mut c_idx, ncs.clone()),
+        split_runs(&mut c_val, ncs),
+    );
+    let tasks = spans
+        .iter()
+        .zip(bis.into_iter().zip(bvs))
+        .zip(cis.into_iter().zip(cvs));
+    let tasks: Vec<_> = tasks
+        .map(|(((r0, r1, _, _), (bi, bv)), (ci, cv))| (*r0, *r1, bi, bv, ci, cv))
+        .collect();
     tasks.into_par_iter().for_each(|(r0, r1, bi, bv, ci, cv)| {
         let (mut pb, mut pc) = (0usize, 0usize);
         for row in r0..r1 {
