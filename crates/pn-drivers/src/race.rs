@@ -33,7 +33,6 @@ mod mitsuba_side;
 mod plot;
 mod pn_side;
 mod proc;
-mod table;
 
 pub use pn_side::{Family, PnPoint};
 
@@ -46,7 +45,7 @@ use pn_runtime::render::RenderScene;
 use pn_side::{PnResult, PnRunner};
 use std::io::Write;
 use std::path::{Path, PathBuf};
-use table::{num, Table};
+use pn_formats::table::{self, num, Table};
 
 /// The pn points of a full race.
 pub const DEFAULT_PN_POINTS: &str = "cda@16,cda@24,cda@32,cda@48,p1@16,p1@24,p1@32,p1@48,\

@@ -4,7 +4,7 @@
 
 use super::ablation;
 use super::analysis::{crossings, family_name, points};
-use super::table::Table;
+use pn_formats::table::Table;
 use anyhow::{Context, Result};
 use std::collections::BTreeMap;
 use std::fmt::Write as _;

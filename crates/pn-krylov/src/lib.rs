@@ -1,0 +1,1 @@
+//! `pn-krylov` — placeholder, filled by the next commit.

@@ -1,0 +1,1 @@
+//! `pn-lab` — placeholder, filled by the next commits.

@@ -1,0 +1,1 @@
+//! `pn-render` — placeholder, filled by the next commits.
