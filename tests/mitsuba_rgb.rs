@@ -15,11 +15,11 @@
 //! Skips with a message when no Mitsuba is found, unless `PN_REQUIRE_MITSUBA=1` (CI).
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
-use pn_runtime::render::colour::CHANNELS;
-use pn_runtime::render::image_io::read_exr_rgb;
-use pn_runtime::render::mitsuba::{self, ExportOptions, RunOptions};
-use pn_runtime::render::renderer::Renderer;
-use pn_runtime::render::{RenderScene, SceneOverride};
+use pn_render::colour::CHANNELS;
+use pn_render::image_io::read_exr_rgb;
+use pn_render::mitsuba::{self, ExportOptions, RunOptions};
+use pn_render::renderer::Renderer;
+use pn_render::{RenderScene, SceneOverride};
 use std::path::Path;
 
 mod support;

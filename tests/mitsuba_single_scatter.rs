@@ -38,10 +38,10 @@
 //! `PN_REQUIRE_MITSUBA=1` (CI), where that is a failure.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
-use pn_runtime::render::mitsuba::{self, ExportOptions, RunOptions};
-use pn_runtime::render::renderer::Renderer;
-use pn_runtime::render::scene::Albedo;
-use pn_runtime::render::{compare, DensityFilter, RenderScene, SceneOverride};
+use pn_render::mitsuba::{self, ExportOptions, RunOptions};
+use pn_render::renderer::Renderer;
+use pn_render::scene::Albedo;
+use pn_render::{compare, DensityFilter, RenderScene, SceneOverride};
 use std::path::Path;
 
 mod support;
@@ -368,7 +368,7 @@ fn mitsuba_reads_voxels_as_documented() {
     let (scale, albedo, e) = (1.5, 0.6, 2.0);
     let dir = work_dir("mitsuba_filter_convention");
     std::fs::create_dir_all(&dir).unwrap();
-    let grid = pn_runtime::render::DensityGrid::new(
+    let grid = pn_render::DensityGrid::new(
         [4, 1, 1],
         [-1.0; 3],
         [1.0; 3],

@@ -6,9 +6,9 @@
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
 use pn_drivers::render::{render_scene, RenderOptions};
-use pn_runtime::render::image_io::read_exr_gray;
-use pn_runtime::render::scene::RenderMethod;
-use pn_runtime::render::RenderScene;
+use pn_render::image_io::read_exr_gray;
+use pn_render::scene::RenderMethod;
+use pn_render::RenderScene;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -506,10 +506,10 @@ fn fld_picard_and_gauss_seidel_renders_agree() {
     let mut picard = scene(RenderMethod::Fld, 1);
     picard.solve.tolerance = 1e-10;
     let mut gs = picard.clone();
-    gs.solve.fld_solver = pn_runtime::render::scene::FldSolver::Gs;
+    gs.solve.fld_solver = pn_render::scene::FldSolver::Gs;
     assert_eq!(
         picard.solve.fld_solver,
-        pn_runtime::render::scene::FldSolver::Picard,
+        pn_render::scene::FldSolver::Picard,
         "Picard is the default"
     );
     let a = render_scene(&picard, &one_thread()).unwrap();

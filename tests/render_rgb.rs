@@ -10,8 +10,8 @@
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
 use pn_drivers::render::{render_scene, write_run, RenderOptions};
-use pn_runtime::render::image_io::read_exr_rgb;
-use pn_runtime::render::RenderScene;
+use pn_render::image_io::read_exr_rgb;
+use pn_render::RenderScene;
 use std::path::Path;
 
 fn one_thread() -> RenderOptions {

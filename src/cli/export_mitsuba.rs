@@ -2,7 +2,7 @@
 
 use clap::Args;
 use pn_drivers::export_mitsuba::ExportMitsubaRequest;
-use pn_runtime::render::DensityFilter;
+use pn_render::DensityFilter;
 use std::path::PathBuf;
 
 use super::Env;

@@ -2,8 +2,8 @@
 
 use clap::Args;
 use pn_drivers::figure::FigureRequest;
-use pn_runtime::render::scene::RendererKind;
-use pn_runtime::render::{DensityFilter, SceneOverride};
+use pn_render::scene::RendererKind;
+use pn_render::{DensityFilter, SceneOverride};
 use std::path::PathBuf;
 
 use super::Env;

@@ -12,7 +12,7 @@ pub mod solve;
 pub mod stencil;
 pub mod tradeoff;
 
-use pn_runtime::render::mitsuba::PYTHON_ENV;
+use pn_render::mitsuba::PYTHON_ENV;
 use pn_runtime::solver::SolverTuning;
 use std::path::{Path, PathBuf};
 

@@ -2,9 +2,9 @@
 
 use clap::Args;
 use pn_drivers::render::{RenderOptions, RenderRequest};
+use pn_render::scene::{RenderMethod, RendererKind};
+use pn_render::{DensityFilter, SceneOverride};
 use pn_runtime::memory_estimate;
-use pn_runtime::render::scene::{RenderMethod, RendererKind};
-use pn_runtime::render::{DensityFilter, SceneOverride};
 use std::path::PathBuf;
 
 use super::Env;

@@ -3,7 +3,7 @@
 //! validation tests bound.
 #![allow(dead_code)]
 
-use pn_runtime::render::mitsuba;
+use pn_render::mitsuba;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 

@@ -1,7 +1,7 @@
 //! `pn compare a.exr b.exr`: error metrics of image `a` against the reference `b` and a
-//! false-colour difference image (`pn_runtime::render::compare`).
+//! false-colour difference image (`pn_render::compare`).
 
-use pn_runtime::render::compare::{compare_files, ChannelMetrics, Metrics};
+use pn_render::compare::{compare_files, ChannelMetrics, Metrics};
 use serde::Serialize;
 use std::io::Write;
 use std::path::PathBuf;

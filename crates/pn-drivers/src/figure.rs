@@ -15,10 +15,10 @@
 use crate::render::{render_scene, write_run, RenderOptions, RenderRun};
 use anyhow::{ensure, Context, Result};
 use plotters::prelude::*;
-use pn_runtime::render::compare::{metrics, write_difference_png, GrayImage, Metrics};
-use pn_runtime::render::image_io::{exposure, read_exr_gray, srgb8};
-use pn_runtime::render::scene::{RenderMethod, RendererKind};
-use pn_runtime::render::{DensityFilter, RenderScene, SceneOverride};
+use pn_render::compare::{metrics, write_difference_png, GrayImage, Metrics};
+use pn_render::image_io::{exposure, read_exr_gray, srgb8};
+use pn_render::scene::{RenderMethod, RendererKind};
+use pn_render::{DensityFilter, RenderScene, SceneOverride};
 use pn_runtime::solver::SolverTuning;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -211,7 +211,7 @@ pub fn run(a: &FigureRequest, stdout: &mut dyn std::io::Write) -> Result<()> {
 
 /// Exports the scene and renders `<out>/mitsuba.exr` with Mitsuba (full transport).
 fn render_reference(scene: &RenderScene, out: &Path, a: &FigureRequest) -> Result<()> {
-    use pn_runtime::render::mitsuba;
+    use pn_render::mitsuba;
     let dir = out.join("mitsuba");
     let opts = mitsuba::ExportOptions {
         spp: a.mitsuba_spp,

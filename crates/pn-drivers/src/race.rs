@@ -40,12 +40,12 @@ use analysis::{MITSUBA, MITSUBA_OIDN, POINT_COLUMNS};
 use anyhow::{ensure, Context, Result};
 use metrics::{errors, excess, spp_for_error};
 use mitsuba_side::{Mitsuba, MitsubaJob};
-use pn_runtime::render::compare::{read_gray, GrayImage};
-use pn_runtime::render::RenderScene;
+use pn_formats::table::{self, num, Table};
+use pn_render::compare::{read_gray, GrayImage};
+use pn_render::RenderScene;
 use pn_side::{PnResult, PnRunner};
 use std::io::Write;
 use std::path::{Path, PathBuf};
-use pn_formats::table::{self, num, Table};
 
 /// The pn points of a full race.
 pub const DEFAULT_PN_POINTS: &str = "cda@16,cda@24,cda@32,cda@48,p1@16,p1@24,p1@32,p1@48,\
@@ -84,7 +84,7 @@ pub struct RaceRequest {
     /// Reference cache (default `out/race-cache`).
     pub cache: Option<PathBuf>,
     /// The Python interpreter with Mitsuba and pyoidn (default: see
-    /// `pn_runtime::render::mitsuba::find_python`).
+    /// `pn_render::mitsuba::find_python`).
     pub python: Option<PathBuf>,
     /// The `pn` binary for the pn points (the command line passes itself).
     pub pn_binary: PathBuf,

@@ -3,29 +3,29 @@
 //! `report.json` (times, unknowns with and without cropping and at the density resolution,
 //! solver statistics, peak memory).
 //!
-//! The pieces live in `pn_runtime::render`; this module only picks the stencil (P_N or
+//! The pieces live in `pn_render`; this module only picks the stencil (P_N or
 //! CDA through `pn_kernels`, FLD through [`super::fld_method`]; POP, which needs no
-//! stencil, through [`pn_runtime::pop`]) and runs the chain.
+//! stencil, through [`pn_render::pop`]) and runs the chain.
 
 use crate::fld_setup::{fld_problem, solve_fld_route, FldSettings, SQRT_4PI};
 use crate::scene_setup::Route;
 use anyhow::{bail, ensure, Context, Result};
 use pn_kernels::{cda_kernel, diffusion_kernel, pn_kernel, Dim, KernelChoice, Staggering};
+use pn_render::first_scatter::first_scatter_problem_with_depth;
+use pn_render::image_io::{write_exr_gray, write_png_tonemapped};
+use pn_render::light_depth::LightDepth;
+use pn_render::march::{MarchSettings, Marcher};
+use pn_render::pop::{pop_field, PopReport, PopSettings, ResiduumSettings};
+use pn_render::renderer::{Image, MsField, Renderer};
+use pn_render::scene::{FldSolver, RenderMethod, RendererKind};
+use pn_render::shadow::Extinction;
+use pn_render::solve_setup::solve_grid;
+use pn_render::transport_sweep::{transport_sweeps, SweepSettings};
+use pn_render::{Camera, DensityFilter, DensityGrid, RenderScene, SceneOverride};
 use pn_runtime::fld::{FldParams, Limiter};
 use pn_runtime::memory_estimate;
 use pn_runtime::pipeline::solve_problem_from;
-use pn_runtime::pop::{pop_field, PopReport, PopSettings, ResiduumSettings};
 use pn_runtime::problem::Grid;
-use pn_runtime::render::first_scatter::first_scatter_problem_with_depth;
-use pn_runtime::render::image_io::{write_exr_gray, write_png_tonemapped};
-use pn_runtime::render::light_depth::LightDepth;
-use pn_runtime::render::march::{MarchSettings, Marcher};
-use pn_runtime::render::renderer::{Image, MsField, Renderer};
-use pn_runtime::render::scene::{FldSolver, RenderMethod, RendererKind};
-use pn_runtime::render::shadow::Extinction;
-use pn_runtime::render::solve_setup::solve_grid;
-use pn_runtime::render::transport_sweep::{transport_sweeps, SweepSettings};
-use pn_runtime::render::{Camera, DensityFilter, DensityGrid, RenderScene, SceneOverride};
 use pn_runtime::solver::multigrid::FineCycle;
 use pn_runtime::solver::{SolverKind, SolverOptions, SolverTuning};
 use pn_runtime::unstagger::CellMoments;
@@ -266,7 +266,7 @@ pub struct RenderReport {
     /// Solver statistics.
     pub solver: Option<SolverReport>,
     /// Transport sweeps applied to the solution before rendering
-    /// (`pn_runtime::render::transport_sweep`; 0 without a solve and for method pop).
+    /// (`pn_render::transport_sweep`; 0 without a solve and for method pop).
     pub sweeps: usize,
     /// Method pop: settings, per-light energy bookkeeping per iteration, seconds per stage
     /// (`seconds.sources` is its medium sampling + initialisation, `seconds.solve` its
@@ -975,7 +975,7 @@ pub fn write_run(dir: &Path, run: &RenderRun) -> Result<()> {
         write_png_tonemapped(&dir.join("image.png"), im.width, im.height, &im.data, None)?;
     } else {
         // One exposure for all views (from view 0), so that the PNGs compare.
-        let expo = pn_runtime::render::image_io::exposure(&run.views[0].data);
+        let expo = pn_render::image_io::exposure(&run.views[0].data);
         for (k, im) in run.views.iter().enumerate() {
             write_exr_gray(
                 &dir.join(format!("view_{k:03}.exr")),

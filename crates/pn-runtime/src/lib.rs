@@ -5,7 +5,7 @@
 //! the generator is a dependency.
 //!
 //! * Problem description: [`field`], [`problem`] (including [`problem::sigma_tr`]),
-//!   [`scenes`] (built-in; [`scenes::vacuum`]: `slab` and `milne`), [`scene_file`] (TOML), [`vol`], [`npy`] and [`vdb`] (voxel data, array
+//!   [`scenes`] (built-in; [`scenes::vacuum`]: `slab` and `milne`), [`vol`], [`npy`] and [`vdb`] (voxel data, array
 //!   and OpenVDB files); [`scene_registry`] lists every built-in scene of `pn solve` and `pn render`.
 //! * Discrete system: [`layout`] (unknowns and boundary closure), [`marshak`] (the Marshak
 //!   vacuum faces' rows), [`robin`] (a PDE's own boundary conditions on those faces, by
@@ -15,14 +15,13 @@
 //! * Solving: [`operator`] (operator and preconditioner traits), [`linalg`], [`solver`] (one
 //!   file per Krylov method, one stopping controller, the parity solvers and multigrid),
 //!   [`pipeline`] (the whole chain, [`pipeline::solve_problem`]), [`fld`] (flux-limited
-//!   diffusion), [`pop`] (Principal-Ordinates Propagation for directional lights),
+//!   diffusion),
 //!   [`convergence`] (resolution studies).
 //! * Results: [`unstagger`], [`energy`], [`output`], [`plot`], [`memory`], [`bandwidth`] (the
 //!   machine's measured memory bandwidth, for the roofline of `pn bench`) and
 //!   [`memory_estimate`]; [`threads`] for `--threads`.
 //! * [`reference`]: analytic and semi-analytic reference solutions (point source, the 1D
-//!   P_N–Marshak slab and Milne problems, StaRMAP files); [`render`]: first-scatter sources, the volumetric renderer and the Mitsuba
-//!   export.
+//!   P_N–Marshak slab and Milne problems, StaRMAP files).
 //!
 //! Solving the checkerboard at P_1 on a coarse grid (the stencil comes from `pn-kernels`):
 //!
@@ -67,11 +66,8 @@ pub mod operator;
 pub mod output;
 pub mod pipeline;
 pub mod plot;
-pub mod pop;
 pub mod problem;
-pub mod render;
 pub mod robin;
-pub mod scene_file;
 pub mod scene_registry;
 pub mod scenes;
 pub mod solver;

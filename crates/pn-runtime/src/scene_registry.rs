@@ -1,6 +1,6 @@
 //! The registry of built-in scenes: every built-in name, which command it belongs to, and a
 //! one-line description. Both loaders consult it — [`crate::scenes::builtin`] (`pn solve`)
-//! and [`crate::render::scene::RenderScene::builtin`] (`pn render`) — so that a name given
+//! and `pn_render::scene::RenderScene::builtin` (`pn render`) — so that a name given
 //! to the wrong command is answered with the right command and the names available.
 //!
 //! **Two kinds, two formats.** The scene formats stay two on purpose, because the two
@@ -11,21 +11,21 @@
 //!   moments `Q_l^m` and the boundary closure. `pn solve` writes the moments of the
 //!   solution. Built-in solve scenes are built in code ([`crate::scenes`]: the lattice
 //!   tests and the point source have analytic fields); files use the TOML format of
-//!   [`crate::scene_file`] (e.g. `scenes/box.toml`).
+//!   `pn_render::scene_file` (e.g. `scenes/box.toml`).
 //! * A *render scene* ([`SceneKind::Render`]) describes what a camera sees: a medium (density
 //!   grid or procedural kind, its box, σ_t scale and albedo), the phase function, lights and a
 //!   camera, plus the settings of the solve behind the image. Its transport problem is
 //!   derived from it (the sources are the lights' first scattering, the grid is cropped
-//!   around the medium; see [`crate::render`]). Built-in render scenes are the files
+//!   around the medium; see `pn_render`). Built-in render scenes are the files
 //!   `scenes/<name>.toml` compiled in; files use the TOML format of
-//!   [`crate::render::scene`].
+//!   `pn_render::scene`.
 
 /// Which command a built-in scene belongs to.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum SceneKind {
     /// A transport problem for `pn solve` ([`crate::scenes::Scene`]).
     Solve,
-    /// A medium, lights and a camera for `pn render` ([`crate::render::scene::RenderScene`]).
+    /// A medium, lights and a camera for `pn render` (`pn_render::scene::RenderScene`).
     Render,
 }
 

@@ -1,7 +1,7 @@
 //! Built-in solve scenes: `checkerboard`, `checkerboard3d` and `pointsource` (docs/design.md §7),
 //! and the vacuum-boundary checks `slab` and `milne` ([`crate::scenes::vacuum`]), built in code; their names and descriptions are in [`crate::scene_registry`], which also
 //! knows the render scenes (`pn render`). Scene files for `pn solve` are read by
-//! [`crate::scene_file`].
+//! `pn_render::scene_file`.
 
 pub mod vacuum;
 

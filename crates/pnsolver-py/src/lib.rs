@@ -9,7 +9,7 @@
 
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArrayDyn, PyUntypedArrayMethods};
 use pn_drivers::render::{render_views, RenderOptions, RenderRun};
-use pn_runtime::render::RenderScene;
+use pn_render::RenderScene;
 use pyo3::exceptions::{PyImportError, PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
@@ -418,7 +418,7 @@ fn real_sh<'py>(
 /// The names of the built-in render scenes.
 #[pyfunction]
 fn builtin_scenes<'py>(py: Python<'py>) -> PyResult<Bound<'py, PyList>> {
-    PyList::new(py, pn_runtime::render::scene::builtin_names())
+    PyList::new(py, pn_render::scene::builtin_names())
 }
 
 /// The module `pnsolver._pnsolver`.

@@ -3,7 +3,7 @@
 //! the equal-error interpolation on a log–log error-against-time curve.
 
 use anyhow::{ensure, Result};
-use pn_runtime::render::compare::{check_pair, GrayImage};
+use pn_render::compare::{check_pair, GrayImage};
 
 /// Error of an image against the reference.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -4,10 +4,10 @@
 use super::metrics::{two_halves, TwoHalves};
 use super::proc::{run_timed, Timed};
 use anyhow::{Context, Result};
-use pn_runtime::render::compare::{read_gray, GrayImage};
-use pn_runtime::render::image_io::write_exr_gray;
-use pn_runtime::render::mitsuba;
-use pn_runtime::render::RenderScene;
+use pn_render::compare::{read_gray, GrayImage};
+use pn_render::image_io::write_exr_gray;
+use pn_render::mitsuba;
+use pn_render::RenderScene;
 use serde::{Deserialize, Serialize};
 use std::io::Write;
 use std::path::{Path, PathBuf};

@@ -1,8 +1,8 @@
-//! Coloured scenes (`pn_runtime::render::colour`): one grey solve and render per channel,
+//! Coloured scenes (`pn_render::colour`): one grey solve and render per channel,
 //! combined into RGB images. Radiative transfer does not couple wavelengths, so channel c of
 //! the image is exactly the grey image of [`RenderScene::channel`]`(c)`. A channel is not
 //! recomputed when an earlier channel has the same medium and lights whose strengths differ
-//! by one common factor k ([`pn_runtime::render::colour::Colours::light_scale`]): transport is linear in the sources, so
+//! by one common factor k ([`pn_render::colour::Colours::light_scale`]): transport is linear in the sources, so
 //! the channel is k × that channel's image (the solve's error scales with it). Equal channels
 //! (k = 1) are copies: they give the grey image exactly, at the cost of one channel. Channels
 //! with the same σ_t scale share the optical depth to the lights, which depends on nothing
@@ -14,11 +14,11 @@ use super::{
     Timings,
 };
 use anyhow::{Context, Result};
-use pn_runtime::render::colour::CHANNELS;
-use pn_runtime::render::image_io::{exposure, write_exr_rgb, write_png_tonemapped_rgb};
-use pn_runtime::render::renderer::Image;
-use pn_runtime::render::scene::Albedo;
-use pn_runtime::render::RenderScene;
+use pn_render::colour::CHANNELS;
+use pn_render::image_io::{exposure, write_exr_rgb, write_png_tonemapped_rgb};
+use pn_render::renderer::Image;
+use pn_render::scene::Albedo;
+use pn_render::RenderScene;
 use serde::Serialize;
 use std::path::Path;
 

@@ -219,7 +219,7 @@ pub(crate) fn true_residual(
 }
 
 /// An indicatif progress bar that is hidden unless stderr is a terminal.
-pub(crate) fn progress_bar(len: usize, enabled: bool) -> indicatif::ProgressBar {
+pub fn progress_bar(len: usize, enabled: bool) -> indicatif::ProgressBar {
     use std::io::IsTerminal;
     if !enabled || !std::io::stderr().is_terminal() {
         return indicatif::ProgressBar::hidden();

@@ -31,7 +31,7 @@ pub mod multigrid;
 pub mod parity;
 pub mod pn_layout;
 
-pub(crate) use control::progress_bar;
+pub use control::progress_bar;
 use sprs::CsMat;
 
 /// Which solver to use (`--solver`).

@@ -8,7 +8,7 @@
 //! cell, `Σ_m w_m L^m f_hg(·, a^m)` (Eq. 7–8 for every view at once), therefore has the
 //! moments `L_lm = A_l · Y_lm(d)` with `A_l = Σ_m w_m L^m (a^m)^l`, truncated at the solve
 //! order's lmax (the dropped part is Σ_{l>lmax} of lobes with a ≤ g; the renderer's
-//! `g^l` factor damps it further). The renderer ([`crate::render::renderer::MsField`])
+//! `g^l` factor damps it further). The renderer ([`crate::renderer::MsField`])
 //! multiplies moment `l(l+1)+m` by `g^l Y_lm(ω_o)` (Funk–Hecke), which is the convolution of
 //! the lobe with the phase function (open point 4 of `../shared/papers/README.md`).
 //!
@@ -19,9 +19,9 @@
 //! lights' moments are summed.
 
 use super::propagate::LightGrid;
-use crate::problem::Grid;
-use crate::render::shadow::cell_centre;
-use crate::unstagger::CellMoments;
+use crate::shadow::cell_centre;
+use pn_runtime::problem::Grid;
+use pn_runtime::unstagger::CellMoments;
 use pn_stencil::quadrature::real_sh;
 use rayon::prelude::*;
 

@@ -179,7 +179,7 @@ pub fn write_difference_png(
     metrics(a, b)?;
     let diff: Vec<f64> = a.data.iter().zip(&b.data).map(|(x, y)| x - y).collect();
     let range = colour_range(&diff);
-    let labels = crate::reference::register_plot_fonts().is_ok();
+    let labels = pn_runtime::reference::register_plot_fonts().is_ok();
     match draw(path, a.width, a.height, &diff, range, title, labels) {
         Ok(()) => Ok(()),
         Err(_) => draw(path, a.width, a.height, &diff, range, title, false),
@@ -195,7 +195,7 @@ fn draw(
     title: &str,
     labels: bool,
 ) -> anyhow::Result<()> {
-    let err = |e: &dyn std::fmt::Display| crate::plot::draw_error(path, e);
+    let err = |e: &dyn std::fmt::Display| pn_runtime::plot::draw_error(path, e);
     // Integer upscaling so that small images stay readable; at most ~800 px wide.
     let scale = (800 / w.max(1)).clamp(1, 8) as u32;
     let (iw, ih) = (w as u32 * scale, h as u32 * scale);

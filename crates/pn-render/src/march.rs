@@ -414,7 +414,7 @@ impl<'a> Marcher<'a> {
     /// standard errors are 0 (no sampling).
     pub fn render(&self, camera: &Camera, progress: bool) -> Image {
         let (w, h) = (camera.width, camera.height);
-        let bar = crate::solver::progress_bar(h, progress);
+        let bar = pn_runtime::solver::progress_bar(h, progress);
         bar.set_message("image rows");
         let rows: Vec<Vec<f32>> = (0..h)
             .into_par_iter()
@@ -462,9 +462,9 @@ fn clip_box(origin: [f64; 3], dir: [f64; 3], min: [f64; 3], max: [f64; 3]) -> Op
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::problem::Phase;
-    use crate::render::renderer::{Renderer, Rng};
-    use crate::unstagger::CellMoments;
+    use crate::renderer::{Renderer, Rng};
+    use pn_runtime::problem::Phase;
+    use pn_runtime::unstagger::CellMoments;
     use std::path::Path;
 
     /// A scene around [−1, 1]³ (the medium itself is passed separately as a grid).
@@ -609,7 +609,7 @@ height = {size}
 
     /// A smooth synthetic solution on a 6³ grid over the box: L_0^0 and L_1^m linear in x.
     fn field(phase: Phase) -> MsField {
-        let grid = crate::render::test_box_grid([6; 3]);
+        let grid = crate::test_box_grid([6; 3]);
         let mut data = vec![0.0; 216 * 4];
         for c in 0..216 {
             let (i, j, k) = (c / 36, (c / 6) % 6, c % 6);

@@ -389,7 +389,7 @@ mod tests {
     /// τ at any point of non-zero density (both filters).
     #[test]
     fn the_grid_near_the_medium_agrees_where_it_is_read() {
-        use crate::render::medium::DensityFilter;
+        use crate::medium::DensityFilter;
         // A 9³ grid with two blobs of density and empty space between them and the faces.
         let n = 9;
         let mut data = vec![0.0f32; n * n * n];

@@ -1,5 +1,5 @@
 //! TOML scene files for `pn solve`: the transport problem on a grid (see
-//! [`crate::scene_registry`] for how they differ from the render scenes of `pn render`).
+//! [`pn_runtime::scene_registry`] for how they differ from the render scenes of `pn render`).
 //!
 //! ```toml
 //! name = "cloud"                 # optional; default: the file stem
@@ -27,13 +27,13 @@
 //! `(nx, ny)` in 2D), C order, x the first axis; `.vol` follows docs/design.md §6. Relative paths
 //! are relative to the scene file.
 
-use crate::field::{Field, VoxelGrid};
-use crate::npy::read_npy;
-use crate::problem::{Boundary, Grid, Phase, Problem, Scattering, SourceTerm};
-use crate::scene_registry::{self, SceneKind};
-use crate::scenes::Scene;
-use crate::vol::read_vol;
 use anyhow::{bail, ensure, Context};
+use pn_runtime::field::{Field, VoxelGrid};
+use pn_runtime::npy::read_npy;
+use pn_runtime::problem::{Boundary, Grid, Phase, Problem, Scattering, SourceTerm};
+use pn_runtime::scene_registry::{self, SceneKind};
+use pn_runtime::scenes::Scene;
+use pn_runtime::vol::read_vol;
 use pn_stencil::Dim;
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
@@ -216,7 +216,7 @@ fn build(spec: SceneSpec, base: &Path, path: &Path) -> anyhow::Result<Scene> {
         .map(|(_, l)| l)
         .or(source_voxels.iter().flatten().next());
     let res = match (&spec.resolution, first) {
-        (Some(r), _) => crate::scenes::resolve_res(dim, 1, Some(r))?,
+        (Some(r), _) => pn_runtime::scenes::resolve_res(dim, 1, Some(r))?,
         (None, Some(l)) => {
             if dim == Dim::Two {
                 [l.dims[0], l.dims[1], 1]

@@ -25,7 +25,7 @@
 use super::lights::Light;
 use super::medium::floor_fast;
 use super::medium::{DensityFilter, DensityGrid};
-use crate::problem::Grid;
+use pn_runtime::problem::Grid;
 use rayon::prelude::*;
 
 /// The extinction field σ_t = `scale` × density, with exact ray integrals.
@@ -642,7 +642,7 @@ mod tests {
             grid: &g,
             scale: 1.0,
         };
-        let grid = crate::render::test_box_grid([2, 2, 2]);
+        let grid = crate::test_box_grid([2, 2, 2]);
         let light = Light::Directional {
             direction: [0.0, 0.0, -1.0],
             irradiance: 1.0,

@@ -38,10 +38,10 @@
 //! The source moments Q and the coefficients are those of the [`Problem`] the P_N system
 //! solved (the σ_t threshold and the absorber included).
 
-use crate::field::Field;
-use crate::problem::{Grid, Problem, Scattering};
-use crate::unstagger::CellMoments;
 use anyhow::{anyhow, ensure, Result};
+use pn_runtime::field::Field;
+use pn_runtime::problem::{Grid, Problem, Scattering};
+use pn_runtime::unstagger::CellMoments;
 use pn_stencil::quadrature::{real_sh, SphereQuadrature};
 use rayon::prelude::*;
 
@@ -328,15 +328,15 @@ fn cell_values(field: &Field, grid: &Grid) -> Vec<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::field::Field;
-    use crate::problem::{Boundary, Phase, Scattering, SourceTerm};
+    use pn_runtime::field::Field;
+    use pn_runtime::problem::{Boundary, Phase, Scattering, SourceTerm};
     use pn_stencil::quadrature::SphereQuadrature;
 
     const Y00: f64 = 0.282_094_791_773_878_14; // 1/√(4π)
 
     fn cube(res: usize, sigma_t: f64, sigma_s: f64, phase: Phase, q00: f64) -> Problem {
         Problem {
-            grid: crate::render::test_box_grid([res; 3]),
+            grid: crate::test_box_grid([res; 3]),
             sigma_t: Field::Constant(sigma_t),
             scattering: Scattering::SigmaS(Field::Constant(sigma_s)),
             phase,

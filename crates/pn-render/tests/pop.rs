@@ -1,18 +1,18 @@
-//! Principal-Ordinates Propagation (issue 20, `pn_runtime::pop`) on the paper's cube: the
+//! Principal-Ordinates Propagation (issue 20, `pn_render::pop`) on the paper's cube: the
 //! energy bookkeeping, the scale of the once-scattered source, the anisotropy in the limits
 //! g → 1 and g = 0, the projection onto the solve grid, and bad input.
 //! (The SH convention and Eq. 3's partition are unit tests in `pop::accumulate` and
 //! `pop::hg_patch`.)
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
-use pn_runtime::pop::propagate::{
+use pn_render::pop::propagate::{
     propagate, propagate_from, propagate_scheduled, LightGrid, PopMedium, Schedule,
 };
-use pn_runtime::pop::{
+use pn_render::pop::{
     pop_field, residuum_switch_iteration, solve_light, PopSeconds, PopSettings, ResiduumSettings,
 };
-use pn_runtime::render::solve_setup::solve_grid;
-use pn_runtime::render::RenderScene;
+use pn_render::solve_setup::solve_grid;
+use pn_render::RenderScene;
 use std::path::Path;
 
 /// The paper's Fig. 12 cube: a unit cube (the `box` medium: the central half of [−1, 1]³)

@@ -1,5 +1,5 @@
 //! Render scenes (`pn render`): the TOML format, its validation and the built-in scenes
-//! (`scenes/<name>.toml`, listed with their descriptions in [`crate::scene_registry`], which
+//! (`scenes/<name>.toml`, listed with their descriptions in [`pn_runtime::scene_registry`], which
 //! also says how this format differs from the solve-scene format of [`crate::scene_file`]).
 //!
 //! ```toml
@@ -77,12 +77,12 @@ use super::colour::{Colours, GreyOrRgb};
 use super::lights::Light;
 use super::medium::{check_box, DensityFilter, DensityGrid, Procedural};
 use super::scene_override::SceneOverride;
-use crate::npy::read_npy;
-use crate::problem::Phase;
-use crate::scene_registry::{self, SceneKind};
-use crate::vdb::{read_vdb, IndexBox, VdbGrid};
-use crate::vol::read_vol;
 use anyhow::{bail, ensure, Context};
+use pn_runtime::npy::read_npy;
+use pn_runtime::problem::Phase;
+use pn_runtime::scene_registry::{self, SceneKind};
+use pn_runtime::vdb::{read_vdb, IndexBox, VdbGrid};
+use pn_runtime::vol::read_vol;
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -452,7 +452,7 @@ pub struct RenderScene {
 }
 
 /// Names of the built-in render scenes (the [`SceneKind::Render`] entries of
-/// [`crate::scene_registry::BUILTIN_SCENES`]).
+/// [`pn_runtime::scene_registry::BUILTIN_SCENES`]).
 pub fn builtin_names() -> Vec<&'static str> {
     scene_registry::names(SceneKind::Render)
 }
@@ -585,14 +585,14 @@ impl RenderScene {
         albedo: Option<Vec<f64>>,
     ) -> anyhow::Result<()> {
         let (bmin, bmax) = (self.medium.bbox_min, self.medium.bbox_max);
-        let vg = crate::field::VoxelGrid::new(dims, bmin, bmax, density).context("density")?;
+        let vg = pn_runtime::field::VoxelGrid::new(dims, bmin, bmax, density).context("density")?;
         let grid = DensityGrid::from_voxel_grid(&vg, bmin, bmax).context("density")?;
         if let Some(a) = albedo {
             ensure!(
                 self.colours.as_ref().is_none_or(|c| c.albedo.is_none()),
                 "give the albedo per channel or as an array, not both"
             );
-            let va = crate::field::VoxelGrid::new(dims, bmin, bmax, a).context("albedo")?;
+            let va = pn_runtime::field::VoxelGrid::new(dims, bmin, bmax, a).context("albedo")?;
             self.medium.albedo = albedo_voxels(&va, bmin, bmax).context("albedo")?;
         }
         self.medium.resolution = grid.res;
@@ -692,7 +692,7 @@ impl RenderScene {
     }
 
     /// A built-in render scene ([`builtin_names`]; the same files as `scenes/<name>.toml`,
-    /// compiled in by [`crate::scene_registry`]). `None` for any other name, a built-in
+    /// compiled in by [`pn_runtime::scene_registry`]). `None` for any other name, a built-in
     /// solve scene's included.
     pub fn builtin(name: &str) -> Option<RenderScene> {
         let text = scene_registry::find_kind(name, SceneKind::Render)?.toml?;
@@ -772,7 +772,7 @@ fn nonneg(name: &str, v: f64) -> anyhow::Result<()> {
 /// What a grid file holds: its voxels, whether the file placed them in space, and for a VDB
 /// file the grid itself with the index box read (to read a second grid over the same voxels).
 struct GridFile {
-    voxels: crate::field::VoxelGrid,
+    voxels: pn_runtime::field::VoxelGrid,
     placed: bool,
     vdb: Option<(VdbGrid, IndexBox)>,
 }
@@ -802,7 +802,7 @@ fn read_grid_file(path: &Path, grid: Option<&str>) -> anyhow::Result<GridFile> {
             let dims = [a.shape[0], a.shape[1], a.shape[2]];
             let (min, max) = DEFAULT_BBOX;
             Ok(GridFile {
-                voxels: crate::field::VoxelGrid::new(dims, min, max, a.data)?,
+                voxels: pn_runtime::field::VoxelGrid::new(dims, min, max, a.data)?,
                 placed: false,
                 vdb: None,
             })
@@ -831,7 +831,7 @@ fn read_grid_file(path: &Path, grid: Option<&str>) -> anyhow::Result<GridFile> {
 /// A per-voxel albedo on the density's voxels (the box of the medium): finite, non-negative
 /// (the density grid's checks) and at most 1.
 fn albedo_voxels(
-    vg: &crate::field::VoxelGrid,
+    vg: &pn_runtime::field::VoxelGrid,
     bbox_min: [f64; 3],
     bbox_max: [f64; 3],
 ) -> anyhow::Result<Albedo> {
@@ -849,7 +849,7 @@ fn read_albedo_file(
     path: &Path,
     grid: Option<&str>,
     density: Option<&(VdbGrid, IndexBox)>,
-) -> anyhow::Result<crate::field::VoxelGrid> {
+) -> anyhow::Result<pn_runtime::field::VoxelGrid> {
     match density {
         Some((d, window)) if path.extension().and_then(|e| e.to_str()) == Some("vdb") => {
             let a = read_vdb(path, grid)?;
@@ -1612,7 +1612,7 @@ height = 8
         let dir = std::env::temp_dir().join(format!("pn-render-scene-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let g = DensityGrid::new([2, 1, 1], [0.0; 3], [2.0, 1.0, 1.0], vec![0.25, 1.0]).unwrap();
-        let bytes = crate::vol::encode_vol(&g.to_voxel_grid());
+        let bytes = pn_runtime::vol::encode_vol(&g.to_voxel_grid());
         std::fs::write(dir.join("d.vol"), &bytes).unwrap();
         std::fs::write(dir.join("bad.vol"), &bytes[..bytes.len() - 2]).unwrap();
         let text = MINIMAL
@@ -1626,11 +1626,11 @@ height = 8
         );
         assert!(e.contains("bytes of data"), "{e}");
         // A per-voxel albedo from .npy (shape (nx, ny, nz), x first) on the same grid.
-        crate::npy::write_npy(&dir.join("a.npy"), &[2, 1, 1], &[0.5, 0.25]).unwrap();
+        pn_runtime::npy::write_npy(&dir.join("a.npy"), &[2, 1, 1], &[0.5, 0.25]).unwrap();
         let with_albedo = text.replace("albedo = 0.5", "albedo_file = \"a.npy\"");
         let s = RenderScene::from_toml_str(&with_albedo, &dir).unwrap();
         assert_eq!((s.medium.albedo_at(0), s.medium.albedo_at(1)), (0.5, 0.25));
-        crate::npy::write_npy(&dir.join("b.npy"), &[2, 1, 1], &[0.5, 1.5]).unwrap();
+        pn_runtime::npy::write_npy(&dir.join("b.npy"), &[2, 1, 1], &[0.5, 1.5]).unwrap();
         let e = format!(
             "{:#}",
             RenderScene::from_toml_str(&with_albedo.replace("a.npy", "b.npy"), &dir).unwrap_err()
@@ -1659,11 +1659,11 @@ height = 8
         // The same voxels through a .vol file give the same medium.
         let dir = std::env::temp_dir().join(format!("pn-render-vdb-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
-        let vg = crate::vdb::read_vdb(&data.join("offset12.vdb"), None)
+        let vg = pn_runtime::vdb::read_vdb(&data.join("offset12.vdb"), None)
             .unwrap()
             .dense_active()
             .unwrap();
-        std::fs::write(dir.join("same.vol"), crate::vol::encode_vol(&vg)).unwrap();
+        std::fs::write(dir.join("same.vol"), pn_runtime::vol::encode_vol(&vg)).unwrap();
         let vol =
             RenderScene::from_toml_str(&text.replace("offset12.vdb", "same.vol"), &dir).unwrap();
         assert_eq!(vol.density_grid().unwrap(), g);

@@ -33,8 +33,8 @@
 //! Procedural media are deterministic functions of the seed (a hash of the lattice point and
 //! the seed, no global random state), evaluated at the voxel centres.
 
-use crate::field::VoxelGrid;
 use anyhow::{bail, ensure, Context};
+use pn_runtime::field::VoxelGrid;
 use rayon::prelude::*;
 
 /// ⌊x⌋ for finite |x| < 2⁶³ without the libm call `f64::floor` becomes on baseline x86-64
@@ -332,7 +332,7 @@ impl DensityGrid {
         any.then_some((lo, hi))
     }
 
-    /// The same data as a [`VoxelGrid`] (x slowest, f64), e.g. for [`crate::vol::encode_vol`].
+    /// The same data as a [`VoxelGrid`] (x slowest, f64), e.g. for [`pn_runtime::vol::encode_vol`].
     pub fn to_voxel_grid(&self) -> VoxelGrid {
         let [nx, ny, nz] = self.res;
         let mut data = vec![0.0; nx * ny * nz];

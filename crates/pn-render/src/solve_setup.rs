@@ -35,8 +35,8 @@
 
 use super::medium::{DensityFilter, DensityGrid};
 use super::scene::{Albedo, MediumSpec};
-use crate::problem::Grid;
 use anyhow::ensure;
+use pn_runtime::problem::Grid;
 use pn_stencil::Dim;
 
 /// A solve grid placed on the medium.
@@ -218,7 +218,7 @@ pub(crate) fn gauss_nodes(density: &DensityGrid, grid: &Grid, d: usize) -> Vec<V
 /// density's filter: `value([i, j, k], index)` gives the voxel value (voxel coordinates and
 /// density index); the field is `Σ value_ijk φ_i φ_j φ_k`, 0 outside the density box.
 /// Exact (module docs). x slowest (`(i·ny + j)·nz + k`, the order of
-/// [`crate::field::VoxelGrid`]). Voxels with density 0 are skipped (every quantity averaged
+/// [`pn_runtime::field::VoxelGrid`]). Voxels with density 0 are skipped (every quantity averaged
 /// here vanishes at their centres).
 pub fn cell_average(
     density: &DensityGrid,
@@ -333,8 +333,8 @@ mod tests {
     }
 
     use super::*;
-    use crate::render::scene::{Albedo, MediumSource};
-    use crate::render::Procedural;
+    use crate::scene::{Albedo, MediumSource};
+    use crate::Procedural;
 
     fn medium(scale: f64, albedo: f64) -> MediumSpec {
         MediumSpec {
@@ -345,7 +345,7 @@ mod tests {
             bbox_max: [1.0; 3],
             sigma_t_scale: scale,
             albedo: Albedo::Constant(albedo),
-            filter: crate::render::DensityFilter::Trilinear,
+            filter: crate::DensityFilter::Trilinear,
         }
     }
 

@@ -29,9 +29,9 @@ use super::lights::phase_value;
 use super::medium::DensityGrid;
 use super::scene::{MsLookup, RenderScene};
 use super::shadow::Extinction;
-use crate::field::trilinear_corners;
-use crate::problem::{Grid, Phase};
-use crate::unstagger::CellMoments;
+use pn_runtime::field::trilinear_corners;
+use pn_runtime::problem::{Grid, Phase};
+use pn_runtime::unstagger::CellMoments;
 use pn_stencil::quadrature::real_sh;
 use rayon::prelude::*;
 
@@ -298,7 +298,7 @@ impl Renderer<'_> {
         let cam = &self.scene.camera;
         let (w, h) = (cam.width, cam.height);
         let majorant = self.majorant();
-        let bar = crate::solver::progress_bar(h, progress);
+        let bar = pn_runtime::solver::progress_bar(h, progress);
         bar.set_message("image rows");
         let rows: Vec<Vec<(f64, f64)>> = (0..h)
             .into_par_iter()

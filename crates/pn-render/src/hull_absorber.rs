@@ -6,7 +6,7 @@
 //! re-enter it. Outside the hull the exact transport solution inside the medium therefore does
 //! not change when the vacuum is replaced by a pure absorber (σ_s = 0) of any strength. Inside
 //! the hull (the concavities of a cloud) light can return, and the vacuum stays vacuum (the
-//! σ_t threshold of [`crate::problem::Problem::sigma_t_min`]).
+//! σ_t threshold of [`pn_runtime::problem::Problem::sigma_t_min`]).
 //!
 //! Why it matters for P_N (issue 17, docs/design.md §6): in a near-vacuum cell the odd moments
 //! are about −(1/σ_t) times the gradient of the even ones, so the even moments are nearly
@@ -41,7 +41,7 @@
 //! n_k·x − s_k (the distance to the polytope for points whose nearest feature is a facet, a
 //! lower bound elsewhere).
 
-use crate::problem::Grid;
+use pn_runtime::problem::Grid;
 
 /// Directions per cube-face axis of [`hull_directions`]: a `HULL_GRID × HULL_GRID` grid on
 /// each face of the cube, 6·HULL_GRID² directions (150), normalised.
@@ -147,7 +147,7 @@ pub fn add_hull_absorber(grid: &Grid, ramp: f64, sigma_t: &mut [f64]) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::render::test_box_grid;
+    use crate::test_box_grid;
 
     #[test]
     fn directions_are_unit_and_include_the_cube_corners() {
@@ -196,7 +196,7 @@ mod tests {
         // its face at x = 0.5; cell 16 has its centre at 0.65, 1.5 cells out.
         let at = |i: usize| (i * n + n / 2) * n + n / 2;
         assert!((depth[at(16)] - 1.5).abs() < 1e-9, "{}", depth[at(16)]);
-        let full = crate::render::solve_setup::ABSORBER_OPTICAL_DEPTH_PER_CELL / h;
+        let full = crate::solve_setup::ABSORBER_OPTICAL_DEPTH_PER_CELL / h;
         assert!((sigma_t[at(16)] - (1.5f64 / 4.0).powi(2) * full).abs() < 1e-9);
         assert!((sigma_t[at(19)] - full).abs() < 1e-9);
         // Monotone outward.

@@ -92,10 +92,10 @@ impl Light {
 /// The phase function value p(μ) for the cosine μ between the two **propagation**
 /// directions (incoming travel direction and outgoing direction), normalised over the sphere
 /// (docs/design.md §2: ∫p = 1; HG with λ_l p_l = g^l).
-pub fn phase_value(phase: crate::problem::Phase, mu: f64) -> f64 {
+pub fn phase_value(phase: pn_runtime::problem::Phase, mu: f64) -> f64 {
     match phase {
-        crate::problem::Phase::Isotropic => 1.0 / (4.0 * std::f64::consts::PI),
-        crate::problem::Phase::HenyeyGreenstein(g) => {
+        pn_runtime::problem::Phase::Isotropic => 1.0 / (4.0 * std::f64::consts::PI),
+        pn_runtime::problem::Phase::HenyeyGreenstein(g) => {
             pn_stencil::quadrature::henyey_greenstein(g, mu.clamp(-1.0, 1.0))
         }
     }
@@ -104,7 +104,7 @@ pub fn phase_value(phase: crate::problem::Phase, mu: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::problem::Phase;
+    use pn_runtime::problem::Phase;
 
     #[test]
     fn point_light_falls_off_with_inverse_square() {

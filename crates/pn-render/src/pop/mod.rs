@@ -10,14 +10,14 @@
 //!   putting it into every cell would count cell i's light once per upstream cell), but the
 //!   **once-scattered** light, which POP's basis represents exactly: around a directional
 //!   light it is an HG lobe with a = g about d, `L_i^0 = σ_s,i · E · T_i · h`, `a_i^0 = g`,
-//!   with `T_i` the exact uncollided transmittance (σ_t, [`crate::render::shadow`]) from the
+//!   with `T_i` the exact uncollided transmittance (σ_t, [`crate::shadow`]) from the
 //!   light to the cell centre, accumulated in one sweep along d per column. σ_s,i is the
 //!   cell average (midpoint subsamples); `L_i^0 h²` is the power scattered once in the cell.
 //! * **Where σ_s enters (open point 4):** in that source and in Eq. 4 (`a′ = a g^{σ_s t}`);
 //!   the convolution of the lobe with the phase function is the renderer's `g^l` factor.
 //! * **What POP hands on:** the SH moments of the **collided** radiance (scattered ≥ 1
 //!   times) on the solve grid ([`accumulate`]), through the same
-//!   [`crate::render::renderer::MsField`] as P_N; the renderers add the exact single
+//!   [`crate::renderer::MsField`] as P_N; the renderers add the exact single
 //!   scattering (next-event estimation with the exact transmittance), so nothing is
 //!   counted twice.
 //! * **Eq. 1 at g = 0 and a → 1 (open point 5):** [`hg_patch`].
@@ -40,16 +40,16 @@ pub mod accumulate;
 pub mod hg_patch;
 pub mod propagate;
 
-use crate::problem::{Grid, Phase};
-use crate::render::lights::Light;
-use crate::render::medium::DensityGrid;
-use crate::render::scene::{
+use crate::lights::Light;
+use crate::medium::DensityGrid;
+use crate::scene::{
     RenderScene, POP_DEFAULT_EPSILON_A, POP_DEFAULT_EPSILON_L, POP_DEFAULT_ITERATIONS,
     POP_DEFAULT_RESOLUTION, POP_MAX_ITERATIONS, POP_MAX_RESOLUTION,
 };
-use crate::render::shadow::Extinction;
-use crate::unstagger::CellMoments;
+use crate::shadow::Extinction;
 use anyhow::{bail, ensure};
+use pn_runtime::problem::{Grid, Phase};
+use pn_runtime::unstagger::CellMoments;
 use propagate::{IterationEnergy, LightGrid, PopMedium, ResiduumInfo, Schedule};
 use rayon::prelude::*;
 use serde::Serialize;
@@ -388,7 +388,7 @@ pub fn solve_light(
     // Per cell: σ_s, σ_a, T (and its columns while sweeping), source, two halves, L and a
     // twice, three patch fractions and lmax + 1 band amplitudes (f64 each).
     let bytes = grid.cells() as u128 * 8 * (14 + settings.lmax as u128 + 1);
-    let limit = crate::memory_estimate::default_limit_bytes() as u128;
+    let limit = pn_runtime::memory_estimate::default_limit_bytes() as u128;
     ensure!(
         bytes <= limit,
         "POP: the {:?} grid needs about {:.1} GiB, more than the default memory limit of \

@@ -38,8 +38,8 @@ pub use super::shadow::density_as_grid;
 use super::shadow::{cell_centre, DeepShadowMaps, Extinction};
 use super::solve_setup::{add_absorbing_layer, resample};
 use super::source_quadrature::cell_scattering_weights;
-use crate::field::{Field, VoxelGrid};
-use crate::problem::{Boundary, Grid, Phase, Problem, Scattering, SourceTerm};
+use pn_runtime::field::{Field, VoxelGrid};
+use pn_runtime::problem::{Boundary, Grid, Phase, Problem, Scattering, SourceTerm};
 use pn_stencil::quadrature::real_sh;
 use std::sync::Arc;
 
@@ -233,8 +233,8 @@ pub fn first_scatter_problem_with_depth(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::render::lights::phase_value;
-    use crate::render::test_box_grid;
+    use crate::lights::phase_value;
+    use crate::test_box_grid;
     use pn_stencil::quadrature::SphereQuadrature;
 
     /// Total source power ∫∫Q dω dV = Σ_cells √(4π) Q_0^0 V equals Σ σ_s T E V for a
@@ -325,12 +325,12 @@ mod tests {
         let mut scene = RenderScene::builtin("sphere").unwrap();
         scene.medium.resolution = [12; 3];
         let density = scene.density_grid().unwrap();
-        let sg = crate::render::solve_setup::solve_grid(&density, [5; 3], 1, true)
+        let sg = crate::solve_setup::solve_grid(&density, [5; 3], 1, true)
             .unwrap()
             .unwrap();
         let power = |grid: &Grid| {
             let fs = first_scatter_problem(&scene, &density, grid, 0).unwrap();
-            let crate::field::Field::Voxel(q) = &fs.problem.sources[0].field else {
+            let pn_runtime::field::Field::Voxel(q) = &fs.problem.sources[0].field else {
                 panic!("voxel source expected")
             };
             q.data.iter().sum::<f64>() * grid.cell_volume() * (4.0 * std::f64::consts::PI).sqrt()

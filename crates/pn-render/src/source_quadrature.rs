@@ -37,11 +37,11 @@ use super::medium::DensityGrid;
 use super::scene::MediumSpec;
 use super::shadow::Extinction;
 use super::solve_setup::gauss_nodes;
-use crate::problem::Grid;
+use pn_runtime::problem::Grid;
 use rayon::prelude::*;
 
 /// `w[light][c] = (1/V_c) ∫_c σ_s T_light E_light dx` for every cell c of the solve grid
-/// `grid` (x slowest, the order of [`crate::field::VoxelGrid`]): module docs. `ext` is the
+/// `grid` (x slowest, the order of [`pn_runtime::field::VoxelGrid`]): module docs. `ext` is the
 /// medium's extinction on `density`, `medium` gives the scale and the albedo, `depth` the
 /// optical depth to each of `lights`.
 pub fn cell_scattering_weights(
@@ -128,9 +128,9 @@ fn reads_nonzero_voxel(density: &DensityGrid, reach: [Option<(usize, usize)>; 3]
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::render::medium::DensityFilter;
-    use crate::render::scene::{Albedo, MediumSource};
-    use crate::render::test_box_grid;
+    use crate::medium::DensityFilter;
+    use crate::scene::{Albedo, MediumSource};
+    use crate::test_box_grid;
 
     fn medium(density: &DensityGrid, scale: f64, albedo: f64) -> MediumSpec {
         MediumSpec {
