@@ -188,6 +188,10 @@ def item_end(text, pos):
 CFG_TEST = re.compile(r"#\s*\[\s*cfg\s*\(\s*(?:test|all\s*\((?:[^()]*,)?\s*test\s*(?:,[^()]*)?\))\s*\)\s*\]")
 TEST_ATTR = re.compile(r"#\s*\[\s*test\s*\]")
 FN = re.compile(r"\bfn\s+(" + IDENT + r")")
+# `impl`/`trait` blocks as items (at the start of a line), not `-> impl Trait` in signatures.
+IMPL = re.compile(
+    r"^[ \t]*(?:pub(?:\s*\([^)]*\))?\s+)?(?:unsafe\s+)?(?:default\s+)?(impl|trait)\b", re.M
+)
 
 
 class Source:
@@ -233,7 +237,7 @@ class Source:
     def impl_ranges(self):
         """(start, end, name) of `impl … {` and `trait Name … {` blocks."""
         out = []
-        for m in re.finditer(r"\b(impl|trait)\b", self.text):
+        for m in IMPL.finditer(self.text):
             end, brace = item_end(self.text, m.end())
             if brace is None:
                 continue
@@ -420,7 +424,7 @@ def self_test():
         "{\n"                                                               # 20
         "    dbg!(x)\n"                                                     # 21
         "}\n"                                                               # 22
-        "use std::env::{self, args};\n"                                     # 23
+        "use std::env::{self, args}; pub fn it() -> impl Iterator<Item = u8> { fn inner() {} inner(); 0..1 }\n"  # 23
         "#[cfg(test)]\n"                                                    # 24
         "mod tests {\n"                                                     # 25
         "    #[test]\n"                                                     # 26
@@ -494,8 +498,8 @@ def self_test():
             if v not in want:
                 print(f"  unexpected: {v}")
     fn_names = sorted(f[2] for f in functions if f[0] == lib_rs)
-    want_fns = sorted(["hello", "T::with_default", "spawn", "generic", "S::from",
-                       "exactly_150", "const_152"])
+    want_fns = sorted(["hello", "T::with_default", "spawn", "generic", "it", "inner",
+                       "S::from", "exactly_150", "const_152"])
     if fn_names != want_fns:
         ok = False
         print(f"check-house self-test: functions {fn_names}, expected {want_fns}")
