@@ -1,6 +1,6 @@
-//! Lowering of parsed statements into a [`PdeSystem`] of `cas` expressions: loops expanded,
-//! definitions substituted, unknowns labelled, `grad`/`div` written out as partial
-//! derivatives.
+//! Lowering of parsed statements into a [`PdeSystem`](crate::pde::PdeSystem) of `cas`
+//! expressions: loops expanded, definitions substituted, unknowns labelled, `grad`/`div`
+//! written out as partial derivatives.
 //!
 //! This module runs the statements ([`lower`]: declarations, definitions, loops; equations,
 //! additions and boundary conditions are kept for later); [`eval`] lowers expressions,
