@@ -475,10 +475,10 @@ impl Builder {
         }
     }
 
-    /// Reads the orders from the environment variable `var` (e.g. `PN_ORDERS`).
-    pub fn orders_from_env(mut self, var: &str) -> Result<Builder, StencilError> {
-        let value = std::env::var(var).ok();
-        self.orders = parse_orders(var, value.as_deref(), &Builder::DEFAULT_ORDERS)?;
+    /// Sets the orders from `value`, the value of the variable `var` (e.g. `PN_ORDERS`;
+    /// `None`: unset, the [`Builder::DEFAULT_ORDERS`]); see [`parse_orders`].
+    pub fn orders_from(mut self, var: &str, value: Option<&str>) -> Result<Builder, StencilError> {
+        self.orders = parse_orders(var, value, &Builder::DEFAULT_ORDERS)?;
         Ok(self)
     }
 
@@ -513,17 +513,18 @@ impl Builder {
         self
     }
 
-    /// Reads the PDE files to compile from the environment variable `var`
-    /// (comma-separated paths; unset: every `*.pde` in `default_dir`, sorted; empty: none).
-    pub fn pde_files_from_env(self, var: &str, default_dir: &Path) -> Builder {
-        let files: Vec<PathBuf> = match std::env::var(var) {
-            Ok(v) => v
+    /// Adds the PDE files named by `value`, the value of a variable such as `PN_PDES`
+    /// (comma-separated paths; `None`, unset: every `*.pde` in `default_dir`, sorted;
+    /// empty: none).
+    pub fn pde_files_from(self, value: Option<&str>, default_dir: &Path) -> Builder {
+        let files: Vec<PathBuf> = match value {
+            Some(v) => v
                 .split(',')
                 .map(str::trim)
                 .filter(|s| !s.is_empty())
                 .map(PathBuf::from)
                 .collect(),
-            Err(_) => {
+            None => {
                 let mut fs: Vec<PathBuf> = std::fs::read_dir(default_dir)
                     .map(|rd| {
                         rd.filter_map(|e| e.ok().map(|e| e.path()))
@@ -577,28 +578,37 @@ impl Builder {
             .map_err(|e| StencilError::Codegen(format!("writing {}: {e}", path.display())))
     }
 
-    /// For build scripts: prints `cargo:rerun-if-env-changed=PN_ORDERS` and writes
-    /// `$OUT_DIR/stencils.rs` for the orders in `PN_ORDERS` and the PDE text files in
-    /// `PN_PDES` (default: every `*.pde` in the workspace's `pdes/`). Cargo re-runs the build script
-    /// by itself when this crate or `cas` (its build dependencies) change.
-    pub fn compile_for_build_script() -> Result<PathBuf, StencilError> {
-        println!("cargo:rerun-if-env-changed=PN_ORDERS");
-        println!("cargo:rerun-if-env-changed=PN_PDES");
-        let out = std::env::var_os("OUT_DIR")
-            .ok_or_else(|| StencilError::Config("OUT_DIR is not set".into()))?;
-        // The workspace's pdes/ folder, two levels above the calling crate.
-        let pde_dir = std::env::var_os("CARGO_MANIFEST_DIR")
-            .map(|d| PathBuf::from(d).join("../../pdes"))
-            .unwrap_or_else(|| PathBuf::from("pdes"));
-        println!("cargo:rerun-if-changed={}", pde_dir.display());
+    /// For build scripts, which read the environment themselves: writes
+    /// `out_dir/stencils.rs` for the P_N orders in `orders` (the value of `PN_ORDERS`; `None`:
+    /// unset, orders 1–5) and the PDE text files in `pdes` (the value of `PN_PDES`; `None`:
+    /// every `*.pde` in `pde_dir`). Returns the file written and the paths the build script
+    /// declares with `cargo:rerun-if-changed` (`pde_dir` and every PDE file). Cargo re-runs
+    /// the build script by itself when this crate or `cas` (its build dependencies) change.
+    pub fn compile_for_build_script(
+        orders: Option<&str>,
+        pdes: Option<&str>,
+        out_dir: &Path,
+        pde_dir: &Path,
+    ) -> Result<BuildScriptOutput, StencilError> {
         let builder = Builder::new()
-            .orders_from_env("PN_ORDERS")?
-            .pde_files_from_env("PN_PDES", &pde_dir);
-        for p in &builder.pdes {
-            println!("cargo:rerun-if-changed={}", p.display());
-        }
-        let path = PathBuf::from(out).join("stencils.rs");
-        builder.write(&path)?;
-        Ok(path)
+            .orders_from("PN_ORDERS", orders)?
+            .pde_files_from(pdes, pde_dir);
+        let mut rerun_if_changed = vec![pde_dir.to_path_buf()];
+        rerun_if_changed.extend(builder.pdes.iter().cloned());
+        let stencils = out_dir.join("stencils.rs");
+        builder.write(&stencils)?;
+        Ok(BuildScriptOutput {
+            stencils,
+            rerun_if_changed,
+        })
     }
+}
+
+/// What [`Builder::compile_for_build_script`] did.
+#[derive(Clone, Debug)]
+pub struct BuildScriptOutput {
+    /// The generated file, `OUT_DIR/stencils.rs`.
+    pub stencils: PathBuf,
+    /// The paths the build script declares with `cargo:rerun-if-changed`.
+    pub rerun_if_changed: Vec<PathBuf>,
 }

@@ -4,7 +4,8 @@
 //! `OUT_DIR` ([`compiled`]) for the P_N orders in `PN_ORDERS` (default 1–5; 2D and 3D,
 //! staggered and collocated) plus CDA and diffusion (D as a field). [`pn_kernel`],
 //! [`cda_kernel`] and [`diffusion_kernel`] return the compiled stencil when it exists and
-//! otherwise derive the same IR and interpret it, with a one-line note.
+//! otherwise derive the same IR and interpret it, with a one-line note in
+//! [`KernelChoice::note`] for the caller to show (this library prints nothing).
 //!
 //! ```
 //! use pn_kernels::{pn_kernel, Dim, Staggering};
@@ -41,6 +42,11 @@ pub struct KernelChoice {
     pub kernel: Arc<dyn StencilKernel>,
     /// Whether it is generated code (`false`: interpreted IR).
     pub compiled: bool,
+    /// Why an interpreted stencil was chosen (a one-line `note: …` for the user, e.g.
+    /// "note: stencil p7_3d_staggered was not compiled in (see PN_ORDERS); interpreting it
+    /// at run time"); `None` for a compiled stencil and for IR interpreted by request.
+    /// The library does not print it: a command shows it on stderr.
+    pub note: Option<String>,
 }
 
 impl std::fmt::Debug for KernelChoice {
@@ -48,6 +54,7 @@ impl std::fmt::Debug for KernelChoice {
         f.debug_struct("KernelChoice")
             .field("kernel", &self.kernel.name())
             .field("compiled", &self.compiled)
+            .field("note", &self.note)
             .finish()
     }
 }
@@ -73,7 +80,7 @@ impl StencilKernel for Compiled {
     }
 }
 
-/// The compiled stencil `name`, else `build()` interpreted with a one-line notice.
+/// The compiled stencil `name`, else `build()` interpreted with a one-line note.
 fn choose(
     name: &str,
     build: impl FnOnce() -> anyhow::Result<StencilIr>,
@@ -82,15 +89,16 @@ fn choose(
         return Ok(KernelChoice {
             kernel: Arc::new(Compiled(k)),
             compiled: true,
+            note: None,
         });
     }
     let ir = build()?;
-    eprintln!(
-        "note: stencil {name} was not compiled in (see PN_ORDERS); interpreting it at run time"
-    );
     Ok(KernelChoice {
         kernel: Arc::new(InterpretedKernel::new(ir)),
         compiled: false,
+        note: Some(format!(
+            "note: stencil {name} was not compiled in (see PN_ORDERS); interpreting it at run time"
+        )),
     })
 }
 
@@ -141,28 +149,34 @@ pub fn pde_kernel(pde: &pn_codegen::text::TextPde, dim: Dim) -> anyhow::Result<K
                 boundary,
             }),
             compiled: choice.compiled,
+            note: choice.note,
         },
         None => choice,
     })
 }
 
 /// [`pde_kernel`] for a text PDE's IR already built ([`pn_codegen::text::TextPde::ir`]).
+/// When a compiled stencil of that name exists but was built from other IR, the choice is
+/// the interpreted IR with a [`KernelChoice::note`] saying so.
 pub fn pde_ir_kernel(ir: StencilIr) -> KernelChoice {
+    let mut note = None;
     if let (Some(k), Some(print)) = (compiled::find(&ir.name), compiled::fingerprint(&ir.name)) {
         if print == ir.fingerprint() {
             return KernelChoice {
                 kernel: Arc::new(Compiled(k)),
                 compiled: true,
+                note: None,
             };
         }
-        eprintln!(
+        note = Some(format!(
             "note: the compiled stencil {} was built from a different text or other parameters; \
              interpreting this one",
             ir.name
-        );
+        ));
     }
     KernelChoice {
         kernel: Arc::new(InterpretedKernel::new(ir)),
         compiled: false,
+        note,
     }
 }

@@ -124,6 +124,7 @@ fn compiled_and_interpreted_stencils_agree() {
 fn kernels_come_compiled_or_interpreted() {
     let k = cda_kernel(Dim::Three).unwrap();
     assert!(k.compiled);
+    assert_eq!(k.note, None);
     assert_eq!(k.kernel.name(), "cda_3d");
     let k = diffusion_kernel(Dim::Two).unwrap();
     assert!(k.compiled);
@@ -134,6 +135,16 @@ fn kernels_come_compiled_or_interpreted() {
         .expect("some order up to 8 is not compiled");
     let k = pn_kernel(order, Dim::Two, Staggering::Staggered).unwrap();
     assert!(!k.compiled);
+    assert_eq!(
+        k.note.as_deref(),
+        Some(
+            format!(
+                "note: stencil {} was not compiled in (see PN_ORDERS); interpreting it at run time",
+                pn_name(order, Dim::Two, Staggering::Staggered)
+            )
+            .as_str()
+        )
+    );
     assert_eq!(k.kernel.moments().len(), (order + 1) * (order + 2) / 2);
     if let Some(c) = compiled::find(&pn_name(1, Dim::Three, Staggering::Staggered)) {
         let k = pn_kernel(1, Dim::Three, Staggering::Staggered).unwrap();
@@ -158,4 +169,33 @@ fn flat_programs_match_the_tree_walk_beyond_the_compiled_orders() {
             assert_same_kernel(&TreeWalk(&k), &k);
         }
     }
+}
+
+/// A text PDE's stencil is the compiled one only for the IR it was compiled from; other
+/// parameters give the interpreted IR and a note saying why (the library prints nothing).
+#[test]
+fn pde_kernel_notes_a_compiled_stencil_from_other_parameters() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../pdes/fpn.pde");
+    let text = std::fs::read_to_string(path).unwrap();
+    let default = pn_codegen::text::parse_pde(&text, &[]).unwrap();
+    let name = default.ir(Dim::Three).unwrap().name;
+    if compiled::fingerprint(&name) != Some(default.ir(Dim::Three).unwrap().fingerprint()) {
+        return; // PN_PDES compiled another set of files
+    }
+    let k = pn_kernels::pde_kernel(&default, Dim::Three).unwrap();
+    assert!(k.compiled);
+    assert_eq!(k.note, None);
+    let other = pn_codegen::text::parse_pde(&text, &[("f_eff".into(), "7".into())]).unwrap();
+    let k = pn_kernels::pde_kernel(&other, Dim::Three).unwrap();
+    assert!(!k.compiled);
+    assert_eq!(
+        k.note.as_deref(),
+        Some(
+            format!(
+                "note: the compiled stencil {name} was built from a different text or other \
+                 parameters; interpreting this one"
+            )
+            .as_str()
+        )
+    );
 }

@@ -102,26 +102,39 @@ pub fn derive(setup: &Setup) -> Derived {
         &rhs,
     );
 
+    project_and_expand(setup, (&mut lhs, &mut rhs), &mut rec);
+    separate_the_angles(setup, (&mut lhs, &mut rhs), &mut rec);
+    back_to_real_moments(setup, (&mut lhs, &mut rhs), &mut rec);
+
+    Derived {
+        lhs,
+        rhs,
+        steps: rec.steps,
+    }
+}
+
+/// Steps 2–3: projection onto the test function and the expansions of `L` and `Q`.
+fn project_and_expand(setup: &Setup, (lhs, rhs): (&mut Expr, &mut Expr), rec: &mut Recorder) {
     let test = Expr::sh(
         ShKind::Real,
         setup.l.clone(),
         setup.m.clone(),
         DirVar::Omega,
     );
-    both(&mut lhs, &mut rhs, &|e| {
+    both(lhs, rhs, &|e| {
         Expr::integral(DirVar::Omega, Expr::Mul(vec![test.clone(), e.clone()]))
     });
     rec.push(
         "Projection",
         "Multiply by the real basis function $Y_{l,m}(\\omega)$ and integrate over the sphere.",
-        &lhs,
-        &rhs,
+        lhs,
+        rhs,
     );
 
     let l_omega = rte::expansion("L", DirVar::Omega, setup.order.clone());
     let l_prime = rte::expansion("L", DirVar::OmegaPrime, setup.order.clone());
     let q_omega = rte::expansion("Q", DirVar::Omega, None);
-    both(&mut lhs, &mut rhs, &|e| {
+    both(lhs, rhs, &|e| {
         replace(e, &|n| {
             if *n == rte::radiance(DirVar::Omega) {
                 Some(l_omega.clone())
@@ -137,78 +150,84 @@ pub fn derive(setup: &Setup) -> Derived {
     rec.push(
         "Spherical-harmonic expansion",
         "Substitute the truncated real expansion of the radiance (moments above $N$ are dropped) and the expansion of the emission.",
-        &lhs,
-        &rhs,
+        lhs,
+        rhs,
     );
+}
 
-    both(&mut lhs, &mut rhs, &normalize);
+/// Steps 4–8: linearity, Funk–Hecke, the complex basis, the recursion relations and (if
+/// asked) the closed forms of their coefficients.
+fn separate_the_angles(setup: &Setup, (lhs, rhs): (&mut Expr, &mut Expr), rec: &mut Recorder) {
+    let assume = &setup.assume;
+    both(lhs, rhs, &normalize);
     rec.push(
         "Linearity",
         "Expand products, split integrals, sums and derivatives over sums, move sums outwards and pull factors that do not depend on the integration variable (or summation index, or position) out.",
-        &lhs,
-        &rhs,
+        lhs,
+        rhs,
     );
 
-    both(&mut lhs, &mut rhs, &|e| normalize(&funk_hecke(e)));
+    both(lhs, rhs, &|e| normalize(&funk_hecke(e)));
     rec.push(
         "Funk--Hecke",
         "$\\int p(\\omega'\\cdot\\omega) Y_{l',m'}(\\omega') \\,\\mathrm{d}\\omega' = \\lambda_{l'} p_{l'} Y_{l',m'}(\\omega)$.",
-        &lhs,
-        &rhs,
+        lhs,
+        rhs,
     );
 
-    let assume = &setup.assume;
-    both(&mut lhs, &mut rhs, &|e| {
+    both(lhs, rhs, &|e| {
         normalize(&sh_convert::real_to_complex(e, assume))
     });
     rec.push(
         "Real to complex basis",
         "Write the test function in the complex basis with the Condon--Shortley phase (docs/design.md \\S 2).",
-        &lhs,
-        &rhs,
+        lhs,
+        rhs,
     );
 
-    both(&mut lhs, &mut rhs, &|e| {
-        normalize(&sh_recursion::apply_recursion(e))
-    });
+    both(lhs, rhs, &|e| normalize(&sh_recursion::apply_recursion(e)));
     rec.push(
         "Recursion relations",
         "Replace $\\omega_d Y_l^m$ by the recursion relations (docs/design.md \\S 2.1).",
-        &lhs,
-        &rhs,
+        lhs,
+        rhs,
     );
 
     if setup.define_coefficients {
-        both(&mut lhs, &mut rhs, &|e| {
+        both(lhs, rhs, &|e| {
             collect(&normalize(&sh_recursion::define_coefficients(e)))
         });
         rec.push(
             "Recursion coefficients",
             "Evaluate the coefficients $a_{l,m},\\dots,f_{l,m}$ exactly and collect like terms.",
-            &lhs,
-            &rhs,
+            lhs,
+            rhs,
         );
     }
+}
 
-    both(&mut lhs, &mut rhs, &|e| {
+/// Steps 9–12: back to the real basis, orthonormality, the Kronecker deltas and like terms.
+fn back_to_real_moments(setup: &Setup, (lhs, rhs): (&mut Expr, &mut Expr), rec: &mut Recorder) {
+    let assume = &setup.assume;
+    both(lhs, rhs, &|e| {
         collect(&normalize(&sh_convert::complex_to_real(e, assume)))
     });
     rec.push(
         "Complex to real basis",
         "Write the complex basis functions in the real basis again and collect like terms.",
-        &lhs,
-        &rhs,
+        lhs,
+        rhs,
     );
 
-    both(&mut lhs, &mut rhs, &|e| normalize(&orthonormality(e)));
+    both(lhs, rhs, &|e| normalize(&orthonormality(e)));
     rec.push(
         "Orthonormality",
         "$\\int Y_{l,m} Y_{l',m'} \\,\\mathrm{d}\\omega = \\delta_{l,l'}\\delta_{m,m'}$.",
-        &lhs,
-        &rhs,
+        lhs,
+        rhs,
     );
 
-    both(&mut lhs, &mut rhs, &|e| {
+    both(lhs, rhs, &|e| {
         let mut cur = e.clone();
         loop {
             let next = normalize(&collapse_deltas(&cur));
@@ -221,21 +240,15 @@ pub fn derive(setup: &Setup) -> Derived {
     rec.push(
         "Kronecker deltas",
         "Collapse the sums over $l'$ and $m'$ against the deltas; terms outside $0\\le l'\\le N$ vanish (P$_N$ closure).",
-        &lhs,
-        &rhs,
+        lhs,
+        rhs,
     );
 
-    both(&mut lhs, &mut rhs, &collect);
+    both(lhs, rhs, &collect);
     rec.push(
         "Collect like terms",
         "Add the coefficients of equal moments; the imaginary unit cancels.",
-        &lhs,
-        &rhs,
-    );
-
-    Derived {
         lhs,
         rhs,
-        steps: rec.steps,
-    }
+    );
 }
