@@ -6,8 +6,8 @@
 //! multiples of 7/(16n) and never on an interface.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
+use pn_formats::npy::read_npy;
 use pn_runtime::convergence::restrict;
-use pn_runtime::npy::read_npy;
 use std::path::PathBuf;
 use std::process::Output;
 

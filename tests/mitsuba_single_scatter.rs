@@ -377,7 +377,7 @@ fn mitsuba_reads_voxels_as_documented() {
     .unwrap();
     std::fs::write(
         dir.join("four.vol"),
-        pn_runtime::vol::encode_vol(&grid.to_voxel_grid()),
+        pn_formats::vol::encode_vol(&grid.to_voxel_grid()),
     )
     .unwrap();
     // pn's lookup is the convention verified below, for both filters.

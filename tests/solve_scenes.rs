@@ -3,9 +3,9 @@
 
 mod support;
 
+use pn_formats::npy::{encode_npy, read_npy};
+use pn_formats::vol::encode_vol;
 use pn_runtime::field::VoxelGrid;
-use pn_runtime::npy::{encode_npy, read_npy};
-use pn_runtime::vol::encode_vol;
 use std::path::PathBuf;
 use std::process::Command;
 use support::rel_diff;

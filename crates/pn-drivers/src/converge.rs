@@ -10,7 +10,8 @@
 use crate::error_estimate::solve_at;
 use crate::scene_setup::{Method, SolveRequest};
 use anyhow::{ensure, Context, Result};
-use pn_runtime::convergence::{analyse, check_nesting, write_convergence_png, Level};
+use pn_formats::plot::convergence::write_convergence_png;
+use pn_runtime::convergence::{analyse, check_nesting, Level};
 use std::io::Write;
 use std::path::PathBuf;
 

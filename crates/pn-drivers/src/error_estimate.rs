@@ -13,10 +13,10 @@ use crate::scene_setup::{
     check_memory_and_set_sigma_t_min, kernel_for, sampled_problem, scene_from_request, SolveRequest,
 };
 use anyhow::{ensure, Context, Result};
+use pn_formats::output::cell_shape;
+use pn_formats::png::{write_png, Slice};
 use pn_runtime::convergence::{l2_diff, observed_order, rel_l2_diff, restrict, richardson};
 use pn_runtime::field::Sampling;
-use pn_runtime::output::cell_shape;
-use pn_runtime::output::png::{write_png, Slice};
 use pn_runtime::pipeline::{solve_problem, Solution};
 use pn_runtime::problem::{Grid, Problem};
 use pn_runtime::scenes::Scene;
@@ -239,7 +239,7 @@ fn estimate(
 /// `error.npy` (signed estimate per coarse cell) and `error.png` (|estimate|, log scale;
 /// 3D: the middle z slice).
 fn write_error_files(out: &Path, grid: &Grid, per_cell: &[f64], title: &str) -> Result<()> {
-    pn_runtime::npy::write_npy(&out.join("error.npy"), &cell_shape(grid), per_cell)?;
+    pn_formats::npy::write_npy(&out.join("error.npy"), &cell_shape(grid), per_cell)?;
     let [nx, ny, nz] = grid.res;
     let k = nz / 2;
     let vals: Vec<f64> = (0..nx)

@@ -15,8 +15,8 @@
 use crate::render::{render_scene, write_run, RenderOptions, RenderRun};
 use anyhow::{ensure, Context, Result};
 use plotters::prelude::*;
+use pn_formats::image_io::{exposure, read_exr_gray, srgb8};
 use pn_render::compare::{metrics, write_difference_png, GrayImage, Metrics};
-use pn_render::image_io::{exposure, read_exr_gray, srgb8};
 use pn_render::scene::{RenderMethod, RendererKind};
 use pn_render::{DensityFilter, RenderScene, SceneOverride};
 use pn_runtime::solver::SolverTuning;
@@ -284,8 +284,8 @@ fn write_tables(out: &Path, entries: &[Entry], reference: Option<&Path>) -> Resu
 /// reference a second row of |image − reference| on one white→red scale (0 to the 99th
 /// percentile of the largest error image).
 fn write_figure(path: &Path, entries: &[Entry], reference: Option<&GrayImage>) -> Result<()> {
-    let labels = pn_runtime::reference::register_plot_fonts().is_ok();
-    let err = |e: &dyn std::fmt::Display| pn_runtime::plot::draw_error(path, e);
+    let labels = pn_formats::plot::register_plot_fonts().is_ok();
+    let err = |e: &dyn std::fmt::Display| pn_formats::plot::draw_error(path, e);
     let first = &entries[0].run.image;
     let (w, h) = (first.width, first.height);
     let scale = (240 / w.max(1)).clamp(1, 4);
@@ -297,7 +297,7 @@ fn write_figure(path: &Path, entries: &[Entry], reference: Option<&GrayImage>) -
         (cols as i32 * (pw + 8) + 8) as u32,
         (rows as i32 * (ph + label_h + 8) + 8) as u32,
     );
-    let root = pn_runtime::plot::white_canvas(path, size)?;
+    let root = pn_formats::plot::white_canvas(path, size)?;
     let expo = match reference {
         Some(r) => exposure(&r.data.iter().map(|v| *v as f32).collect::<Vec<_>>()),
         None => exposure(&entries[entries.len() - 1].run.image.data),

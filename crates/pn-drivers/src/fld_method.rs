@@ -27,10 +27,10 @@
 mod plot;
 
 use anyhow::{bail, ensure, Context, Result};
+use pn_formats::output::report::{Report, RunInfo};
+use pn_formats::output::write_outputs;
 use pn_kernels::{diffusion_kernel, Dim};
 use pn_runtime::layout::Layout;
-use pn_runtime::output::report::{Report, RunInfo};
-use pn_runtime::output::write_outputs;
 use pn_runtime::pipeline::Solution;
 use pn_runtime::solver::{SolveStats, SolveStatus, SolverKind};
 use pn_runtime::unstagger::CellMoments;

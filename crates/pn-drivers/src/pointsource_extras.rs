@@ -15,13 +15,11 @@
 //! ([`grosjean_gaussian`]), since its `e^{−τ}/τ²` term is not a Yukawa mode.
 
 use anyhow::{ensure, Context, Result};
+use pn_formats::plot::profile::{write_profile_csv, write_profile_png_titled};
 use pn_kernels::Dim;
 use pn_runtime::pipeline::Solution;
 use pn_runtime::problem::Grid;
-use pn_runtime::reference::{
-    grosjean, pn_point_source, write_profile_csv, write_profile_png_titled, PointSourceModes,
-    ProfileRow,
-};
+use pn_runtime::reference::{grosjean, pn_point_source, PointSourceModes, ProfileRow};
 use pn_runtime::scenes::{PointSourceParams, PointSourceShape};
 use std::f64::consts::PI;
 use std::io::Write;

@@ -10,9 +10,9 @@
 use crate::fld_setup::{fld_problem, solve_fld_route, FldSettings, SQRT_4PI};
 use crate::scene_setup::Route;
 use anyhow::{bail, ensure, Context, Result};
+use pn_formats::image_io::{write_exr_gray, write_png_tonemapped};
 use pn_kernels::{cda_kernel, diffusion_kernel, pn_kernel, Dim, KernelChoice, Staggering};
 use pn_render::first_scatter::first_scatter_problem_with_depth;
-use pn_render::image_io::{write_exr_gray, write_png_tonemapped};
 use pn_render::light_depth::LightDepth;
 use pn_render::march::{MarchSettings, Marcher};
 use pn_render::pop::{pop_field, PopReport, PopSettings, ResiduumSettings};
@@ -975,7 +975,7 @@ pub fn write_run(dir: &Path, run: &RenderRun) -> Result<()> {
         write_png_tonemapped(&dir.join("image.png"), im.width, im.height, &im.data, None)?;
     } else {
         // One exposure for all views (from view 0), so that the PNGs compare.
-        let expo = pn_render::image_io::exposure(&run.views[0].data);
+        let expo = pn_formats::image_io::exposure(&run.views[0].data);
         for (k, im) in run.views.iter().enumerate() {
             write_exr_gray(
                 &dir.join(format!("view_{k:03}.exr")),
@@ -1034,7 +1034,7 @@ pub fn run(a: &RenderRequest, stdout: &mut dyn Write) -> Result<()> {
     if let Some(ms) = save {
         let m = &ms.moments;
         let path = out.join("moments.npy");
-        pn_runtime::npy::write_npy(&path, &[m.res[0], m.res[1], m.res[2], m.per_cell], &m.data)?;
+        pn_formats::npy::write_npy(&path, &[m.res[0], m.res[1], m.res[2], m.per_cell], &m.data)?;
     }
     let r = &run.report;
     let what = match (r.order, &r.pop) {

@@ -4,8 +4,8 @@
 //! (extrapolation) boundary, relative residual 1e-10.
 
 use anyhow::{bail, Context};
-use pn_runtime::output::report::{Report, RunInfo};
-use pn_runtime::output::write_outputs;
+use pn_formats::output::report::{Report, RunInfo};
+use pn_formats::output::write_outputs;
 use pn_runtime::pipeline::solve_problem;
 use std::io::Write;
 

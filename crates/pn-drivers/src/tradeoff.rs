@@ -17,10 +17,10 @@
 use crate::bench_rows::{fld_point_source, profile_error};
 use anyhow::Context;
 use plotters::prelude::*;
+use pn_formats::plot::{draw_error, finish_chart, framed_chart, white_canvas};
 use pn_kernels::{cda_kernel, pn_kernel, Dim, Staggering};
 use pn_runtime::fld::{solve_fld, FldParams, Limiter};
 use pn_runtime::pipeline::solve_problem;
-use pn_runtime::plot::{draw_error, finish_chart, framed_chart, white_canvas};
 use pn_runtime::reference::{cda_point_source, grosjean, pn_point_source};
 use pn_runtime::scenes::{builtin, BuiltinOptions, PointSourceParams};
 use pn_runtime::solver::{SolverKind, SolverOptions, SolverTuning};
@@ -225,7 +225,7 @@ fn log_xy(p: &Point) -> (f64, f64) {
 /// line through the points of the tightest tolerance (in order of resolution) and markers
 /// for every point (filled: tightest tolerance; hollow: the others).
 fn write_png(path: &Path, points: &[Point], tols: &[f64]) -> anyhow::Result<()> {
-    pn_runtime::reference::register_plot_fonts()?;
+    pn_formats::plot::register_plot_fonts()?;
     let data: Vec<(f64, f64)> = points
         .iter()
         .filter_map(|p| p.error_transport.map(|e| (p.seconds().max(1e-4), e)))

@@ -1,6 +1,23 @@
-//! `pn-formats` — the file formats of pnsolver in one place.
+//! `pn-formats` — the files pnsolver reads and writes, in one place.
 //!
-//! * [`table`]: one table type for every table the tools write (CSV, read back, Markdown).
+//! The libraries below it (`pn-runtime`, `pn-render`) return values; the commands
+//! (`pn-drivers`, `pn-lab`) and the Python package turn them into files through this crate.
+//!
+//! * Arrays and volumes: [`npy`] (NumPy `.npy`), [`vol`] (Mitsuba's `.vol`, reader and
+//!   writer), [`vdb`] (OpenVDB float grids, reader).
+//! * Images: [`image_io`] (EXR written and read back, tone-mapped PNG), [`png`] (a slice of a
+//!   solution as a colour-mapped PNG).
+//! * Results: [`output`] (the files of a solve: `fluence.npy`, `moments.npy`, `fluence.png`,
+//!   `report.json`, written atomically), [`table`] (one table type for every CSV and Markdown
+//!   table), [`plot`] (plot frames, the fonts registered once, the convergence and profile
+//!   plots).
 #![warn(missing_docs)]
 
+pub mod image_io;
+pub mod npy;
+pub mod output;
+pub mod plot;
+pub mod png;
 pub mod table;
+pub mod vdb;
+pub mod vol;

@@ -55,9 +55,9 @@ pub struct Metrics {
 }
 
 /// Reads an EXR as grey (the mean of its colour channels; ours and Mitsuba's are equal),
-/// with [`super::image_io::read_exr_gray`].
+/// with [`pn_formats::image_io::read_exr_gray`].
 pub fn read_gray(path: &Path) -> anyhow::Result<GrayImage> {
-    let (width, height, data) = super::image_io::read_exr_gray(path)?;
+    let (width, height, data) = pn_formats::image_io::read_exr_gray(path)?;
     Ok(GrayImage {
         width,
         height,
@@ -179,7 +179,7 @@ pub fn write_difference_png(
     metrics(a, b)?;
     let diff: Vec<f64> = a.data.iter().zip(&b.data).map(|(x, y)| x - y).collect();
     let range = colour_range(&diff);
-    let labels = pn_runtime::reference::register_plot_fonts().is_ok();
+    let labels = pn_formats::plot::register_plot_fonts().is_ok();
     match draw(path, a.width, a.height, &diff, range, title, labels) {
         Ok(()) => Ok(()),
         Err(_) => draw(path, a.width, a.height, &diff, range, title, false),
@@ -195,7 +195,7 @@ fn draw(
     title: &str,
     labels: bool,
 ) -> anyhow::Result<()> {
-    let err = |e: &dyn std::fmt::Display| pn_runtime::plot::draw_error(path, e);
+    let err = |e: &dyn std::fmt::Display| pn_formats::plot::draw_error(path, e);
     // Integer upscaling so that small images stay readable; at most ~800 px wide.
     let scale = (800 / w.max(1)).clamp(1, 8) as u32;
     let (iw, ih) = (w as u32 * scale, h as u32 * scale);
@@ -261,12 +261,12 @@ pub fn compare_files(
     b: &Path,
     out: Option<&Path>,
 ) -> anyhow::Result<(Metrics, Option<Vec<ChannelMetrics>>)> {
-    let (wa, ha, ca) = super::image_io::read_exr_rgb(a)?;
-    let (wb, hb, cb) = super::image_io::read_exr_rgb(b)?;
+    let (wa, ha, ca) = pn_formats::image_io::read_exr_rgb(a)?;
+    let (wb, hb, cb) = pn_formats::image_io::read_exr_rgb(b)?;
     let grey = |width, height, c: &[Vec<f32>; 3]| GrayImage {
         width,
         height,
-        data: super::image_io::channel_mean(c)
+        data: pn_formats::image_io::channel_mean(c)
             .into_iter()
             .map(f64::from)
             .collect(),

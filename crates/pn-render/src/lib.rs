@@ -16,7 +16,7 @@
 //! * [`transport_sweep`]: source iterations of the transport equation started from the
 //!   solution, which the renderer reads instead of it;
 //! * [`renderer`]: delta tracking, next-event estimation and the solution lookup;
-//! * [`image_io`]: EXR (write and read back) and tone-mapped PNG;
+//! * images are written by `pn_formats::image_io` (EXR and tone-mapped PNG);
 //! * `mitsuba`, `compare`: the Mitsuba 3 export and image comparison (helper "mitsuba");
 //! * [`pop`]: Principal-Ordinates Propagation for directional lights;
 //! * [`scene_file`]: the TOML solve scenes of `pn solve` (with voxel files).
@@ -27,7 +27,6 @@ pub mod colour;
 pub mod compare;
 pub mod first_scatter;
 pub mod hull_absorber;
-pub mod image_io;
 pub mod light_depth;
 pub mod lights;
 pub mod march;
@@ -37,6 +36,7 @@ pub mod pop;
 pub mod renderer;
 pub mod scene;
 pub mod scene_file;
+pub mod scene_kind;
 pub mod scene_override;
 pub mod shadow;
 pub mod solve_setup;

@@ -78,11 +78,11 @@ use super::lights::Light;
 use super::medium::{check_box, DensityFilter, DensityGrid, Procedural};
 use super::scene_override::SceneOverride;
 use anyhow::{bail, ensure, Context};
-use pn_runtime::npy::read_npy;
+use pn_formats::npy::read_npy;
+use pn_formats::vdb::{read_vdb, IndexBox, VdbGrid};
+use pn_formats::vol::read_vol;
 use pn_runtime::problem::Phase;
 use pn_runtime::scene_registry::{self, SceneKind};
-use pn_runtime::vdb::{read_vdb, IndexBox, VdbGrid};
-use pn_runtime::vol::read_vol;
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -620,7 +620,7 @@ impl RenderScene {
         let base = path.parent().unwrap_or(Path::new("."));
         let mut scene =
             Self::from_toml_str_with_overrides(&text, base, overrides).with_context(|| {
-                match scene_registry::toml_kind(&text) {
+                match crate::scene_kind::toml_kind(&text) {
                     Some(SceneKind::Solve) => format!(
                         "scene file {} ({})",
                         path.display(),
@@ -1612,7 +1612,7 @@ height = 8
         let dir = std::env::temp_dir().join(format!("pn-render-scene-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let g = DensityGrid::new([2, 1, 1], [0.0; 3], [2.0, 1.0, 1.0], vec![0.25, 1.0]).unwrap();
-        let bytes = pn_runtime::vol::encode_vol(&g.to_voxel_grid());
+        let bytes = pn_formats::vol::encode_vol(&g.to_voxel_grid());
         std::fs::write(dir.join("d.vol"), &bytes).unwrap();
         std::fs::write(dir.join("bad.vol"), &bytes[..bytes.len() - 2]).unwrap();
         let text = MINIMAL
@@ -1626,11 +1626,11 @@ height = 8
         );
         assert!(e.contains("bytes of data"), "{e}");
         // A per-voxel albedo from .npy (shape (nx, ny, nz), x first) on the same grid.
-        pn_runtime::npy::write_npy(&dir.join("a.npy"), &[2, 1, 1], &[0.5, 0.25]).unwrap();
+        pn_formats::npy::write_npy(&dir.join("a.npy"), &[2, 1, 1], &[0.5, 0.25]).unwrap();
         let with_albedo = text.replace("albedo = 0.5", "albedo_file = \"a.npy\"");
         let s = RenderScene::from_toml_str(&with_albedo, &dir).unwrap();
         assert_eq!((s.medium.albedo_at(0), s.medium.albedo_at(1)), (0.5, 0.25));
-        pn_runtime::npy::write_npy(&dir.join("b.npy"), &[2, 1, 1], &[0.5, 1.5]).unwrap();
+        pn_formats::npy::write_npy(&dir.join("b.npy"), &[2, 1, 1], &[0.5, 1.5]).unwrap();
         let e = format!(
             "{:#}",
             RenderScene::from_toml_str(&with_albedo.replace("a.npy", "b.npy"), &dir).unwrap_err()
@@ -1659,11 +1659,11 @@ height = 8
         // The same voxels through a .vol file give the same medium.
         let dir = std::env::temp_dir().join(format!("pn-render-vdb-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
-        let vg = pn_runtime::vdb::read_vdb(&data.join("offset12.vdb"), None)
+        let vg = pn_formats::vdb::read_vdb(&data.join("offset12.vdb"), None)
             .unwrap()
             .dense_active()
             .unwrap();
-        std::fs::write(dir.join("same.vol"), pn_runtime::vol::encode_vol(&vg)).unwrap();
+        std::fs::write(dir.join("same.vol"), pn_formats::vol::encode_vol(&vg)).unwrap();
         let vol =
             RenderScene::from_toml_str(&text.replace("offset12.vdb", "same.vol"), &dir).unwrap();
         assert_eq!(vol.density_grid().unwrap(), g);

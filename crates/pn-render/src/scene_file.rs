@@ -28,12 +28,12 @@
 //! are relative to the scene file.
 
 use anyhow::{bail, ensure, Context};
+use pn_formats::npy::read_npy;
+use pn_formats::vol::read_vol;
 use pn_runtime::field::{Field, VoxelGrid};
-use pn_runtime::npy::read_npy;
 use pn_runtime::problem::{Boundary, Grid, Phase, Problem, Scattering, SourceTerm};
 use pn_runtime::scene_registry::{self, SceneKind};
 use pn_runtime::scenes::Scene;
-use pn_runtime::vol::read_vol;
 use pn_stencil::Dim;
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
@@ -105,7 +105,7 @@ pub fn load_scene(path: &Path) -> anyhow::Result<Scene> {
             .map(str::trim)
             .collect::<Vec<_>>()
             .join("; ");
-        let hint = match scene_registry::toml_kind(&text) {
+        let hint = match crate::scene_kind::toml_kind(&text) {
             Some(SceneKind::Render) => format!(
                 " ({})",
                 scene_registry::wrong_kind_file_hint(path, SceneKind::Render)

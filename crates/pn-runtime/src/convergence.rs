@@ -12,13 +12,11 @@
 //! second order for smooth fields, p = 2).
 
 pub mod order;
-pub mod plot;
 pub mod restrict;
 pub mod study;
 
 pub use order::{
     l2_diff, observed_order, rel_l2_diff, richardson, solve_order, RichardsonEstimate,
 };
-pub use plot::write_convergence_png;
 pub use restrict::{block_averages, restrict, restriction_ratio};
 pub use study::{analyse, check_nesting, coarse_error_factor, Level, StudyRow, StudyTable};

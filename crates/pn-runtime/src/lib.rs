@@ -5,8 +5,7 @@
 //! the generator is a dependency.
 //!
 //! * Problem description: [`field`], [`problem`] (including [`problem::sigma_tr`]),
-//!   [`scenes`] (built-in; [`scenes::vacuum`]: `slab` and `milne`), [`vol`], [`npy`] and [`vdb`] (voxel data, array
-//!   and OpenVDB files); [`scene_registry`] lists every built-in scene of `pn solve` and `pn render`.
+//!   [`scenes`] (built-in; [`scenes::vacuum`]: `slab` and `milne`); [`scene_registry`] lists every built-in scene of `pn solve` and `pn render`.
 //! * Discrete system: [`layout`] (unknowns and boundary closure), [`marshak`] (the Marshak
 //!   vacuum faces' rows), [`robin`] (a PDE's own boundary conditions on those faces, by
 //!   ghost elimination), [`context`] (fields at
@@ -17,7 +16,7 @@
 //!   [`pipeline`] (the whole chain, [`pipeline::solve_problem`]), [`fld`] (flux-limited
 //!   diffusion),
 //!   [`convergence`] (resolution studies).
-//! * Results: [`unstagger`], [`energy`], [`output`], [`plot`], [`memory`], [`bandwidth`] (the
+//! * Results: [`unstagger`], [`energy`], [`memory`], [`bandwidth`] (the
 //!   machine's measured memory bandwidth, for the roofline of `pn bench`) and
 //!   [`memory_estimate`]; [`threads`] for `--threads`.
 //! * [`reference`]: analytic and semi-analytic reference solutions (point source, the 1D
@@ -61,11 +60,8 @@ pub mod marshak;
 pub mod matfree;
 pub mod memory;
 pub mod memory_estimate;
-pub mod npy;
 pub mod operator;
-pub mod output;
 pub mod pipeline;
-pub mod plot;
 pub mod problem;
 pub mod robin;
 pub mod scene_registry;
@@ -73,5 +69,3 @@ pub mod scenes;
 pub mod solver;
 pub mod threads;
 pub mod unstagger;
-pub mod vdb;
-pub mod vol;

@@ -31,9 +31,6 @@ pub use closed_forms::{
 };
 pub use gaussian::{gaussian_3d, yukawa_gaussian};
 pub use pointsource::{pn_point_source, PointSourceModes, MAX_ORDER};
-pub use profile::{
-    register_plot_fonts, write_profile_csv, write_profile_png, write_profile_png_titled,
-    ProfileRow, PROFILE_CSV_HEADER,
-};
+pub use profile::ProfileRow;
 pub use slab::{pn_marshak_milne, pn_marshak_slab, SlabReference};
 pub use special::{erfc, erfcx};

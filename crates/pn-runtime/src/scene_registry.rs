@@ -162,30 +162,6 @@ pub fn wrong_kind_error(name: &str, wanted: SceneKind) -> Option<anyhow::Error> 
     ))
 }
 
-/// Which kind of scene the TOML `text` looks like, from its top-level keys (`[medium]`,
-/// `[camera]` or `[[light]]`: render; `sigma_t`, `[[source]]`, `dim` or a domain: solve), or
-/// `None` when it is no TOML table or shows neither. Only a hint for error messages, when a
-/// file was given to the wrong command; the loaders decide what a file is.
-pub fn toml_kind(text: &str) -> Option<SceneKind> {
-    let table: toml::Table = toml::from_str(text).ok()?;
-    let has = |keys: &[&str]| keys.iter().any(|k| table.contains_key(*k));
-    match (
-        has(&["medium", "camera", "light"]),
-        has(&[
-            "sigma_t",
-            "sigma_s",
-            "source",
-            "dim",
-            "domain_min",
-            "domain_max",
-        ]),
-    ) {
-        (true, false) => Some(SceneKind::Render),
-        (false, true) => Some(SceneKind::Solve),
-        _ => None,
-    }
-}
-
 /// The hint for a scene file of `found` kind given to the command of the other kind, e.g.
 /// "this is a render scene file: run it with `pn render scenes/cloud.toml`".
 pub fn wrong_kind_file_hint(path: &std::path::Path, found: SceneKind) -> String {
@@ -245,16 +221,5 @@ mod tests {
         assert!(e.contains("cloud, nebula, sphere, lowalbedo"), "{e}");
         assert!(wrong_kind_error("cloud", SceneKind::Render).is_none());
         assert!(wrong_kind_error("no-such-scene", SceneKind::Solve).is_none());
-    }
-
-    #[test]
-    fn scene_files_are_told_apart_by_their_tables() {
-        for s in BUILTIN_SCENES.iter().filter_map(|s| s.toml) {
-            assert_eq!(toml_kind(s), Some(SceneKind::Render));
-        }
-        let solve = include_str!("../../../scenes/box.toml");
-        assert_eq!(toml_kind(solve), Some(SceneKind::Solve));
-        assert_eq!(toml_kind("not = [toml"), None);
-        assert_eq!(toml_kind("x = 1"), None);
     }
 }

@@ -11,9 +11,10 @@
 
 use anyhow::Result;
 use plotters::prelude::*;
+use pn_formats::plot::register_plot_fonts;
+use pn_formats::plot::{draw_error, finish_chart, framed_chart, white_canvas};
 use pn_runtime::fld::{FldProblem, Limiter};
-use pn_runtime::plot::{draw_error, finish_chart, framed_chart, white_canvas};
-use pn_runtime::reference::{cda_point_source, grosjean, pn_point_source, register_plot_fonts};
+use pn_runtime::reference::{cda_point_source, grosjean, pn_point_source};
 use pn_runtime::scenes::{PointSourceParams, PointSourceShape};
 use std::f64::consts::PI;
 use std::fmt::Write as _;

@@ -4,8 +4,8 @@
 use super::metrics::{two_halves, TwoHalves};
 use super::proc::{run_timed, Timed};
 use anyhow::{Context, Result};
+use pn_formats::image_io::write_exr_gray;
 use pn_render::compare::{read_gray, GrayImage};
-use pn_render::image_io::write_exr_gray;
 use pn_render::mitsuba;
 use pn_render::RenderScene;
 use serde::{Deserialize, Serialize};

@@ -4,8 +4,8 @@
 
 use anyhow::{ensure, Result};
 use plotters::prelude::*;
-use pn_runtime::plot::{draw_error, finish_chart, framed_chart, white_canvas};
-use pn_runtime::reference::register_plot_fonts;
+use pn_formats::plot::register_plot_fonts;
+use pn_formats::plot::{draw_error, finish_chart, framed_chart, white_canvas};
 use std::path::Path;
 
 /// One curve: its name and (seconds, error, label) points in time order.

@@ -14,8 +14,8 @@ use super::{
     Timings,
 };
 use anyhow::{Context, Result};
+use pn_formats::image_io::{exposure, write_exr_rgb, write_png_tonemapped_rgb};
 use pn_render::colour::CHANNELS;
-use pn_render::image_io::{exposure, write_exr_rgb, write_png_tonemapped_rgb};
 use pn_render::renderer::Image;
 use pn_render::scene::Albedo;
 use pn_render::RenderScene;

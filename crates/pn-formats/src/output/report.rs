@@ -1,9 +1,9 @@
 //! `report.json`: what was solved, how, and what it cost.
 
-use crate::energy::EnergyBalance;
-use crate::pipeline::Solution;
-use crate::problem::Problem;
-use crate::solver::SolveStatus;
+use pn_runtime::energy::EnergyBalance;
+use pn_runtime::pipeline::Solution;
+use pn_runtime::problem::Problem;
+use pn_runtime::solver::SolveStatus;
 use pn_stencil::Dim;
 
 /// Descriptive facts the runtime cannot know by itself (chosen by the caller).
@@ -64,7 +64,7 @@ pub struct Report {
     pub converged: bool,
     /// Iterations.
     pub iterations: usize,
-    /// Work in products with `A` ([`crate::solver::SolveStats::operator_applications`]).
+    /// Work in products with `A` ([`pn_runtime::solver::SolveStats::operator_applications`]).
     pub operator_applications: usize,
     /// Final relative residual ‖b − Au‖₂/‖b‖₂ (recomputed from the solution).
     pub final_residual: f64,
@@ -140,7 +140,7 @@ impl Report {
             tolerance: st.tolerance,
             seconds_assembly: sol.seconds_assembly,
             seconds_solve: sol.seconds_solve,
-            peak_memory_bytes: crate::memory::peak_memory_bytes(),
+            peak_memory_bytes: pn_runtime::memory::peak_memory_bytes(),
             threads: info.threads,
             energy_balance: sol.energy.clone(),
             residual_history: history,

@@ -1,7 +1,11 @@
 //! Plotters scaffolding shared by the PNG plots (the convergence study, the point-source
 //! profiles): the white canvas, the chart frame, the legend box and the error text.
 
+pub mod convergence;
+pub mod profile;
+
 use std::path::Path;
+use std::sync::OnceLock;
 
 use anyhow::{anyhow, Result};
 use plotters::coord::Shift;
@@ -57,4 +61,34 @@ pub fn finish_chart<'a, 'b: 'a, CT: CoordTranslate>(
         .map_err(|e| draw_error(path, &e))?;
     root.present().map_err(|e| draw_error(path, &e))?;
     Ok(())
+}
+
+/// Registers the fonts plotters draws text with (the workspace builds plotters with its
+/// `ab_glyph` backend, which has no system fonts): "sans-serif" and "serif" are Ubuntu Light,
+/// "monospace" is Hack, both embedded by the `epaint_default_fonts` crate. Idempotent; call it
+/// before drawing any text with plotters.
+pub fn register_plot_fonts() -> Result<()> {
+    static REGISTERED: OnceLock<std::result::Result<(), String>> = OnceLock::new();
+    REGISTERED
+        .get_or_init(|| {
+            let fonts: [(&str, &'static [u8]); 3] = [
+                ("sans-serif", epaint_default_fonts::UBUNTU_LIGHT),
+                ("serif", epaint_default_fonts::UBUNTU_LIGHT),
+                ("monospace", epaint_default_fonts::HACK_REGULAR),
+            ];
+            for (name, bytes) in fonts {
+                for style in [
+                    FontStyle::Normal,
+                    FontStyle::Bold,
+                    FontStyle::Italic,
+                    FontStyle::Oblique,
+                ] {
+                    plotters::style::register_font(name, style, bytes)
+                        .map_err(|_| format!("embedded font for {name:?} is not a valid font"))?;
+                }
+            }
+            Ok(())
+        })
+        .clone()
+        .map_err(|e| anyhow!(e))
 }

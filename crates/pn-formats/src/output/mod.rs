@@ -3,13 +3,13 @@
 //! Everything is written into a temporary directory next to the target and only then
 //! moved into place, so an error never leaves half-written files in the output directory.
 
-pub mod png;
 pub mod report;
 
 use crate::npy::write_npy;
-use crate::pipeline::Solution;
-use crate::problem::Grid;
+use crate::png;
 use anyhow::Context;
+use pn_runtime::pipeline::Solution;
+use pn_runtime::problem::Grid;
 use pn_stencil::Dim;
 use report::Report;
 use std::path::{Path, PathBuf};

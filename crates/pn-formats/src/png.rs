@@ -69,7 +69,7 @@ pub fn write_png(path: &Path, slice: &Slice) -> anyhow::Result<()> {
     };
     // Fonts are embedded (plotters' ab_glyph backend has no system fonts); without them the
     // picture is drawn unlabelled.
-    let labels = crate::reference::register_plot_fonts().is_ok();
+    let labels = crate::plot::register_plot_fonts().is_ok();
     match draw(path, slice, lo, hi, labels) {
         Ok(()) => Ok(()),
         Err(_) => draw(path, slice, lo, hi, false),

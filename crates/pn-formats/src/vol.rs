@@ -1,8 +1,8 @@
 //! Mitsuba `.vol` grids (docs/design.md §6): `VOL`, u8 version 3, i32 encoding 1 (float32),
 //! i32 xres yres zres, i32 channels, 6×f32 bounding box, then f32 data with x fastest.
 
-use crate::field::VoxelGrid;
 use anyhow::{bail, ensure, Context};
+use pn_runtime::field::VoxelGrid;
 use std::path::Path;
 
 const HEADER: usize = 3 + 1 + 4 + 12 + 4 + 24;

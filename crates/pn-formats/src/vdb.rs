@@ -17,8 +17,8 @@
 //! or unsupported input instead of returning an error; such a panic is caught here and
 //! reported as an error naming the file.
 
-use crate::field::VoxelGrid;
 use anyhow::{bail, ensure, Context};
+use pn_runtime::field::VoxelGrid;
 use std::io::BufReader;
 use std::path::Path;
 

@@ -1,10 +1,8 @@
 //! `profile.csv` / `profile.png` writers of the point-source scene.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
-use pn_runtime::reference::{
-    cda_point_source, grosjean, pn_point_source, write_profile_csv, write_profile_png, ProfileRow,
-    PROFILE_CSV_HEADER,
-};
+use pn_formats::plot::profile::{write_profile_csv, write_profile_png, PROFILE_CSV_HEADER};
+use pn_runtime::reference::{cda_point_source, grosjean, pn_point_source, ProfileRow};
 use std::path::PathBuf;
 
 /// A fresh scratch directory under the system temp dir for one test.

@@ -1,9 +1,9 @@
 //! `convergence.png`: a log–log plot of a study's differences against the cell size.
 
-use super::study::StudyTable;
 use crate::plot::{draw_error, finish_chart, framed_chart, white_canvas};
 use anyhow::{bail, Result};
 use plotters::prelude::*;
+use pn_runtime::convergence::StudyTable;
 use std::path::Path;
 
 /// Plots the differences to the finest level (fluence and, if present, block averages) and
@@ -15,9 +15,9 @@ pub fn write_convergence_png(
     extent: f64,
     title: &str,
 ) -> Result<()> {
-    crate::reference::register_plot_fonts()?;
-    let h = |r: &super::StudyRow| extent / r.res[0] as f64;
-    type Get = fn(&super::StudyRow) -> Option<f64>;
+    crate::plot::register_plot_fonts()?;
+    let h = |r: &pn_runtime::convergence::StudyRow| extent / r.res[0] as f64;
+    type Get = fn(&pn_runtime::convergence::StudyRow) -> Option<f64>;
     let series: [(&str, RGBColor, Get); 3] = [
         (
             "fluence: rel. L2 diff. to finest",
