@@ -39,7 +39,6 @@ fn system(problem: &Problem, order: usize) -> (Layout, System) {
 fn opts(tol: f64) -> SolverOptions {
     SolverOptions {
         tol,
-        progress: false,
         ..Default::default()
     }
 }
@@ -119,7 +118,7 @@ fn generated_stencils_same_answer_less_work() {
 /// (16-byte entries) and one compact-CSR product with `A` (cgnr).
 #[test]
 fn roofline_byte_models_count_the_stored_arrays() {
-    use pn_runtime::operator::{AssembledOperator, LinearOperator};
+    use pn_krylov::operator::{AssembledOperator, LinearOperator};
     use pn_runtime::solver::parity::reduced::ReducedOperator;
     use pn_runtime::solver::parity::split::split;
     let p = checkerboard(31);

@@ -25,7 +25,6 @@ fn opts(tol: f64) -> SolverOptions {
     SolverOptions {
         tol,
         max_iter: 100_000,
-        progress: false,
         ..Default::default()
     }
 }

@@ -51,7 +51,6 @@ impl Run {
         };
         let opts = SolverOptions {
             tol: self.tol,
-            progress: false,
             ..Default::default()
         };
         let t = std::time::Instant::now();

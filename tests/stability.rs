@@ -154,7 +154,6 @@ fn run(c: &Case) -> String {
     let opts = SolverOptions {
         tol: 1e-10,
         max_iter: c.max_iter,
-        progress: false,
         ..Default::default()
     };
     let result = solve_problem(&p, kernel.kernel.as_ref(), SolverKind::Cgnr, &opts);
@@ -427,7 +426,6 @@ fn memory_estimate_matches_the_assembled_system() {
         let k = pn_kernel(order, dim, Staggering::Staggered).unwrap();
         let est = pn_runtime::memory_estimate::estimate(&p.grid, k.kernel.as_ref());
         let opts = SolverOptions {
-            progress: false,
             ..Default::default()
         };
         let sol = solve_problem(&p, k.kernel.as_ref(), SolverKind::Cgnr, &opts).unwrap();
@@ -487,7 +485,6 @@ fn source_scale_extremes() {
     let p1 = problem(&c);
     let k = pn_kernel(1, Dim::Two, Staggering::Staggered).unwrap();
     let opts = SolverOptions {
-        progress: false,
         ..Default::default()
     };
     let reference = solve_problem(&p1, k.kernel.as_ref(), SolverKind::Cgnr, &opts)

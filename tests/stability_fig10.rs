@@ -50,7 +50,6 @@ fn iterations_vs_threshold() {
     let opts = SolverOptions {
         tol: 1e-8,
         max_iter: 200_000,
-        progress: false,
         ..Default::default()
     };
     for (order, bc) in [1, 3]

@@ -75,7 +75,6 @@ fn run_pipeline(
     };
     let sopts = SolverOptions {
         tol,
-        progress: false,
         tuning: tuning.clone(),
         ..Default::default()
     };

@@ -27,7 +27,6 @@ fn solve(
     let k = pn_kernel(order, problem.grid.dim, Staggering::Staggered)?;
     let opts = SolverOptions {
         tol,
-        progress: false,
         tuning: tuning.clone(),
         ..Default::default()
     };

@@ -53,7 +53,6 @@ fn solve_variant(
     let choice = pn_kernels::pde_kernel(&pde, scene.problem.grid.dim)?;
     let opts = SolverOptions {
         tol,
-        progress: false,
         tuning: tuning.clone(),
         ..Default::default()
     };

@@ -1,6 +1,6 @@
 //! The roofline columns of `pn bench`: for each P_N problem, the operator each solver
 //! applies, its modelled bytes per application
-//! ([`pn_runtime::operator::LinearOperator::bytes_per_application`]) and the measured
+//! ([`pn_krylov::operator::LinearOperator::bytes_per_application`]) and the measured
 //! median time of one application, to compare with the machine's memory bandwidth
 //! ([`pn_runtime::bandwidth`], measured once per `pn bench` run).
 //!
@@ -21,12 +21,12 @@
 //! CDA, FLD, the text PDEs and the model rows have no roofline entry.
 
 use crate::bench_rows::{Roofline, Row};
+use pn_krylov::operator::{AssembledOperator, LinearOperator};
 use pn_runtime::assemble::assemble;
 use pn_runtime::assemble_split::{assemble_split, has_parity_structure};
 use pn_runtime::bandwidth::median_seconds;
 use pn_runtime::layout::Layout;
 use pn_runtime::matfree::MatFreeOperator;
-use pn_runtime::operator::{AssembledOperator, LinearOperator};
 use pn_runtime::problem::Problem;
 use pn_runtime::solver::multigrid::Geometry;
 use pn_runtime::solver::parity::reduced::ReducedOperator;
@@ -165,7 +165,6 @@ mod tests {
         let k = pn_kernel(1, Dim::Two, Staggering::Staggered).unwrap();
         let sopts = SolverOptions {
             tol: 1e-8,
-            progress: false,
             ..Default::default()
         };
         let mut rows = Vec::new();

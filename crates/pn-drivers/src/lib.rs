@@ -57,6 +57,7 @@ pub mod fld_method;
 pub mod fld_setup;
 pub mod pde_text;
 pub mod pointsource_extras;
+pub mod progress;
 pub mod race;
 pub mod render;
 pub mod scene_setup;

@@ -928,8 +928,7 @@ fn solve_ms(
     let kernel = kernel.context("internal: no stencil for the method")?;
     let opts = SolverOptions {
         tol,
-        progress,
-        observer: observer.cloned(),
+        observer: crate::progress::terminal_observer(progress, observer.cloned()),
         tuning: render_tuning(tuning),
         ..Default::default()
     };

@@ -216,6 +216,7 @@ impl SolveRequest {
             tol: self.tol,
             max_iter: self.max_iter,
             tuning: self.tuning.clone(),
+            observer: crate::progress::terminal_observer(true, None),
             ..Default::default()
         }
     }

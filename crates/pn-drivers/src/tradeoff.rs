@@ -160,7 +160,6 @@ fn measure(
     };
     let opts = SolverOptions {
         tol,
-        progress: false,
         tuning: tuning.clone(),
         ..Default::default()
     };

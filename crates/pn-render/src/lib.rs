@@ -33,6 +33,7 @@ pub mod march;
 pub mod medium;
 pub mod mitsuba;
 pub mod pop;
+mod progress;
 pub mod renderer;
 pub mod scene;
 pub mod scene_file;

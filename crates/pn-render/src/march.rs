@@ -414,7 +414,7 @@ impl<'a> Marcher<'a> {
     /// standard errors are 0 (no sampling).
     pub fn render(&self, camera: &Camera, progress: bool) -> Image {
         let (w, h) = (camera.width, camera.height);
-        let bar = pn_runtime::solver::progress_bar(h, progress);
+        let bar = crate::progress::progress_bar(h, progress);
         bar.set_message("image rows");
         let rows: Vec<Vec<f32>> = (0..h)
             .into_par_iter()

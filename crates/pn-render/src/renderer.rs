@@ -298,7 +298,7 @@ impl Renderer<'_> {
         let cam = &self.scene.camera;
         let (w, h) = (cam.width, cam.height);
         let majorant = self.majorant();
-        let bar = pn_runtime::solver::progress_bar(h, progress);
+        let bar = crate::progress::progress_bar(h, progress);
         bar.set_message("image rows");
         let rows: Vec<Vec<(f64, f64)>> = (0..h)
             .into_par_iter()

@@ -14,11 +14,11 @@
 use crate::assemble::{assemble_rows, check_kernel, face_closures, Chunk, CHUNK};
 use crate::context::RowContext;
 use crate::layout::Layout;
-use crate::linalg::split_runs;
 use crate::marshak::MarshakRows;
 use crate::problem::Problem;
 use crate::solver::parity::split::{classes, BlockMat, Classes, ParityError, Split};
 use crate::solver::pn_layout::{retained_mask, Retained};
+use pn_krylov::linalg::split_runs;
 use pn_stencil::{StencilKernel, TermPattern};
 use rayon::prelude::*;
 

@@ -16,7 +16,7 @@
 //! Bytes are counted as STREAM counts them: every array read or written once, the
 //! write-allocate read of the written line not counted (so the numbers are comparable with
 //! published STREAM results, and with the operator byte models, which count the same way,
-//! [`crate::operator::LinearOperator::bytes_per_application`]). Each kernel runs
+//! [`pn_krylov::operator::LinearOperator::bytes_per_application`]). Each kernel runs
 //! `repetitions` times and the **best** (shortest) time is reported, as STREAM does: the
 //! bandwidth the machine can deliver, not its average under load. The parallel figures run
 //! on the current rayon pool (all its threads, chunks of [`CHUNK`] elements); the

@@ -14,8 +14,8 @@
 //! continuity equation and the solve converged.
 
 use crate::layout::Layout;
-use crate::linalg::spmv;
 use crate::problem::Problem;
+use pn_krylov::linalg::spmv;
 use sprs::CsMat;
 
 /// The balance terms.

@@ -102,7 +102,7 @@ pub const PARITY_VECTORS: u128 = 12;
 /// * parity solvers on a stencil with the parity structure
 ///   ([`crate::assemble_split::has_parity_structure`]): the blocks B and D_o⁻¹C once (A is
 ///   never assembled), the index maps (4 per unknown), the multigrid levels
-///   ([`MULTIGRID_FRACTION`]), the GMRES basis ([`crate::solver::gmres::gmres_restart`]
+///   ([`MULTIGRID_FRACTION`]), the GMRES basis ([`pn_krylov::gmres::gmres_restart`]
 ///   + 1 vectors of the even unknowns, counted as half of all) and [`PARITY_VECTORS`];
 /// * matrix-free solvers: a weight per unknown (the varying collision weights) and the
 ///   solver vectors;
@@ -125,8 +125,7 @@ pub fn estimate_for_solver(
         let multigrid = (blocks as f64 * MULTIGRID_FRACTION) as u128;
         let even = unknowns / 2 + 1;
         let restart =
-            crate::solver::gmres::gmres_restart(usize::try_from(even).unwrap_or(usize::MAX))
-                as u128;
+            pn_krylov::gmres::gmres_restart(usize::try_from(even).unwrap_or(usize::MAX)) as u128;
         let krylov = even.saturating_mul(8 * (restart + 1 + PARITY_VECTORS));
         let full_vectors = unknowns.saturating_mul(8 * 3);
         blocks

@@ -345,13 +345,13 @@ impl<'a> RobinFaces<'a> {
 }
 
 /// Solves the small dense system `m x = rhs`; `None` when `m` is singular (a pivot below
-/// 1e-13 of the largest entry, [`crate::linalg::solve_small_dense`]).
+/// 1e-13 of the largest entry, [`pn_krylov::linalg::solve_small_dense`]).
 fn solve_dense(m: Vec<Vec<f64>>, rhs: Vec<f64>) -> Option<Vec<f64>> {
     let scale = m.iter().flatten().fold(0.0f64, |s, v| s.max(v.abs()));
     if !(scale > 0.0 && scale.is_finite()) {
         return None;
     }
-    crate::linalg::solve_small_dense(m, rhs, 1e-13 * scale)
+    pn_krylov::linalg::solve_small_dense(m, rhs, 1e-13 * scale)
 }
 
 #[cfg(test)]

@@ -101,8 +101,8 @@ fn solve_from_blocks_matches_solve_with_matrix() {
             assert!(rel_diff(&u_s, &u_a) < 1e-12, "{name} {pre:?}");
             // The residual of A on the blocks' solution.
             let mut r = vec![0.0; sys.rhs.len()];
-            pn_runtime::linalg::residual(&sys.matrix, &u_s, &sys.rhs, &mut r);
-            let rel = pn_runtime::linalg::norm(&r) / pn_runtime::linalg::norm(&sys.rhs);
+            pn_krylov::linalg::residual(&sys.matrix, &u_s, &sys.rhs, &mut r);
+            let rel = pn_krylov::linalg::norm(&r) / pn_krylov::linalg::norm(&sys.rhs);
             assert!(
                 (rel - rep_s.stats.relative_residual).abs() <= 1e-6 * rel + 1e-15,
                 "{name} {pre:?}: residual of A {rel:e}, from the blocks {:e}",

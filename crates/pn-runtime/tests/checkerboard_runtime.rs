@@ -28,7 +28,6 @@ fn solve(problem: &Problem, order: i32, staggered: bool, tol: f64) -> Solution {
     let kernel = QuadKernel::new(order, problem.grid.dim, staggered);
     let opts = SolverOptions {
         tol,
-        progress: false,
         ..Default::default()
     };
     let sol = solve_problem(problem, &kernel, SolverKind::Cgnr, &opts).unwrap();

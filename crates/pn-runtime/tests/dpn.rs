@@ -33,10 +33,10 @@ fn point_source(res: usize, bc: Boundary) -> Problem {
     p
 }
 
-/// `y = A x` for a CSR matrix ([`pn_runtime::linalg::spmv`]).
+/// `y = A x` for a CSR matrix ([`pn_krylov::linalg::spmv`]).
 fn matvec(a: &sprs::CsMat<f64>, x: &[f64]) -> Vec<f64> {
     let mut y = vec![0.0; a.rows()];
-    pn_runtime::linalg::spmv(a, x, &mut y);
+    pn_krylov::linalg::spmv(a, x, &mut y);
     y
 }
 

@@ -4,12 +4,12 @@
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
 use pn_codegen::discretize::{cda_ir, diffusion_ir, pn_ir_for_order};
+use pn_krylov::linalg::residual;
 use pn_runtime::fld::picard::assemble_picard_system;
 use pn_runtime::fld::{
     face_diffusion_coefficients, relative_residual, solve_fld, solve_fld_picard, FldParams,
     Limiter, PicardOptions,
 };
-use pn_runtime::linalg::residual;
 use pn_runtime::solver::SolverKind;
 use pn_stencil::Dim;
 use pn_stencil::InterpretedKernel;

@@ -8,10 +8,11 @@ mod common;
 use common::rel_diff;
 use nalgebra::DMatrix;
 use pn_codegen::discretize::pn_ir_for_order;
+use pn_krylov::{cgls, lsmr, lsqr};
 use pn_runtime::pipeline::solve_problem;
 use pn_runtime::problem::Problem;
 use pn_runtime::scenes::{builtin, BuiltinOptions};
-use pn_runtime::solver::{cgnr_mf, lsmr, lsqr, SolveStatus, SolverKind, SolverOptions};
+use pn_runtime::solver::{SolveStatus, SolverKind, SolverOptions};
 use pn_stencil::Dim;
 use pn_stencil::InterpretedKernel;
 use pn_stencil::Staggering as Placement;
@@ -20,7 +21,6 @@ use sprs::TriMat;
 fn opts(tol: f64) -> SolverOptions {
     SolverOptions {
         tol,
-        progress: false,
         ..Default::default()
     }
 }
@@ -64,9 +64,9 @@ fn overdetermined_consistent_system_matches_dense_solution() {
     // ≲ cond·1e-13, so 1e-10 leaves a wide margin while a wrong recurrence gives O(1).
     let o = opts(1e-13);
     for (name, (x, st)) in [
-        ("lsqr", lsqr::lsqr(&a, &b, &o, "lsqr")),
-        ("lsmr", lsmr::lsmr(&a, &b, &o, "lsmr")),
-        ("cgls", cgnr_mf::cgls(&a, &b, &o, "cgls")),
+        ("lsqr", lsqr::lsqr(&a, &b, &o.stopping(), "lsqr")),
+        ("lsmr", lsmr::lsmr(&a, &b, &o.stopping(), "lsmr")),
+        ("cgls", cgls::cgls(&a, &b, &o.stopping(), "cgls")),
     ] {
         assert_eq!(st.status, SolveStatus::Converged, "{name}: {st:?}");
         assert!(st.relative_residual <= 1e-13, "{name}: {st:?}");
@@ -95,8 +95,8 @@ fn inconsistent_system_reports_residual_reached() {
     tri.add_triplet(1, 0, 1.0);
     let a = tri.to_csr::<usize>();
     for (x, st) in [
-        lsqr::lsqr(&a, &[1.0, -1.0], &opts(1e-12), "lsqr"),
-        lsmr::lsmr(&a, &[1.0, -1.0], &opts(1e-12), "lsmr"),
+        lsqr::lsqr(&a, &[1.0, -1.0], &opts(1e-12).stopping(), "lsqr"),
+        lsmr::lsmr(&a, &[1.0, -1.0], &opts(1e-12).stopping(), "lsmr"),
     ] {
         assert_ne!(st.status, SolveStatus::Converged);
         assert!((st.relative_residual - 1.0).abs() < 1e-12, "{st:?}");

@@ -8,11 +8,11 @@ mod common;
 
 use common::rel_diff;
 use pn_codegen::discretize::{cda_ir, pn_ir_for_order};
+use pn_krylov::linalg::{spmv, transpose_csr};
+use pn_krylov::operator::LinearOperator;
 use pn_runtime::assemble::assemble;
 use pn_runtime::layout::Layout;
-use pn_runtime::linalg::{spmv, transpose_csr};
 use pn_runtime::matfree::MatFreeOperator;
-use pn_runtime::operator::LinearOperator;
 use pn_runtime::problem::{Boundary, Problem};
 use pn_runtime::scenes::{builtin, BuiltinOptions};
 use pn_stencil::InterpretedKernel;

@@ -7,9 +7,9 @@
 mod common;
 
 use common::{builtin_problem, opts, rel_diff, system};
+use pn_krylov::linalg::{dot, norm};
 use pn_runtime::assemble::System;
 use pn_runtime::layout::Layout;
-use pn_runtime::linalg::{dot, norm};
 use pn_runtime::problem::{Boundary, Problem};
 use pn_runtime::solver::multigrid::smoother::pseudo_random;
 use pn_runtime::solver::multigrid::solve::mg_krylov;

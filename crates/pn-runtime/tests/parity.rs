@@ -265,7 +265,7 @@ fn trait_solver_and_bad_mask() {
 #[test]
 #[ignore]
 fn spmv_timing() {
-    use pn_runtime::linalg::spmv;
+    use pn_krylov::linalg::spmv;
     use std::time::Instant;
     let p = checkerboard(71);
     let (_, sys) = system(&p, 5);
@@ -326,7 +326,7 @@ fn time_breakdown_checkerboard_p5_71() {
         let t_ilu = time(&|y| ilu.apply(&x, y), &mut y);
         let mut ya = vec![0.0; sys.rhs.len()];
         let xa: Vec<f64> = (0..sys.rhs.len()).map(|i| (i as f64).cos()).collect();
-        let t_a = time(&|y| pn_runtime::linalg::spmv(&sys.matrix, &xa, y), &mut ya);
+        let t_a = time(&|y| pn_krylov::linalg::spmv(&sys.matrix, &xa, y), &mut ya);
         println!(
             "P{order}: n {} (even {n}), nnz A {}, B+C {}, S {}; ms per: A {t_a:.3}, S mf {t_mf:.3}, S formed {t_fo:.3} (form {form_s:.3}s), ilu {t_ilu:.3} (setup {ilu_setup:.3}s)",
             sys.rhs.len(),
@@ -398,7 +398,6 @@ fn tight_tolerances_terminate() {
     let solver = ParityCg::for_layout(&layout);
     let o = SolverOptions {
         tol: 1e-18,
-        progress: false,
         stagnation_window: 50,
         ..Default::default()
     };

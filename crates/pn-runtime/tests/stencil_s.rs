@@ -5,9 +5,9 @@
 mod common;
 
 use common::{builtin_problem, opts, rel_diff, QuadKernel};
+use pn_krylov::operator::LinearOperator;
 use pn_runtime::assemble_split::assemble_split;
 use pn_runtime::layout::Layout;
-use pn_runtime::operator::LinearOperator;
 use pn_runtime::problem::{Boundary, Problem};
 use pn_runtime::solver::multigrid::Geometry;
 use pn_runtime::solver::parity::reduced::ReducedOperator;
@@ -254,7 +254,7 @@ fn same_level_as_csr(
     assert_eq!(level.len(), n, "{label}");
     let x = pseudo_random(n, 7);
     let (mut a, mut b) = (vec![0.0; n], vec![0.0; n]);
-    pn_runtime::linalg::spmv(want, &x, &mut a);
+    pn_krylov::linalg::spmv(want, &x, &mut a);
     level.apply(&x, &mut b);
     let d = rel_diff(&b, &a);
     assert!(d <= 1e-6, "{label}: product {d:e} of the largest");

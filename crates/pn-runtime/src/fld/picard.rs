@@ -48,10 +48,10 @@ use super::operator::Operator;
 use super::params::FldParams;
 use super::solver::FldSolution;
 use crate::field::VoxelGrid;
-use crate::linalg::residual;
 use crate::solver::multigrid::solve::mg_krylov;
 use crate::solver::multigrid::Geometry;
 use crate::solver::{SolveStatus, SolverKind, SolverOptions, SolverTuning};
+use pn_krylov::linalg::residual;
 
 /// Options of the Picard route (the nonlinear tolerance and σ_ε, ε, limiter come from
 /// [`FldParams`]; `FldParams::omega` and `max_iter` belong to the red–black route).
@@ -211,7 +211,6 @@ pub fn solve_fld_picard(
     let linear_opts = SolverOptions {
         tol: opts.linear_tol,
         max_iter: opts.max_linear_iter,
-        progress: false,
         tuning: opts.tuning.clone(),
         ..Default::default()
     };
@@ -347,7 +346,7 @@ impl Anderson {
             for (i, row) in a.iter_mut().enumerate() {
                 row[i] += 1e-10 * trace.max(f64::MIN_POSITIVE);
             }
-            if let Some(gamma) = crate::linalg::solve_small_dense(a, rhs, f64::MIN_POSITIVE) {
+            if let Some(gamma) = pn_krylov::linalg::solve_small_dense(a, rhs, f64::MIN_POSITIVE) {
                 for (j, (xj, fj)) in self.past.iter().enumerate() {
                     let gj = gamma[j];
                     for (k, v) in next.iter_mut().enumerate() {

@@ -25,9 +25,9 @@
 use crate::assemble::check_kernel;
 use crate::context::RowContext;
 use crate::layout::Layout;
-use crate::operator::LinearOperator;
 use crate::problem::Problem;
 use anyhow::Context;
+use pn_krylov::operator::LinearOperator;
 use pn_stencil::StencilKernel;
 use rayon::prelude::*;
 

@@ -5,9 +5,10 @@ use super::{check_magnitude_values, finish, solve_with_scaled_rhs, Solution, Sol
 use crate::energy::energy_balance;
 use crate::layout::Layout;
 use crate::matfree::MatFreeOperator;
-use crate::operator::LinearOperator;
 use crate::problem::Problem;
-use crate::solver::{cgnr_mf, lsmr, lsqr, SolveStats, SolverKind, SolverOptions};
+use crate::solver::{SolveStats, SolverKind, SolverOptions};
+use pn_krylov::operator::LinearOperator;
+use pn_krylov::{cgls, lsmr, lsqr, Stopping};
 use pn_stencil::StencilKernel;
 use std::time::Instant;
 
@@ -18,14 +19,17 @@ pub fn solve_operator(
     b: &[f64],
     opts: &SolverOptions,
 ) -> anyhow::Result<(Vec<f64>, SolveStats)> {
-    type Run = fn(&dyn LinearOperator, &[f64], &SolverOptions, &str) -> (Vec<f64>, SolveStats);
+    type Run = fn(&dyn LinearOperator, &[f64], &Stopping, &str) -> (Vec<f64>, SolveStats);
     let run: Run = match kind {
-        SolverKind::CgnrMf => cgnr_mf::cgls,
+        SolverKind::CgnrMf => cgls::cgls,
         SolverKind::LsqrMf => lsqr::lsqr,
         SolverKind::LsmrMf => lsmr::lsmr,
         _ => anyhow::bail!("solver {} needs an assembled matrix", kind.name()),
     };
-    Ok(solve_with_scaled_rhs(b, |b| run(op, b, opts, kind.name())))
+    let stopping = opts.stopping();
+    Ok(solve_with_scaled_rhs(b, |b| {
+        run(op, b, &stopping, kind.name())
+    }))
 }
 
 /// [`super::solve_problem`] without assembly: builds the matrix-free operator

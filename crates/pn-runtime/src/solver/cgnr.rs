@@ -1,11 +1,11 @@
-//! `--solver cgnr`: [CGLS](super::cgls) on the assembled matrix.
+//! `--solver cgnr`: [CGLS](pn_krylov::cgls) on the assembled matrix.
 //!
 //! `A` and `Aᵀ` are each kept as CSR so that both products are row-parallel, both with
-//! 32-bit column indices ([`crate::linalg::CsrOperator`]), since the products are
+//! 32-bit column indices ([`pn_krylov::linalg::CsrOperator`]), since the products are
 //! memory-bound.
 
 use super::{LinearSolver, SolveStats, SolverOptions};
-use crate::operator::AssembledOperator;
+use pn_krylov::operator::AssembledOperator;
 use sprs::CsMat;
 
 /// The CGNR / CGLS solver.
@@ -16,10 +16,10 @@ impl LinearSolver for Cgnr {
         "cgnr"
     }
 
-    /// The CGLS iteration of [`super::cgls::cgls`] on the assembled matrix and its
+    /// The CGLS iteration of [`pn_krylov::cgls::cgls`] on the assembled matrix and its
     /// transpose (both compact CSR, see [`AssembledOperator`]).
     fn solve(&self, a: &CsMat<f64>, b: &[f64], opts: &SolverOptions) -> (Vec<f64>, SolveStats) {
-        super::cgls::cgls(&AssembledOperator::new(a), b, opts, self.name())
+        pn_krylov::cgls::cgls(&AssembledOperator::new(a), b, &opts.stopping(), self.name())
     }
 }
 
@@ -40,7 +40,6 @@ mod tests {
         let b = [6.0, 7.0, 4.0];
         let opts = SolverOptions {
             tol: 1e-12,
-            progress: false,
             ..Default::default()
         };
         let (x, st) = Cgnr.solve(&a, &b, &opts);
@@ -62,7 +61,6 @@ mod tests {
         );
         let opts = SolverOptions {
             tol: 1e-12,
-            progress: false,
             ..Default::default()
         };
         let (_, st) = Cgnr.solve(&a, &[1.0, -1.0], &opts);

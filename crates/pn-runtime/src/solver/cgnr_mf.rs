@@ -1,9 +1,9 @@
 //! `--solver cgnr-mf`: [`cgls`] with the matrix-free operator
 //! ([`crate::matfree`]); the pipeline routes it there so that `A` is never assembled.
 
-pub use super::cgls::cgls;
 use super::{LinearSolver, SolveStats, SolverOptions};
-use crate::operator::AssembledOperator;
+pub use pn_krylov::cgls::cgls;
+use pn_krylov::operator::AssembledOperator;
 use sprs::CsMat;
 
 /// CGLS with the matrix-free operator; given an assembled matrix (through
@@ -15,6 +15,6 @@ impl LinearSolver for CgnrMf {
         "cgnr-mf"
     }
     fn solve(&self, a: &CsMat<f64>, b: &[f64], opts: &SolverOptions) -> (Vec<f64>, SolveStats) {
-        cgls(&AssembledOperator::new(a), b, opts, self.name())
+        cgls(&AssembledOperator::new(a), b, &opts.stopping(), self.name())
     }
 }

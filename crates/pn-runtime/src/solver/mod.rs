@@ -1,7 +1,7 @@
 //! Linear solvers for `A u = b`, behind a small trait so faster ones can be added.
 //!
 //! * The iterative methods, one file each, generic over the operator and preconditioner
-//!   traits of [`crate::operator`] and stopped by the one controller of [`control`]:
+//!   traits of [`pn_krylov::operator`] and stopped by the one controller of [`control`]:
 //!   [`cg`], [`bicgstab`], [`gmres`] (square systems, chosen by name through [`krylov`]),
 //!   [`cgls`], [`lsqr`], [`lsmr`] (least squares, on any operator with a transpose).
 //! * The P_N-specific solvers: [`parity`] (eliminate the odd moments, Krylov on the reduced
@@ -17,21 +17,14 @@
 //! `‖b − A u‖₂` is reported too. The final residual in [`SolveStats`] is recomputed from
 //! the returned solution, not taken from a recurrence.
 
-pub mod bicgstab;
-pub mod cg;
-pub mod cgls;
 pub mod cgnr;
 pub mod cgnr_mf;
-pub mod control;
-pub mod gmres;
-pub mod krylov;
-pub mod lsmr;
-pub mod lsqr;
+pub mod least_squares;
 pub mod multigrid;
 pub mod parity;
 pub mod pn_layout;
 
-pub use control::progress_bar;
+pub use pn_krylov::{IterationObserver, SolveStats, SolveStatus, Stopping};
 use sprs::CsMat;
 
 /// Which solver to use (`--solver`).
@@ -102,8 +95,8 @@ impl SolverKind {
             }
             // Given an assembled matrix, the matrix-free kinds run on it; the pipeline routes
             // them to `crate::pipeline::matrix_free` so that A is never assembled.
-            SolverKind::Lsqr | SolverKind::LsqrMf => Box::new(lsqr::Lsqr),
-            SolverKind::Lsmr | SolverKind::LsmrMf => Box::new(lsmr::Lsmr),
+            SolverKind::Lsqr | SolverKind::LsqrMf => Box::new(least_squares::Lsqr),
+            SolverKind::Lsmr | SolverKind::LsmrMf => Box::new(least_squares::Lsmr),
             SolverKind::CgnrMf => Box::new(cgnr_mf::CgnrMf),
         }
     }
@@ -132,37 +125,6 @@ impl SolverKind {
     }
 }
 
-/// A function called after every iteration of a solve with (iteration, relative residual),
-/// from the thread that runs the solve: how a caller that is not a terminal (the Python
-/// package's progress callback) watches a long solve. Two observers are equal when they are
-/// the same function object.
-#[derive(Clone)]
-pub struct IterationObserver(pub std::sync::Arc<dyn Fn(usize, f64) + Send + Sync>);
-
-impl IterationObserver {
-    /// Wraps `f`.
-    pub fn new(f: impl Fn(usize, f64) + Send + Sync + 'static) -> Self {
-        Self(std::sync::Arc::new(f))
-    }
-
-    /// Reports one iteration.
-    pub fn notify(&self, iteration: usize, relative_residual: f64) {
-        (self.0)(iteration, relative_residual)
-    }
-}
-
-impl std::fmt::Debug for IterationObserver {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str("IterationObserver(..)")
-    }
-}
-
-impl PartialEq for IterationObserver {
-    fn eq(&self, other: &Self) -> bool {
-        std::sync::Arc::ptr_eq(&self.0, &other.0)
-    }
-}
-
 /// Stopping and reporting options.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SolverOptions {
@@ -177,8 +139,6 @@ pub struct SolverOptions {
     pub stagnation_drop: f64,
     /// Divergence: stop when the relative residual exceeds this value (or is not finite).
     pub divergence_limit: f64,
-    /// Show a progress bar (only drawn when stderr is a terminal).
-    pub progress: bool,
     /// Called after every iteration (None: nobody watches).
     pub observer: Option<IterationObserver>,
     /// Expert settings for experiments (multigrid parameters, a forced Krylov method,
@@ -219,7 +179,7 @@ impl SolverTuning {
             multigrid: (mg != multigrid::MgOptions::default()).then_some(mg),
             krylov: get("PN_PARITY_METHOD")
                 .as_deref()
-                .and_then(krylov::KrylovMethod::from_name),
+                .and_then(pn_krylov::KrylovMethod::from_name),
             profile: get("PN_SOLVER_PROFILE").is_some(),
             block_operator: get("PN_PARITY_BLOCKS").is_some(),
         }
@@ -231,6 +191,20 @@ impl SolverTuning {
     }
 }
 
+impl SolverOptions {
+    /// The stopping rules the Krylov methods of `pn_krylov` take.
+    pub fn stopping(&self) -> Stopping {
+        Stopping {
+            tol: self.tol,
+            max_iter: self.max_iter,
+            stagnation_window: self.stagnation_window,
+            stagnation_drop: self.stagnation_drop,
+            divergence_limit: self.divergence_limit,
+            observer: self.observer.clone(),
+        }
+    }
+}
+
 impl Default for SolverOptions {
     fn default() -> Self {
         Self {
@@ -239,60 +213,9 @@ impl Default for SolverOptions {
             stagnation_window: 5000,
             stagnation_drop: 1e-4,
             divergence_limit: 1e8,
-            progress: true,
             observer: None,
             tuning: SolverTuning::default(),
         }
-    }
-}
-
-/// Why a solver stopped.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum SolveStatus {
-    /// The relative residual reached the tolerance.
-    Converged,
-    /// Ran out of iterations.
-    MaxIterations,
-    /// The residual stopped decreasing.
-    Stagnated,
-    /// The residual grew without bound or became NaN.
-    Diverged,
-}
-
-/// What a solve did.
-#[derive(Clone, Debug, PartialEq, serde::Serialize)]
-pub struct SolveStats {
-    /// Solver name.
-    pub solver: String,
-    /// Why it stopped.
-    pub status: SolveStatus,
-    /// Iterations done.
-    pub iterations: usize,
-    /// Final ‖b − Au‖₂ / ‖b‖₂ (recomputed).
-    pub relative_residual: f64,
-    /// Final ‖b − Au‖₂ (recomputed).
-    pub absolute_residual: f64,
-    /// ‖b‖₂.
-    pub rhs_norm: f64,
-    /// Tolerance on the relative residual.
-    pub tolerance: f64,
-    /// Relative residual after each iteration (from the recurrence).
-    pub history: Vec<f64>,
-    /// Work in products with `A`: CGNR, LSQR and LSMR count every product with `A` and
-    /// `Aᵀ` (two per iteration, plus the start and the residual checks); the parity solvers
-    /// count every application of the reduced operator `S` — Krylov steps, multigrid
-    /// smoothing and residuals on the finest level, setup and probes — as one each, since it
-    /// touches the off-diagonal entries of `A` once
-    /// ([`parity::ParityReport::a_equivalent_applications`]); multigrid-CG on a scalar
-    /// system counts its products with the matrix. 0 where nothing is counted (FLD).
-    pub operator_applications: usize,
-}
-
-impl SolveStats {
-    /// Whether the tolerance was reached.
-    pub fn converged(&self) -> bool {
-        self.status == SolveStatus::Converged
     }
 }
 
@@ -364,13 +287,13 @@ mod tests {
             ..multigrid::MgOptions::default()
         };
         assert_eq!(t.multigrid, Some(want));
-        assert_eq!(t.krylov, Some(krylov::KrylovMethod::Gmres));
+        assert_eq!(t.krylov, Some(pn_krylov::KrylovMethod::Gmres));
         assert!(t.profile);
         assert!(t.block_operator);
         let m = tuning(&[("PN_MG_ADDITIVE", "0")]).multigrid_options();
         assert_eq!(m.fine_cycle, multigrid::FineCycle::Multiplicative);
         let b = tuning(&[("PN_PARITY_METHOD", "bicgstab")]);
-        assert_eq!(b.krylov, Some(krylov::KrylovMethod::BiCgStab));
+        assert_eq!(b.krylov, Some(pn_krylov::KrylovMethod::BiCgStab));
         assert_eq!(b.multigrid, None);
     }
 }

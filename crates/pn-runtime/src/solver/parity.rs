@@ -17,9 +17,9 @@
 //! * [`reduced`]: applies `S` (matrix-free or formed), the reduced rhs, back-substitution.
 //! * [`precond`]: Jacobi, block-Jacobi (per cell) and ILU(0) preconditioners.
 //! * [`galerkin`]: the first multigrid coarse operator `PᵀSP` from the blocks.
-//! * The Krylov methods are [`crate::solver::cg`], [`crate::solver::bicgstab`] and
-//!   [`crate::solver::gmres`], with the stopping rules of [`SolverOptions`]
-//!   ([`crate::solver::control::Control`]).
+//! * The Krylov methods are [`pn_krylov::cg`], [`pn_krylov::bicgstab`] and
+//!   [`pn_krylov::gmres`], with the stopping rules of [`SolverOptions`]
+//!   ([`pn_krylov::control::Control`]).
 //! * [`crate::solver::multigrid`]: the aggregation multigrid preconditioner
 //!   ([`Precond::Multigrid`]); it needs the unknowns' positions ([`ParityCg::with_geometry`],
 //!   from the layout in [`crate::solver::pn_layout`]), and `Precond::Auto` picks it from
@@ -51,17 +51,17 @@ pub mod reduced;
 pub mod split;
 pub mod stencil_s;
 
-pub use crate::solver::krylov::{KrylovMethod, SYMMETRY_TOL};
+pub use pn_krylov::krylov::{KrylovMethod, SYMMETRY_TOL};
 pub use precond::Precond;
 pub use reduced::ReducedMode;
 pub use split::ParityError;
 
 use super::{LinearSolver, SolveStats, SolveStatus, SolverOptions};
-use crate::linalg::{dot, norm};
-use crate::operator::Counted;
-use crate::operator::LinearOperator;
-use crate::solver::control::{Control, Outcome};
 use crate::solver::multigrid::{Geometry, COARSE_SYMMETRY_TOL};
+use pn_krylov::control::{Control, Outcome};
+use pn_krylov::linalg::{dot, norm};
+use pn_krylov::operator::Counted;
+use pn_krylov::operator::LinearOperator;
 use sprs::CsMat;
 use std::borrow::Cow;
 use std::sync::Arc;
@@ -410,7 +410,7 @@ impl ParityCg {
             (vec![0.0; op.len()], false)
         };
         let scale = if bnorm > 0.0 { bnorm } else { 1.0 };
-        let mut ctl = Control::for_options(opts, bnorm);
+        let mut ctl = Control::for_options(&opts.stopping(), bnorm);
         let prec = pre.with_fine(&s_apps);
         let mut full_applications = 0usize;
         let (u, status, rel, abs) = loop {
@@ -530,7 +530,7 @@ fn start_from(s: &dyn LinearOperator, f: &[f64], guesses: &[Vec<f64>]) -> (Vec<f
     if !(scale.is_finite() && scale > 0.0) {
         return zero();
     }
-    let Some(c) = crate::linalg::solve_small_dense(gram, wf, 1e-14 * scale) else {
+    let Some(c) = pn_krylov::linalg::solve_small_dense(gram, wf, 1e-14 * scale) else {
         return zero();
     };
     let mut x = vec![0.0; n];

@@ -302,7 +302,6 @@ pub fn pde_file_kernel(
 pub fn opts(tol: f64) -> pn_runtime::solver::SolverOptions {
     pn_runtime::solver::SolverOptions {
         tol,
-        progress: false,
         ..Default::default()
     }
 }

@@ -30,9 +30,9 @@ pub mod vcycle;
 
 pub use aggregate::Geometry;
 
-use crate::linalg::{spmv, CompactCsr};
-use crate::operator::{LinearOperator, Preconditioner};
 use aggregate::{aggregate, Aggregation};
+use pn_krylov::linalg::{spmv, CompactCsr};
+use pn_krylov::operator::{LinearOperator, Preconditioner};
 use rayon::prelude::*;
 use smoother::Chebyshev;
 use sprs::CsMat;

@@ -7,7 +7,7 @@
 //! before and after the coarse correction gives a symmetric V-cycle. Degree 1 is damped
 //! Jacobi with `ω = 1/θ`, `θ` the centre of the interval.
 
-use crate::linalg::Real;
+use pn_krylov::linalg::Real;
 use rayon::prelude::*;
 
 /// A Chebyshev smoother for one level.
@@ -185,7 +185,7 @@ pub fn estimate_lambda_max_with<T: Real + Into<f64>>(
     }
     // ‖x‖_D² = Σ x_i² / inv_i.
     let d_norm = |x: &[T]| -> f64 {
-        crate::linalg::chunked_sum(x, inv_diag, |x, i| {
+        pn_krylov::linalg::chunked_sum(x, inv_diag, |x, i| {
             x.iter()
                 .zip(i)
                 .map(|(x, i)| x.wide() * x.wide() / i.wide())
@@ -208,7 +208,7 @@ pub fn estimate_lambda_max_with<T: Real + Into<f64>>(
     for _ in 0..steps.max(1) {
         apply(&q, &mut w);
         // α = ⟨D⁻¹Aq, q⟩_D = qᵀAq.
-        let a = crate::linalg::chunked_sum(&w, &q, crate::linalg::lane_dot);
+        let a = pn_krylov::linalg::chunked_sum(&w, &q, pn_krylov::linalg::lane_dot);
         let (at, bt) = (T::of(a), T::of(b_prev));
         w.par_iter_mut()
             .zip(inv_diag.par_iter().zip(q.par_iter().zip(q_prev.par_iter())))
@@ -283,7 +283,7 @@ pub fn pseudo_random(n: usize, seed: u64) -> Vec<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::linalg::norm;
+    use pn_krylov::linalg::norm;
 
     /// A spectrum dense up to its top (2000 eigenvalues evenly in (0, 1], with an arbitrary
     /// diagonal scaling `D`): the top is hard for a few power iterations (8 reach about

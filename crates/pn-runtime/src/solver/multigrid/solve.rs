@@ -2,11 +2,11 @@
 //! Picard steps), which has no parity structure to eliminate.
 
 use super::{Geometry, Multigrid};
-use crate::linalg::{dot, norm, residual, spmv};
-use crate::operator::Counted;
-use crate::solver::control::{Control, Outcome};
-use crate::solver::krylov::{KrylovMethod, SYMMETRY_TOL};
 use crate::solver::{SolveStats, SolveStatus, SolverOptions};
+use pn_krylov::control::{Control, Outcome};
+use pn_krylov::krylov::{KrylovMethod, SYMMETRY_TOL};
+use pn_krylov::linalg::{dot, norm, residual, spmv};
+use pn_krylov::operator::Counted;
 use sprs::CsMat;
 
 pub use super::SCALAR_CORRECTION_SCALE;
@@ -57,7 +57,7 @@ pub fn mg_krylov(
     };
     let bnorm = norm(b);
     let scale = if bnorm > 0.0 { bnorm } else { 1.0 };
-    let mut ctl = Control::for_options(opts, bnorm);
+    let mut ctl = Control::for_options(&opts.stopping(), bnorm);
     // Every product with `a`, the multigrid cycle's finest level included.
     let products = Counted::new(a);
     let prec = mg.with_fine(&products);

@@ -890,7 +890,7 @@ mod tests {
         assert!(zero_outside_already(&s));
         let x: Vec<f64> = (0..n).map(|i| (i as f64 * 0.37).sin()).collect();
         let mut want = vec![0.0; n];
-        crate::linalg::spmv(&a, &x, &mut want);
+        pn_krylov::linalg::spmv(&a, &x, &mut want);
         let mut got = vec![f64::NAN; n];
         s.apply(&x, &mut got);
         let scale = want.iter().fold(0.0f64, |m, v| m.max(v.abs()));

@@ -12,7 +12,7 @@
 
 use super::aggregate::Aggregation;
 use super::{Multigrid, SingleFine, Work};
-use crate::linalg::Real;
+use pn_krylov::linalg::Real;
 use rayon::prelude::*;
 
 impl Multigrid {
@@ -275,7 +275,7 @@ fn restrict_values(agg: &Aggregation, b_next: &mut [f64], value: impl Fn(usize) 
 #[cfg(test)]
 mod tests {
     use super::super::{FineCycle, Geometry, MgOptions, Multigrid};
-    use crate::linalg::spmv;
+    use pn_krylov::linalg::spmv;
 
     /// A 3D 7-point diffusion operator with absorption on `n³` cells (one class) and its
     /// geometry.

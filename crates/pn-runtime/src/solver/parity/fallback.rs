@@ -4,15 +4,15 @@
 //!
 //! The preconditioner is the incomplete LU factorisation of `A` on its own pattern
 //! ([`Ilu0`], the one the parity solvers use on the reduced system), applied from the right
-//! ([`crate::solver::gmres`]), so the tolerance is on the true residual `‖b − Au‖₂/‖b‖₂`. When the
+//! ([`pn_krylov::gmres`]), so the tolerance is on the true residual `‖b − Au‖₂/‖b‖₂`. When the
 //! factorisation meets a zero pivot or GMRES does not reach the tolerance, CGNR (the
 //! paper's baseline, robust for any non-singular `A`) takes over from zero.
 
 use super::precond::Ilu0;
-use crate::operator::AssembledOperator;
 use crate::solver::cgnr::Cgnr;
-use crate::solver::control::run_from_zero;
 use crate::solver::{LinearSolver, SolveStats, SolveStatus, SolverOptions};
+use pn_krylov::control::run_from_zero;
+use pn_krylov::operator::AssembledOperator;
 use sprs::CsMat;
 
 /// GMRES with ILU(0) on `a u = b` from zero; `None` when ILU(0) breaks down or GMRES
@@ -24,9 +24,13 @@ pub fn gmres_ilu(
 ) -> Option<(Vec<f64>, SolveStats)> {
     let ilu = Ilu0::new(a).ok()?;
     let op = AssembledOperator::new(a);
-    let (x, stats) = run_from_zero(&op, b, opts, "gmres-ilu", |a, _bnorm, x, ctl| {
-        crate::solver::gmres::gmres(a, &ilu, b, x, ctl).status()
-    });
+    let (x, stats) = run_from_zero(
+        &op,
+        b,
+        &opts.stopping(),
+        "gmres-ilu",
+        |a, _bnorm, x, ctl| pn_krylov::gmres::gmres(a, &ilu, b, x, ctl).status(),
+    );
     (stats.status == SolveStatus::Converged).then_some((x, stats))
 }
 

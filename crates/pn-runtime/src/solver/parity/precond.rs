@@ -11,7 +11,7 @@
 //! hierarchy to the finest operator it needs.
 
 use super::split::{ParityError, Split};
-use crate::operator::{Identity, Jacobi, LinearOperator, Preconditioner};
+use pn_krylov::operator::{Identity, Jacobi, LinearOperator, Preconditioner};
 use rayon::prelude::*;
 use sprs::CsMat;
 
@@ -580,7 +580,7 @@ mod tests {
         let f = Ilu0::new(&s).unwrap();
         let x = [1.0, -2.0, 0.5, 4.0];
         let mut r = vec![0.0; 4];
-        crate::linalg::spmv(&s, &x, &mut r);
+        pn_krylov::linalg::spmv(&s, &x, &mut r);
         let mut z = vec![0.0; 4];
         f.solve(&r, &mut z);
         for i in 0..4 {

@@ -13,9 +13,9 @@
 
 use super::split::Split;
 use super::stencil_s::StencilReduced;
-use crate::linalg::{csr_product_bytes, dot, norm, spmv, spmv_transpose};
-use crate::operator::LinearOperator;
 use crate::solver::multigrid::Geometry;
+use pn_krylov::linalg::{csr_product_bytes, dot, norm, spmv, spmv_transpose};
+use pn_krylov::operator::LinearOperator;
 use rayon::prelude::*;
 use sprs::CsMat;
 use std::sync::Arc;

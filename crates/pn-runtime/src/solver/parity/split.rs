@@ -7,7 +7,7 @@
 //! two plain sparse products).
 
 use super::stencil_s::StencilReduced;
-use crate::linalg::{split_runs, spmv};
+use pn_krylov::linalg::{split_runs, spmv};
 use rayon::prelude::*;
 use sprs::CsMat;
 use std::borrow::Cow;

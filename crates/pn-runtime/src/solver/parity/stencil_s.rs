@@ -24,9 +24,9 @@ mod galerkin;
 mod interior;
 
 use super::block_mat::BlockMat;
-use crate::linalg::Real;
 use crate::matfree::{for_planes_across, range, shifted_lines};
 use crate::solver::multigrid::Geometry;
+use pn_krylov::linalg::Real;
 use rayon::prelude::*;
 use std::sync::Mutex;
 

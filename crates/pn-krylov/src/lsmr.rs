@@ -5,27 +5,14 @@
 //!
 //! ‖r_k‖ is estimated by the paper's recurrence (§3.3, without damping); the solver stops when
 //! the estimate over ‖b‖₂ is ≤ tol and the recomputed true residual confirms it (re-checks
-//! as in [`super::lsqr`], [`super::control::Control::confirm`]). No damping, no parameters
+//! as in [`super::lsqr`], [`crate::control::Control::confirm`]). No damping, no parameters
 //! beyond the controller's; the info is [`SolveStats`].
 
-use super::control::{run_from_zero, Outcome};
-use super::lsqr::{bidiag_step, golub_kahan_start, scale_inv, true_residual_norm};
-use super::{LinearSolver, SolveStats, SolveStatus, SolverOptions};
+use crate::control::{run_from_zero, Outcome};
 use crate::linalg::{axpy, xpby};
-use crate::operator::{AssembledOperator, LinearOperator};
-use sprs::CsMat;
-
-/// LSMR on the assembled matrix (`--solver lsmr`).
-pub struct Lsmr;
-
-impl LinearSolver for Lsmr {
-    fn name(&self) -> &'static str {
-        "lsmr"
-    }
-    fn solve(&self, a: &CsMat<f64>, b: &[f64], opts: &SolverOptions) -> (Vec<f64>, SolveStats) {
-        lsmr(&AssembledOperator::new(a), b, opts, self.name())
-    }
-}
+use crate::lsqr::{bidiag_step, golub_kahan_start, scale_inv, true_residual_norm};
+use crate::operator::LinearOperator;
+use crate::stats::{SolveStats, SolveStatus, Stopping};
 
 /// `(c, s, r)` with `r = √(a² + b²)`, `c = a/r`, `s = b/r` (a Givens rotation).
 fn sym_ortho(a: f64, b: f64) -> (f64, f64, f64) {
@@ -41,7 +28,7 @@ fn sym_ortho(a: f64, b: f64) -> (f64, f64, f64) {
 pub fn lsmr(
     a: &dyn LinearOperator,
     b: &[f64],
-    opts: &SolverOptions,
+    opts: &Stopping,
     name: &str,
 ) -> (Vec<f64>, SolveStats) {
     run_from_zero(a, b, opts, name, |a, bnorm, x, ctl| {

@@ -22,7 +22,7 @@
 //! assert!(ctl.iterations <= 2); // CG is exact after n steps
 //! ```
 
-use super::control::{true_residual, Control, Outcome};
+use crate::control::{true_residual, Control, Outcome};
 use crate::linalg::{axpy, dot, norm, xpby};
 use crate::operator::{LinearOperator, Preconditioner};
 

@@ -6,7 +6,7 @@
 //! breakdown (`ρ = 0`, `r̂ᵀv = 0`, `ω = 0`) ends the run as [`Outcome::Stagnated`] so that
 //! the caller can restart from the true residual. No parameters beyond the controller's.
 
-use super::control::{true_residual, Control, Outcome};
+use crate::control::{true_residual, Control, Outcome};
 use crate::linalg::{axpy, dot, norm};
 use crate::operator::{LinearOperator, Preconditioner};
 use rayon::prelude::*;
@@ -94,6 +94,6 @@ mod tests {
     #[test]
     fn bicgstab_solves_nonsymmetric() {
         let id = crate::operator::Identity;
-        super::super::cg::tests::check(|a, x, f, ctl| bicgstab(a, &id, f, x, ctl), -1.5, 0.5);
+        crate::cg::tests::check(|a, x, f, ctl| bicgstab(a, &id, f, x, ctl), -1.5, 0.5);
     }
 }

@@ -1,13 +1,13 @@
-//! What the iterative methods of [`crate::solver`] need from a system: the
+//! What the iterative methods of `pn_runtime::solver` need from a system: the
 //! [`LinearOperator`] trait (products with `A` and `Aᵀ`) and the [`Preconditioner`] trait
 //! (`z = M⁻¹ r`).
 //!
 //! Operators: the assembled CSR matrix ([`AssembledOperator`], and plain `CsMat` for one-off
-//! use), the matrix-free operator of [`crate::matfree`], the reduced parity operator
-//! ([`crate::solver::parity::reduced::ReducedOperator`]) and [`Counted`], which counts the
+//! use), the matrix-free operator of `pn_runtime::matfree`, the reduced parity operator
+//! (`pn_runtime::solver::parity::reduced::ReducedOperator`) and [`Counted`], which counts the
 //! products taken with any of them. Preconditioners: [`Identity`], [`Jacobi`], and in
-//! [`crate::solver::parity::precond`] ILU(0), block-Jacobi and the multigrid cycle
-//! ([`crate::solver::multigrid::Multigrid::with_fine`]).
+//! `pn_runtime::solver::parity::precond` ILU(0), block-Jacobi and the multigrid cycle
+//! (`pn_runtime::solver::multigrid::Multigrid::with_fine`).
 
 use crate::linalg::{csr_product_bytes, transpose_csr, CsrOperator};
 use sprs::CsMat;
@@ -24,7 +24,7 @@ pub trait LinearOperator: Send + Sync {
     fn apply_transpose(&self, x: &[f64], y: &mut [f64]);
     /// The bytes one application (`apply`, or `apply_transpose` where it moves the same)
     /// moves to and from memory in the operator's own traffic model, counted as STREAM
-    /// counts ([`crate::bandwidth`]: every array read or written once, write-allocate not
+    /// counts (`pn_runtime::bandwidth`: every array read or written once, write-allocate not
     /// counted); `None` for an operator without a model. With the measured bandwidth this
     /// gives the roofline of `pn bench`.
     fn bytes_per_application(&self) -> Option<u64> {
@@ -33,7 +33,7 @@ pub trait LinearOperator: Send + Sync {
 }
 
 /// A preconditioner: `z ≈ A⁻¹ r`, a fixed linear map (the Krylov methods of
-/// [`crate::solver`] apply it once or twice per iteration).
+/// `pn_runtime::solver` apply it once or twice per iteration).
 pub trait Preconditioner: Send + Sync {
     /// `z = M⁻¹ r` (`z` is overwritten).
     fn apply(&self, r: &[f64], z: &mut [f64]);
@@ -86,7 +86,7 @@ impl Preconditioner for Jacobi {
 }
 
 /// An operator that counts the products taken with it (`A x` and `Aᵀ x` alike), so that
-/// solvers can report their work in products with `A` ([`crate::solver::SolveStats::operator_applications`]).
+/// solvers can report their work in products with `A` ([`crate::SolveStats::operator_applications`]).
 pub struct Counted<'a> {
     inner: &'a dyn LinearOperator,
     count: std::sync::atomic::AtomicUsize,

@@ -6,28 +6,15 @@
 //! The recurrence gives ‖b − A u_k‖₂ = φ̄_k for free; the solver stops when φ̄_k/‖b‖₂ ≤ tol,
 //! then recomputes the true residual. If rounding drift left it above the tolerance it
 //! iterates on and re-checks each time φ̄ has fallen by another factor 2 (at most
-//! [`super::control::MAX_RESTARTS`] re-checks, then "stagnated" with the residual reached;
-//! [`super::control::Control::confirm`]). No damping, no parameters beyond the controller's; the info is
+//! [`crate::control::MAX_RESTARTS`] re-checks, then "stagnated" with the residual reached;
+//! [`crate::control::Control::confirm`]). No damping, no parameters beyond the controller's; the info is
 //! [`SolveStats`].
 
-use super::control::{run_from_zero, Outcome};
-use super::{LinearSolver, SolveStats, SolveStatus, SolverOptions};
+use crate::control::{run_from_zero, Outcome};
 use crate::linalg::{axpy, norm, xpby};
-use crate::operator::{op_residual, AssembledOperator, LinearOperator};
+use crate::operator::{op_residual, LinearOperator};
+use crate::stats::{SolveStats, SolveStatus, Stopping};
 use rayon::prelude::*;
-use sprs::CsMat;
-
-/// LSQR on the assembled matrix (`--solver lsqr`).
-pub struct Lsqr;
-
-impl LinearSolver for Lsqr {
-    fn name(&self) -> &'static str {
-        "lsqr"
-    }
-    fn solve(&self, a: &CsMat<f64>, b: &[f64], opts: &SolverOptions) -> (Vec<f64>, SolveStats) {
-        lsqr(&AssembledOperator::new(a), b, opts, self.name())
-    }
-}
 
 /// `v ← (w − c·v)`, returning ‖v‖ (the bidiagonalisation step `β u = A v − α u`).
 pub(crate) fn bidiag_step(w: &[f64], c: f64, v: &mut [f64]) -> f64 {
@@ -76,7 +63,7 @@ pub(crate) fn true_residual_norm(
 pub fn lsqr(
     a: &dyn LinearOperator,
     b: &[f64],
-    opts: &SolverOptions,
+    opts: &Stopping,
     name: &str,
 ) -> (Vec<f64>, SolveStats) {
     run_from_zero(a, b, opts, name, |a, bnorm, x, ctl| {

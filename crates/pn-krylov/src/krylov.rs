@@ -3,7 +3,7 @@
 //! solvers by the measured symmetry of the reduced operator, multigrid-CG on a scalar
 //! system), and the symmetry threshold they choose by.
 
-use super::control::{Control, Outcome};
+use crate::control::{Control, Outcome};
 use crate::operator::{LinearOperator, Preconditioner};
 
 /// An operator counts as symmetric when its random-probe asymmetry
@@ -55,9 +55,9 @@ impl KrylovMethod {
         ctl: &mut Control,
     ) -> Outcome {
         match self {
-            KrylovMethod::Cg => super::cg::cg(a, m, f, x, ctl),
-            KrylovMethod::BiCgStab => super::bicgstab::bicgstab(a, m, f, x, ctl),
-            KrylovMethod::Gmres => super::gmres::gmres(a, m, f, x, ctl),
+            KrylovMethod::Cg => crate::cg::cg(a, m, f, x, ctl),
+            KrylovMethod::BiCgStab => crate::bicgstab::bicgstab(a, m, f, x, ctl),
+            KrylovMethod::Gmres => crate::gmres::gmres(a, m, f, x, ctl),
         }
     }
 }

@@ -19,7 +19,7 @@
 //! confirmed with the true `f64` residual before the solve reports convergence, and the
 //! caller continues from there if it is not met.
 
-use super::control::{true_residual, Control, Outcome};
+use crate::control::{true_residual, Control, Outcome};
 use crate::linalg::{axpy, lane_dot, norm};
 use crate::operator::{LinearOperator, Preconditioner};
 use rayon::prelude::*;
@@ -346,13 +346,13 @@ mod tests {
     #[test]
     fn gmres_solves_nonsymmetric() {
         let id = crate::operator::Identity;
-        super::super::cg::tests::check(|a, x, f, ctl| gmres(a, &id, f, x, ctl), -1.5, 0.5);
+        crate::cg::tests::check(|a, x, f, ctl| gmres(a, &id, f, x, ctl), -1.5, 0.5);
         // A short restart still converges (more cycles).
         let p = GmresParams {
             restart: 3,
             f32_basis: false,
         };
-        super::super::cg::tests::check(|a, x, f, ctl| gmres_with(&p, a, &id, f, x, ctl), -1.5, 0.5);
+        crate::cg::tests::check(|a, x, f, ctl| gmres_with(&p, a, &id, f, x, ctl), -1.5, 0.5);
     }
 
     /// A nearly scaled identity (`3 I` plus couplings of 1e-3): each new direction `A v_k`
@@ -362,10 +362,10 @@ mod tests {
     #[test]
     fn gmres_with_strong_cancellation_reorthogonalizes_and_converges() {
         let id = crate::operator::Identity;
-        super::super::cg::tests::check(|a, x, f, ctl| gmres(a, &id, f, x, ctl), -0.003, 0.002);
+        crate::cg::tests::check(|a, x, f, ctl| gmres(a, &id, f, x, ctl), -0.003, 0.002);
         let w: Vec<f64> = (0..300).map(|i| (i as f64 * 0.1).sin()).collect();
         let mut aw = vec![0.0; w.len()];
-        let a = super::super::cg::tests::tridiag(w.len(), -0.003, 3.0, 0.002);
+        let a = crate::cg::tests::tridiag(w.len(), -0.003, 3.0, 0.002);
         crate::operator::LinearOperator::apply(&a, &w, &mut aw);
         let v: Vec<f64> = w.iter().map(|x| x / norm(&w)).collect();
         let basis = [v];
@@ -431,11 +431,7 @@ mod tests {
                 restart,
                 f32_basis: true,
             };
-            super::super::cg::tests::check(
-                |a, x, f, ctl| gmres_with(&p, a, &id, f, x, ctl),
-                -1.5,
-                0.5,
-            );
+            crate::cg::tests::check(|a, x, f, ctl| gmres_with(&p, a, &id, f, x, ctl), -1.5, 0.5);
         }
         // The default picks it for modest targets, at any size.
         assert!(GmresParams::for_problem(8_000_000, 1e-6).f32_basis);

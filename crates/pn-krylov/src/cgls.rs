@@ -1,25 +1,25 @@
 //! CGLS: conjugate gradients on the normal equations `AᵀA u = Aᵀb` without forming `AᵀA`
 //! (Hestenes & Stiefel 1952; docs/design.md §5), on any [`LinearOperator`]: the assembled CSR
 //! matrix (`--solver cgnr`, [`super::cgnr::Cgnr`]) or the matrix-free operator
-//! (`--solver cgnr-mf`, [`crate::matfree`]).
+//! (`--solver cgnr-mf`, `pn_runtime::matfree`).
 //!
 //! Per iteration one product with `A` and one with `Aᵀ`. CGLS minimises `‖b − Au‖₂` over
 //! the Krylov space, so the recurrence residual decreases monotonically; when it meets the
 //! tolerance the true residual is recomputed and, if it is still above the tolerance
 //! (rounding drift), the iteration restarts from the true residual (at most
-//! [`super::control::MAX_RESTARTS`] times, then "stagnated"). No parameters beyond the
+//! [`crate::control::MAX_RESTARTS`] times, then "stagnated"). No parameters beyond the
 //! controller's; the info is [`SolveStats`].
 
-use super::control::{run_from_zero, Outcome};
-use super::{SolveStats, SolveStatus, SolverOptions};
+use crate::control::{run_from_zero, Outcome};
 use crate::linalg::{axpy, dot, norm, xpby};
 use crate::operator::{op_residual, LinearOperator};
+use crate::stats::{SolveStats, SolveStatus, Stopping};
 
 /// CGLS on `a u = b` from u = 0, reported as solver `name`.
 pub fn cgls(
     a: &dyn LinearOperator,
     b: &[f64],
-    opts: &SolverOptions,
+    opts: &Stopping,
     name: &str,
 ) -> (Vec<f64>, SolveStats) {
     run_from_zero(a, b, opts, name, |a, _bnorm, x, ctl| {

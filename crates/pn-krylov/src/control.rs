@@ -10,12 +10,12 @@
 //!   `1 − stagnation_drop` within `stagnation_window` iterations,
 //! * divergence: a relative residual above `divergence_limit`, or not finite,
 //!
-//! and keeps the history and the progress display (a progress bar every 16 iterations,
-//! and the optional [`super::IterationObserver`] of the options after every iteration).
+//! and keeps the history; the optional [`crate::IterationObserver`] of the stopping rules
+//! hears of every iteration and of the end (the methods never print).
 
-use super::{SolveStats, SolveStatus, SolverOptions};
 use crate::linalg::norm;
 use crate::operator::{op_residual, Counted, LinearOperator};
+use crate::stats::{SolveStats, SolveStatus, Stopping};
 use rayon::prelude::*;
 
 /// How many times a method may restart from (or re-check against) the true residual after
@@ -69,8 +69,7 @@ pub struct Control {
     pub history: Vec<f64>,
     /// Restarts (or re-checks) taken so far ([`Control::may_restart`]).
     pub restarts: usize,
-    observer: Option<super::IterationObserver>,
-    bar: indicatif::ProgressBar,
+    observer: Option<crate::stats::IterationObserver>,
     best: f64,
     best_at: usize,
     /// [`Control::confirm`]: the estimate at which the true residual is next checked.
@@ -80,8 +79,8 @@ pub struct Control {
 impl Control {
     /// The controller for a system whose right-hand side has norm `bnorm`, with the limits of
     /// `opts`: target `tol·‖b‖`, residuals recorded relative to `‖b‖` (to 1 when `b = 0`),
-    /// and a progress bar when `opts.progress` (drawn only on a terminal).
-    pub fn for_options(opts: &SolverOptions, bnorm: f64) -> Self {
+    /// reported to `opts.observer`.
+    pub fn for_options(opts: &Stopping, bnorm: f64) -> Self {
         let mut c = Self::new(
             opts.tol * bnorm,
             if bnorm > 0.0 { bnorm } else { 1.0 },
@@ -90,7 +89,6 @@ impl Control {
             opts.stagnation_drop,
             opts.divergence_limit,
         );
-        c.bar = progress_bar(opts.max_iter, opts.progress);
         c.observer = opts.observer.clone();
         c
     }
@@ -116,7 +114,6 @@ impl Control {
             history: Vec::new(),
             restarts: 0,
             observer: None,
-            bar: indicatif::ProgressBar::hidden(),
             best: f64::INFINITY,
             best_at: 0,
             check_below: target,
@@ -140,10 +137,6 @@ impl Control {
         self.iterations += 1;
         let rel = rnorm / self.scale;
         self.history.push(rel);
-        if self.iterations.is_multiple_of(16) {
-            self.bar.set_position(self.iterations as u64);
-            self.bar.set_message(format!("relative residual {rel:.3e}"));
-        }
         if let Some(o) = &self.observer {
             o.notify(self.iterations, rel);
         }
@@ -194,15 +187,17 @@ impl Control {
         None
     }
 
-    /// Removes the progress bar.
+    /// Tells the observer that the iterations have ended.
     pub fn finish(&self) {
-        self.bar.finish_and_clear();
+        if let Some(o) = &self.observer {
+            o.finish();
+        }
     }
 }
 
 /// The true residual `r = f − A x` (one application of `A`, counted in `ctl`; none when `x`
 /// is zero).
-pub(crate) fn true_residual(
+pub fn true_residual(
     a: &dyn LinearOperator,
     f: &[f64],
     x: &[f64],
@@ -218,29 +213,14 @@ pub(crate) fn true_residual(
     ctl.applications += 1;
 }
 
-/// An indicatif progress bar that is hidden unless stderr is a terminal.
-pub fn progress_bar(len: usize, enabled: bool) -> indicatif::ProgressBar {
-    use std::io::IsTerminal;
-    if !enabled || !std::io::stderr().is_terminal() {
-        return indicatif::ProgressBar::hidden();
-    }
-    let pb = indicatif::ProgressBar::new(len as u64);
-    if let Ok(style) = indicatif::ProgressStyle::with_template(
-        "{spinner} [{elapsed_precise}] {pos} it  {msg}  ({per_sec})",
-    ) {
-        pb.set_style(style);
-    }
-    pb
-}
-
 /// The frame CGLS, LSQR and LSMR share: counts the products with `a`, returns u = 0 for
 /// b = 0, else runs `iterate(a, ‖b‖, x, control)` from x = 0, and reports the status it
 /// returns with the residual recomputed from `x`. A recurrence that claimed convergence
 /// but whose true residual is above the tolerance is reported as stagnated.
-pub(crate) fn run_from_zero(
+pub fn run_from_zero(
     a: &dyn LinearOperator,
     b: &[f64],
-    opts: &SolverOptions,
+    opts: &Stopping,
     name: &str,
     iterate: impl FnOnce(&Counted, f64, &mut [f64], &mut Control) -> SolveStatus,
 ) -> (Vec<f64>, SolveStats) {

@@ -135,7 +135,7 @@ impl CsrOperator {
 }
 
 /// The bytes one CSR product `y = A x` ([`spmv`], [`CompactCsr::mul`]) moves, in the model
-/// of the roofline ([`crate::bandwidth`]; every array read or written once, as STREAM
+/// of the roofline (`pn_runtime::bandwidth`; every array read or written once, as STREAM
 /// counts): `nnz` values (8 bytes) and column indices (`index_bytes`), `rows + 1` row
 /// pointers (8 bytes), `x` read once (`cols` × 8: the gather is assumed to hit each entry
 /// of `x` in memory once, the rest in cache) and `y` written once (`rows` × 8).
@@ -144,7 +144,7 @@ pub fn csr_product_bytes(nnz: usize, rows: usize, cols: usize, index_bytes: usiz
 }
 
 /// `y = A x` for a CSR matrix with any column-index type (`usize`, or `u32` for the
-/// parity blocks, [`crate::solver::parity::split::BlockMat`]).
+/// parity blocks, `pn_runtime::solver::parity::split::BlockMat`).
 pub fn spmv<I: sprs::SpIndex>(a: &sprs::CsMatI<f64, I, usize>, x: &[f64], y: &mut [f64]) {
     assert!(a.is_csr(), "spmv needs a CSR matrix");
     assert_eq!(a.cols(), x.len());
