@@ -1,7 +1,7 @@
 //! `pn figure`: its arguments.
 
 use clap::Args;
-use pn_drivers::figure::FigureRequest;
+use pn_lab::figure::FigureRequest;
 use pn_runtime::render::scene::RendererKind;
 use pn_runtime::render::{DensityFilter, SceneOverride};
 use std::path::PathBuf;

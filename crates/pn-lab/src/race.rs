@@ -40,12 +40,12 @@ use analysis::{MITSUBA, MITSUBA_OIDN, POINT_COLUMNS};
 use anyhow::{ensure, Context, Result};
 use metrics::{errors, excess, spp_for_error};
 use mitsuba_side::{Mitsuba, MitsubaJob};
+use pn_formats::table::{self, num, Table};
 use pn_runtime::render::compare::{read_gray, GrayImage};
 use pn_runtime::render::RenderScene;
 use pn_side::{PnResult, PnRunner};
 use std::io::Write;
 use std::path::{Path, PathBuf};
-use pn_formats::table::{self, num, Table};
 
 /// The pn points of a full race.
 pub const DEFAULT_PN_POINTS: &str = "cda@16,cda@24,cda@32,cda@48,p1@16,p1@24,p1@32,p1@48,\
@@ -122,6 +122,10 @@ pub struct RaceRequest {
     pub markdown_only: bool,
     /// Keep `<out>/<scene>/work/` (exports, images, renders) after the scene.
     pub keep_work: bool,
+    /// Where the race writes its scratch files (the probe of the Python interpreter, in a
+    /// folder of its own that is removed afterwards); the command line passes the system's
+    /// temporary folder.
+    pub temp_dir: PathBuf,
 }
 
 impl Default for RaceRequest {
@@ -149,6 +153,7 @@ impl Default for RaceRequest {
             repeat: 1,
             markdown_only: false,
             keep_work: false,
+            temp_dir: PathBuf::from("out/race-tmp"),
         }
     }
 }
@@ -292,7 +297,7 @@ pub fn run(req: &RaceRequest, stdout: &mut dyn Write) -> Result<()> {
     }
     std::fs::create_dir_all(&req.out)
         .with_context(|| format!("cannot create {}", req.out.display()))?;
-    let scratch = std::env::temp_dir().join(format!("pn-race-{}", std::process::id()));
+    let scratch = req.temp_dir.join(format!("pn-race-{}", std::process::id()));
     let mitsuba = Mitsuba::find(req.python.as_deref(), &scratch);
     let _ = std::fs::remove_dir_all(&scratch);
     let mitsuba = mitsuba?;

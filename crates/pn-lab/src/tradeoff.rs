@@ -225,7 +225,7 @@ fn log_xy(p: &Point) -> (f64, f64) {
 /// line through the points of the tightest tolerance (in order of resolution) and markers
 /// for every point (filled: tightest tolerance; hollow: the others).
 fn write_png(path: &Path, points: &[Point], tols: &[f64]) -> anyhow::Result<()> {
-    pn_runtime::reference::register_plot_fonts()?;
+    crate::plot::fonts()?;
     let data: Vec<(f64, f64)> = points
         .iter()
         .filter_map(|p| p.error_transport.map(|e| (p.seconds().max(1e-4), e)))

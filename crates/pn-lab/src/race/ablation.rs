@@ -13,9 +13,9 @@
 use super::metrics::{errors, Errors};
 use super::plot::{draw_bias_vs_order, OrderSeries};
 use super::pn_side::{PnPoint, PnRunner};
-use pn_formats::table::{num, Table};
 use super::{pn_settings, Ctx, WORK};
 use anyhow::{anyhow, bail, ensure, Context, Result};
+use pn_formats::table::{num, Table};
 use pn_runtime::render::compare::{read_gray, GrayImage};
 use pn_runtime::render::{RenderScene, SceneOverride};
 use serde::Deserialize;

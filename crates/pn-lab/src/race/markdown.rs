@@ -4,8 +4,8 @@
 
 use super::ablation;
 use super::analysis::{crossings, family_name, points};
-use pn_formats::table::Table;
 use anyhow::{Context, Result};
+use pn_formats::table::Table;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};

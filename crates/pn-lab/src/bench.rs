@@ -11,9 +11,9 @@ use crate::bench_rows::{
     fld_point_source, grid_label, max_rel_diff, peak_memory, pointsource_options, profile_error,
     reset_peak_memory, row_from, Row, CSV_HEADER,
 };
-use crate::fld_setup::{solve_fld_route, FldSettings};
-use crate::scene_setup::Route;
 use anyhow::Context;
+use pn_drivers::fld_setup::{solve_fld_route, FldSettings};
+use pn_drivers::scene_setup::Route;
 use pn_kernels::{cda_kernel, diffusion_kernel, pn_kernel, Dim, Staggering};
 use pn_runtime::fld::{FldParams, Limiter};
 use pn_runtime::pipeline::{solve_problem, Solution};

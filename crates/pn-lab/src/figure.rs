@@ -12,9 +12,9 @@
 //! `table.md` (method, solve seconds, render seconds, unknowns, RMSE and relative MSE
 //! against the reference).
 
-use crate::render::{render_scene, write_run, RenderOptions, RenderRun};
 use anyhow::{ensure, Context, Result};
 use plotters::prelude::*;
+use pn_drivers::render::{render_scene, write_run, RenderOptions, RenderRun};
 use pn_runtime::render::compare::{metrics, write_difference_png, GrayImage, Metrics};
 use pn_runtime::render::image_io::{exposure, read_exr_gray, srgb8};
 use pn_runtime::render::scene::{RenderMethod, RendererKind};
@@ -284,7 +284,7 @@ fn write_tables(out: &Path, entries: &[Entry], reference: Option<&Path>) -> Resu
 /// reference a second row of |image − reference| on one white→red scale (0 to the 99th
 /// percentile of the largest error image).
 fn write_figure(path: &Path, entries: &[Entry], reference: Option<&GrayImage>) -> Result<()> {
-    let labels = pn_runtime::reference::register_plot_fonts().is_ok();
+    let labels = crate::plot::fonts().is_ok();
     let err = |e: &dyn std::fmt::Display| pn_runtime::plot::draw_error(path, e);
     let first = &entries[0].run.image;
     let (w, h) = (first.width, first.height);
