@@ -12,8 +12,9 @@
 
 use super::metrics::{errors, Errors};
 use super::plot::{draw_bias_vs_order, OrderSeries};
+use super::pn_side::pn_settings;
 use super::pn_side::{PnPoint, PnRunner};
-use super::{pn_settings, Ctx, WORK};
+use super::{Ctx, WORK};
 use anyhow::{anyhow, bail, ensure, Context, Result};
 use pn_formats::table::{num, Table};
 use pn_runtime::render::compare::{read_gray, GrayImage};
