@@ -124,7 +124,7 @@ pub fn run(req: &RaceRequest, stdout: &mut dyn Write) -> Result<()> {
     for s in &req.scenes {
         let row = scene::race_scene(&ctx, s, stdout).with_context(|| format!("race on {s}"))?;
         summary.push(&row)?;
-        summary.write(&req.out.join("summary.csv"))?;
+        summary.write_csv(&req.out.join("summary.csv"))?;
         if plan.study.is_some() {
             if let Some(p) = ablation::draw_order_plot(&req.out)? {
                 writeln!(stdout, "  wrote {}", p.display())?;

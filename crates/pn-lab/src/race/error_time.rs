@@ -59,7 +59,7 @@ pub(super) fn redraw_all(out: &Path, stdout: &mut dyn Write) -> Result<()> {
     if !summary.exists() {
         return Ok(());
     }
-    for r in Table::read(&summary)?.records() {
+    for r in Table::read_csv(&summary)?.records() {
         let (Some(scene), Some(spp), Some(noise)) = (
             r.get("scene"),
             r.get("reference_spp").and_then(|v| v.parse::<usize>().ok()),
@@ -70,7 +70,7 @@ pub(super) fn redraw_all(out: &Path, stdout: &mut dyn Write) -> Result<()> {
         let dir = out.join(scene);
         let points = dir.join("points.csv");
         if points.exists() {
-            draw(&dir, scene, spp, &Table::read(&points)?, noise)?;
+            draw(&dir, scene, spp, &Table::read_csv(&points)?, noise)?;
             writeln!(stdout, "wrote {}", dir.join("error_time.png").display())?;
         }
     }

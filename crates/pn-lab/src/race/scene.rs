@@ -220,7 +220,7 @@ pub(super) fn race_scene(
         pn_errors.push((p.clone(), r, e));
     }
     analysis::derive(&mut table, noise);
-    table.write(&dir.join("points.csv"))?;
+    table.write_csv(&dir.join("points.csv"))?;
     let pts = analysis::points(&table);
     error_time::draw(&dir, &name, plan.reference_spp, &table, noise)?;
     let (lines, best) = analysis::crossings(&pts, plan.target_spp);

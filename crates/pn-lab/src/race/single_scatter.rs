@@ -60,7 +60,7 @@ pub(super) fn single_scatter(
         ("bias_sigmas", num(Some(sigmas))),
     ];
     t.push(&cells)?;
-    t.write(&dir.join("single_scatter.csv"))?;
+    t.write_csv(&dir.join("single_scatter.csv"))?;
     Ok(vec![
         ("ss_rel_bias", num(Some(e.rel_bias))),
         ("ss_rel_rmse", num(Some(e.rel_rmse))),

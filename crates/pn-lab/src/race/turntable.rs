@@ -171,7 +171,7 @@ pub(super) fn turntable(
         ("seconds_per_view", num(Some(m.wall / k as f64))),
         ("view0_rel_rmse", num(Some(mi0.rel_rmse))),
     ])?;
-    t.write(&dir.join("turntable.csv"))?;
+    t.write_csv(&dir.join("turntable.csv"))?;
     Ok(vec![
         ("turntable_views", k.to_string()),
         ("turntable_pn", point.label()),
