@@ -257,8 +257,18 @@ fn pointsource_rows(args: &BenchRequest, rows: &mut Vec<Row>) -> anyhow::Result<
         eprintln!("bench: {}", row.csv());
         rows.push(row);
     }
-    // FLD on the same cells, by both routes (nonlinear Gauss–Seidel, and Picard steps on
-    // multigrid CG with Anderson acceleration); φ is the fluence of a unit-power source.
+    fld_rows(args, n, rows)
+}
+
+/// FLD on the point source's cells, by both routes (nonlinear Gauss–Seidel, and Picard
+/// steps on multigrid CG with Anderson acceleration); φ is the fluence of a unit-power source.
+fn fld_rows(args: &BenchRequest, n: usize, rows: &mut Vec<Row>) -> anyhow::Result<()> {
+    let (params, _) = pointsource_options(n);
+    let h = 2.0 * params.half_width / n as f64;
+    let tau_per_cell = params.sigma_t * h;
+    let c = n / 2;
+    let max_k = n - 1 - c;
+    let norm = 4.0 * std::f64::consts::PI / (params.sigma_t * params.sigma_t);
     let problem = fld_point_source(n, &params)?;
     let cells = problem.grid.len();
     let fparams = FldParams::for_grid(Limiter::LevermorePomraning, &problem.grid);
