@@ -54,6 +54,7 @@ enum Command {
 /// Runs `command`, printing to `out`.
 fn run(command: &Command, env: &cli::Env, out: &mut dyn Write) -> anyhow::Result<()> {
     use pn_drivers as d;
+    use pn_lab as lab;
     match command {
         Command::Latex(a) => d::derive_cmds::latex(&a.request(), out),
         Command::Equations(a) => d::derive_cmds::equations(&a.request(), out),
@@ -61,13 +62,13 @@ fn run(command: &Command, env: &cli::Env, out: &mut dyn Write) -> anyhow::Result
         Command::Stencil(a) => d::stencil::run(&a.request(), out),
         Command::Solve(a) => d::solve::run(&a.request(env), out),
         Command::Converge(a) => d::converge::run(&a.request(env), out),
-        Command::Bench(a) => d::bench::run(&a.request(env), out),
-        Command::Tradeoff(a) => d::tradeoff::run(&a.request(env), out),
+        Command::Bench(a) => lab::bench::run(&a.request(env), out),
+        Command::Tradeoff(a) => lab::tradeoff::run(&a.request(env), out),
         Command::Render(a) => d::render::run(&a.request(env), out),
-        Command::Figure(a) => d::figure::run(&a.request(env), out),
+        Command::Figure(a) => lab::figure::run(&a.request(env), out),
         Command::ExportMitsuba(a) => d::export_mitsuba::run(&a.request(env), out),
         Command::Compare(a) => d::compare::run(&a.request(), out),
-        Command::Race(a) => d::race::run(&a.request(env)?, out),
+        Command::Race(a) => lab::race::run(&a.request(env)?, out),
     }?;
     out.flush()?;
     Ok(())

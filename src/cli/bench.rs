@@ -1,7 +1,7 @@
 //! `pn bench`: its arguments.
 
 use clap::Args;
-use pn_drivers::bench::BenchRequest;
+use pn_lab::bench::BenchRequest;
 use std::path::PathBuf;
 
 use super::Env;

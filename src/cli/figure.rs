@@ -1,7 +1,7 @@
 //! `pn figure`: its arguments.
 
 use clap::Args;
-use pn_drivers::figure::FigureRequest;
+use pn_lab::figure::FigureRequest;
 use pn_render::scene::RendererKind;
 use pn_render::{DensityFilter, SceneOverride};
 use std::path::PathBuf;

@@ -2,7 +2,7 @@
 
 use anyhow::Context;
 use clap::Args;
-use pn_drivers::race::{parse_points, RaceRequest};
+use pn_lab::race::{parse_points, RaceRequest};
 use std::path::PathBuf;
 
 use super::Env;
@@ -61,7 +61,7 @@ pub struct RaceArgs {
     /// filter, solution lookup) and is judged against the scene's Mitsuba reference; per scene ablation.csv
     /// (bias, relative RMSE, and their change against the base arm), for all
     /// bias_vs_order.png, an Ablation section in results.md. Without --ablation-study, the
-    /// built-in study (crates/pn-drivers/src/race/default_study.toml: 22 arms, 20 renders
+    /// built-in study (crates/pn-lab/src/race/default_study.toml: 22 arms, 20 renders
     /// per scene). Replaces the former four-step ablation: --ablation-base, --ablation-res,
     /// --ablation-order and --ablation-fine-args are gone (write the arms in a study file).
     /// Example: pn race cloud scenes/puff.toml --ablation --out out/ablation.
@@ -135,6 +135,7 @@ impl RaceArgs {
             repeat: self.repeat,
             markdown_only: self.markdown_only,
             keep_work: self.keep_work,
+            temp_dir: std::env::temp_dir(),
         })
     }
 }

@@ -1,7 +1,7 @@
 //! `pn tradeoff`: its arguments.
 
 use clap::Args;
-use pn_drivers::tradeoff::TradeoffRequest;
+use pn_lab::tradeoff::TradeoffRequest;
 use std::path::PathBuf;
 
 use super::Env;

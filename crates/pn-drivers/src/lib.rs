@@ -1,6 +1,13 @@
-//! `pn-drivers` — the work behind each `pn` subcommand, as a library that the command line
-//! and the tests call: solve a scene, render, converge, error estimate, bench, trade-off,
-//! figure, the derivation printers, reports and plots.
+//! `pn-drivers` — the user commands of `pn`, as a library that the command line and the
+//! tests call: solve a scene ([`solve`], with [`fld_method`], [`pointsource_extras`] and
+//! [`vacuum_extras`]), render ([`render`]), converge ([`converge`]), the error estimate
+//! ([`error_estimate`]), compare two images ([`compare`]), the Mitsuba export
+//! ([`export_mitsuba`]), the derivation printers ([`derive_cmds`], [`stencil`]) and the
+//! text-PDE files ([`pde_text`]).
+//!
+//! The experiments (`pn race`, `pn bench`, `pn tradeoff`, `pn figure`) are in `pn-lab`,
+//! which builds on this crate ([`scene_setup`], [`fld_setup`], [`render`]); dependencies run
+//! lab → drivers → libraries, never the reverse.
 //!
 //! Every driver takes plain option values (a `…Request` struct with public fields and a
 //! `Default`) and a `std::io::Write` for what the command prints; nothing here parses a
@@ -10,8 +17,7 @@
 //! Module dependencies run one way: [`scene_setup`] (the options of a solve, the scene and
 //! the stencil they select) is below [`fld_setup`], [`error_estimate`] and
 //! [`pointsource_extras`], which are below [`solve`], [`fld_method`] and [`converge`];
-//! [`render`] uses [`fld_setup`], [`figure`] uses [`render`]; `bench_rows` is below
-//! [`bench`](mod@bench) (and its `bench_model` and `bench_roofline` sections) and [`tradeoff`].
+//! [`render`] uses [`fld_setup`].
 //!
 //! # Example
 //!
@@ -41,27 +47,18 @@
 
 #![warn(missing_docs)]
 
-pub mod bench;
-mod bench_kernels;
-mod bench_model;
-mod bench_pde;
-mod bench_roofline;
-mod bench_rows;
 pub mod compare;
 pub mod converge;
 pub mod derive_cmds;
 pub mod error_estimate;
 pub mod export_mitsuba;
-pub mod figure;
 pub mod fld_method;
 pub mod fld_setup;
 pub mod pde_text;
 pub mod pointsource_extras;
 pub mod progress;
-pub mod race;
 pub mod render;
 pub mod scene_setup;
 pub mod solve;
 pub mod stencil;
-pub mod tradeoff;
 pub mod vacuum_extras;

@@ -12,15 +12,15 @@
 //! `table.md` (method, solve seconds, render seconds, unknowns, RMSE and relative MSE
 //! against the reference).
 
-use crate::render::{render_scene, write_run, RenderOptions, RenderRun};
 use anyhow::{ensure, Context, Result};
 use plotters::prelude::*;
+use pn_drivers::render::{render_scene, write_run, RenderOptions, RenderRun};
 use pn_formats::image_io::{exposure, read_exr_gray, srgb8};
+use pn_formats::table::Table;
 use pn_render::compare::{metrics, write_difference_png, GrayImage, Metrics};
 use pn_render::scene::{RenderMethod, RendererKind};
 use pn_render::{DensityFilter, RenderScene, SceneOverride};
 use pn_runtime::solver::SolverTuning;
-use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 /// The options of `pn figure`.
@@ -239,41 +239,97 @@ fn fmt_opt(v: Option<f64>) -> String {
     v.map_or_else(|| "n/a".to_string(), |x| format!("{x:.4e}"))
 }
 
-fn write_tables(out: &Path, entries: &[Entry], reference: Option<&Path>) -> Result<()> {
-    let mut csv = String::from(
-        "method,solve_seconds,render_seconds,total_seconds,unknowns,iterations,rmse,rel_mse,mean_rel_error,rel_bias\n",
-    );
-    let mut md = format!(
-        "Reference: {}\n\n| method | solve s | render s | unknowns | iterations | RMSE | rel. MSE | mean rel. error |\n|---|---|---|---|---|---|---|---|\n",
-        reference.map_or("none (no Mitsuba image)".to_string(), |p| p.display().to_string())
-    );
-    for e in entries {
+/// One method's line of `table.csv` and `table.md`.
+struct TableRow<'a> {
+    label: &'a str,
+    key: &'a str,
+    /// Light depth, sources, solve and sweeps, s.
+    solve: f64,
+    render: f64,
+    total: f64,
+    unknowns: u128,
+    iterations: usize,
+    metrics: Option<&'a Metrics>,
+}
+
+impl<'a> TableRow<'a> {
+    fn new(e: &'a Entry) -> Self {
         let r = &e.run.report;
-        let solve = r.seconds.light_depth + r.seconds.sources + r.seconds.solve + r.seconds.sweeps;
-        let unknowns = r.unknowns.as_ref().map_or(0, |u| u.solved);
-        let iterations = r.solver.as_ref().map_or(0, |s| s.iterations);
-        let m = e.metrics.as_ref();
-        writeln!(
-            csv,
-            "{},{solve:.4},{:.4},{:.4},{unknowns},{iterations},{},{},{},{}",
-            e.key,
-            r.seconds.render,
-            r.seconds.total,
+        Self {
+            label: e.label,
+            key: e.key,
+            solve: r.seconds.light_depth + r.seconds.sources + r.seconds.solve + r.seconds.sweeps,
+            render: r.seconds.render,
+            total: r.seconds.total,
+            unknowns: r.unknowns.as_ref().map_or(0, |u| u.solved),
+            iterations: r.solver.as_ref().map_or(0, |s| s.iterations),
+            metrics: e.metrics.as_ref(),
+        }
+    }
+}
+
+/// The text of `table.csv` and of `table.md`.
+fn tables(rows: &[TableRow], reference: Option<&Path>) -> Result<(String, String)> {
+    let mut csv = Table::new(&[
+        "method",
+        "solve_seconds",
+        "render_seconds",
+        "total_seconds",
+        "unknowns",
+        "iterations",
+        "rmse",
+        "rel_mse",
+        "mean_rel_error",
+        "rel_bias",
+    ]);
+    let mut md = Table::new(&[
+        "method",
+        "solve s",
+        "render s",
+        "unknowns",
+        "iterations",
+        "RMSE",
+        "rel. MSE",
+        "mean rel. error",
+    ]);
+    for r in rows {
+        let m = r.metrics;
+        csv.push_row([
+            r.key.to_string(),
+            format!("{:.4}", r.solve),
+            format!("{:.4}", r.render),
+            format!("{:.4}", r.total),
+            r.unknowns.to_string(),
+            r.iterations.to_string(),
             fmt_opt(m.map(|m| m.rmse)),
             fmt_opt(m.map(|m| m.rel_mse)),
             fmt_opt(m.map(|m| m.mean_rel_error)),
             fmt_opt(m.map(|m| m.rel_bias)),
-        )?;
-        writeln!(
-            md,
-            "| {} | {solve:.2} | {:.2} | {unknowns} | {iterations} | {} | {} | {} |",
-            e.label,
-            r.seconds.render,
+        ])?;
+        md.push_row([
+            r.label.to_string(),
+            format!("{:.2}", r.solve),
+            format!("{:.2}", r.render),
+            r.unknowns.to_string(),
+            r.iterations.to_string(),
             fmt_opt(m.map(|m| m.rmse)),
             fmt_opt(m.map(|m| m.rel_mse)),
             fmt_opt(m.map(|m| m.mean_rel_error)),
-        )?;
+        ])?;
     }
+    let md = format!(
+        "Reference: {}\n\n{}",
+        reference.map_or("none (no Mitsuba image)".to_string(), |p| p
+            .display()
+            .to_string()),
+        md.to_markdown()
+    );
+    Ok((csv.to_csv(), md))
+}
+
+fn write_tables(out: &Path, entries: &[Entry], reference: Option<&Path>) -> Result<()> {
+    let rows: Vec<TableRow> = entries.iter().map(TableRow::new).collect();
+    let (csv, md) = tables(&rows, reference)?;
     std::fs::write(out.join("table.csv"), csv).context("writing table.csv")?;
     std::fs::write(out.join("table.md"), md).context("writing table.md")?;
     Ok(())
@@ -284,7 +340,7 @@ fn write_tables(out: &Path, entries: &[Entry], reference: Option<&Path>) -> Resu
 /// reference a second row of |image − reference| on one white→red scale (0 to the 99th
 /// percentile of the largest error image).
 fn write_figure(path: &Path, entries: &[Entry], reference: Option<&GrayImage>) -> Result<()> {
-    let labels = pn_formats::plot::register_plot_fonts().is_ok();
+    let labels = crate::plot::fonts().is_ok();
     let err = |e: &dyn std::fmt::Display| pn_formats::plot::draw_error(path, e);
     let first = &entries[0].run.image;
     let (w, h) = (first.width, first.height);

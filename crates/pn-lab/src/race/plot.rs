@@ -4,7 +4,6 @@
 
 use anyhow::{ensure, Result};
 use plotters::prelude::*;
-use pn_formats::plot::register_plot_fonts;
 use pn_formats::plot::{draw_error, finish_chart, framed_chart, white_canvas};
 use std::path::Path;
 
@@ -32,7 +31,7 @@ const PALETTE: [RGBColor; 7] = [
 
 /// Draws `curves` into `path` (PNG) with the title and the reference-noise line.
 pub fn draw(path: &Path, title: &str, curves: &[Curve], ref_noise: f64) -> Result<()> {
-    register_plot_fonts()?;
+    crate::plot::fonts()?;
     let ok = |v: f64| v.is_finite() && v > 0.0;
     let pts: Vec<(f64, f64)> = curves
         .iter()
@@ -139,7 +138,7 @@ pub struct OrderSeries {
 /// odd orders as circles on solid lines, even orders as triangles on dashed lines, and the
 /// zero line.
 pub fn draw_bias_vs_order(path: &Path, series: &[OrderSeries]) -> Result<()> {
-    register_plot_fonts()?;
+    crate::plot::fonts()?;
     let pts: Vec<(usize, f64)> = series
         .iter()
         .flat_map(|s| s.points.iter().copied())

@@ -82,9 +82,28 @@ impl Row {
     /// The CSV line, with the machine's `bandwidth_gbs` (measured once per run) and the
     /// roofline ratio against it where the row has a model.
     pub(crate) fn csv_line(&self, bandwidth_gbs: Option<f64>) -> String {
+        self.cells(bandwidth_gbs).join(",")
+    }
+
+    /// The cells of [`Row::csv_line`], one per column of [`CSV_HEADER`].
+    pub(crate) fn cells(&self, bandwidth_gbs: Option<f64>) -> Vec<String> {
         let r = self.roofline.as_ref();
         let opt = |v: Option<String>| v.unwrap_or_default();
-        let roofline = [
+        vec![
+            self.problem.clone(),
+            self.method.clone(),
+            self.solver.clone(),
+            self.order.to_string(),
+            self.resolution.clone(),
+            self.unknowns.to_string(),
+            self.iterations.to_string(),
+            format!("{:.6}", self.seconds_assemble),
+            format!("{:.6}", self.seconds_solve),
+            self.peak_memory_bytes.to_string(),
+            self.error.map_or("".into(), |e| format!("{e:.3e}")),
+            self.reference.to_string(),
+            self.converged.to_string(),
+            self.operator_applications.to_string(),
             opt(r.map(|r| r.bytes_per_application.to_string())),
             opt(self
                 .bytes_per_unknown_iteration()
@@ -97,24 +116,6 @@ impl Row {
                 .map(|(r, b)| format!("{:.3}", r.ratio(b)))),
             opt(r.map(|r| r.operator.to_string())),
         ]
-        .join(",");
-        format!(
-            "{},{},{},{},{},{},{},{:.6},{:.6},{},{},{},{},{},{roofline}",
-            self.problem,
-            self.method,
-            self.solver,
-            self.order,
-            self.resolution,
-            self.unknowns,
-            self.iterations,
-            self.seconds_assemble,
-            self.seconds_solve,
-            self.peak_memory_bytes,
-            self.error.map_or("".into(), |e| format!("{e:.3e}")),
-            self.reference,
-            self.converged,
-            self.operator_applications
-        )
     }
 }
 

@@ -18,13 +18,13 @@ use crate::bench_rows::{fld_point_source, profile_error};
 use anyhow::Context;
 use plotters::prelude::*;
 use pn_formats::plot::{draw_error, finish_chart, framed_chart, white_canvas};
+use pn_formats::table::Table;
 use pn_kernels::{cda_kernel, pn_kernel, Dim, Staggering};
 use pn_runtime::fld::{solve_fld, FldParams, Limiter};
 use pn_runtime::pipeline::solve_problem;
 use pn_runtime::reference::{cda_point_source, grosjean, pn_point_source};
 use pn_runtime::scenes::{builtin, BuiltinOptions, PointSourceParams};
 use pn_runtime::solver::{SolverKind, SolverOptions, SolverTuning};
-use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -81,23 +81,27 @@ impl Point {
     }
 
     fn csv(&self) -> String {
+        self.cells().join(",")
+    }
+
+    /// The cells of [`Point::csv`], one per column of [`CSV_HEADER`].
+    fn cells(&self) -> Vec<String> {
         let e = |v: Option<f64>| v.map_or(String::new(), |v| format!("{v:.4e}"));
-        format!(
-            "{},{},{},{:e},{},{},{:.6},{:.6},{:.6},{},{},{},{}",
-            self.method,
-            self.order,
-            self.res,
-            self.tol,
-            self.unknowns,
-            self.iterations,
-            self.seconds_setup,
-            self.seconds_solve,
-            self.seconds(),
+        vec![
+            self.method.to_string(),
+            self.order.to_string(),
+            self.res.to_string(),
+            format!("{:e}", self.tol),
+            self.unknowns.to_string(),
+            self.iterations.to_string(),
+            format!("{:.6}", self.seconds_setup),
+            format!("{:.6}", self.seconds_solve),
+            format!("{:.6}", self.seconds()),
             e(self.error_own),
-            self.own_reference,
+            self.own_reference.to_string(),
             e(self.error_transport),
-            self.converged
-        )
+            self.converged.to_string(),
+        ]
     }
 }
 
@@ -224,7 +228,7 @@ fn log_xy(p: &Point) -> (f64, f64) {
 /// line through the points of the tightest tolerance (in order of resolution) and markers
 /// for every point (filled: tightest tolerance; hollow: the others).
 fn write_png(path: &Path, points: &[Point], tols: &[f64]) -> anyhow::Result<()> {
-    pn_formats::plot::register_plot_fonts()?;
+    crate::plot::fonts()?;
     let data: Vec<(f64, f64)> = points
         .iter()
         .filter_map(|p| p.error_transport.map(|e| (p.seconds().max(1e-4), e)))
@@ -329,15 +333,14 @@ pub fn run(args: &TradeoffRequest, stdout: &mut dyn std::io::Write) -> anyhow::R
     }
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
-    let mut csv = String::from(CSV_HEADER);
-    csv.push('\n');
+    let mut csv = Table::new(&CSV_HEADER.split(',').collect::<Vec<_>>());
     for p in &points {
-        let _ = writeln!(csv, "{}", p.csv());
+        csv.push_row(p.cells())?;
     }
-    std::fs::write(args.out.join("tradeoff.csv"), csv)
+    std::fs::write(args.out.join("tradeoff.csv"), csv.to_csv())
         .with_context(|| format!("writing {}/tradeoff.csv", args.out.display()))?;
     write_png(&args.out.join("tradeoff.png"), &points, &tols)?;
-    writeln!(stdout, "{}", markdown(&points))?;
+    writeln!(stdout, "{}", markdown(&points)?)?;
     eprintln!(
         "wrote {0}/tradeoff.csv and {0}/tradeoff.png",
         args.out.display()
@@ -346,26 +349,29 @@ pub fn run(args: &TradeoffRequest, stdout: &mut dyn std::io::Write) -> anyhow::R
 }
 
 /// The table as Markdown.
-fn markdown(points: &[Point]) -> String {
-    let mut md = String::from(
-        "| method | resolution | tolerance | unknowns | iterations | seconds | error vs own reference | error vs transport (Grosjean) |\n|---|---|---|---|---|---|---|---|\n",
-    );
+fn markdown(points: &[Point]) -> anyhow::Result<String> {
+    let mut t = Table::new(&[
+        "method",
+        "resolution",
+        "tolerance",
+        "unknowns",
+        "iterations",
+        "seconds",
+        "error vs own reference",
+        "error vs transport (Grosjean)",
+    ]);
     for p in points {
         let e = |v: Option<f64>| v.map_or("–".into(), |v| format!("{v:.2e}"));
-        let _ = writeln!(
-            md,
-            "| {} | {}³ | {:e} | {} | {}{} | {:.3} | {} ({}) | {} |",
-            p.method,
-            p.res,
-            p.tol,
-            p.unknowns,
-            p.iterations,
-            if p.converged { "" } else { " (nc)" },
-            p.seconds(),
-            e(p.error_own),
-            p.own_reference,
-            e(p.error_transport)
-        );
+        t.push_row([
+            p.method.to_string(),
+            format!("{}³", p.res),
+            format!("{:e}", p.tol),
+            p.unknowns.to_string(),
+            format!("{}{}", p.iterations, if p.converged { "" } else { " (nc)" }),
+            format!("{:.3}", p.seconds()),
+            format!("{} ({})", e(p.error_own), p.own_reference),
+            e(p.error_transport),
+        ])?;
     }
-    md
+    Ok(t.to_markdown())
 }

@@ -11,9 +11,10 @@ use crate::bench_rows::{
     fld_point_source, grid_label, max_rel_diff, peak_memory, pointsource_options, profile_error,
     reset_peak_memory, row_from, Row, CSV_HEADER,
 };
-use crate::fld_setup::{solve_fld_route, FldSettings};
-use crate::scene_setup::Route;
 use anyhow::Context;
+use pn_drivers::fld_setup::{solve_fld_route, FldSettings};
+use pn_drivers::scene_setup::Route;
+use pn_formats::table::Table;
 use pn_kernels::{cda_kernel, diffusion_kernel, pn_kernel, Dim, Staggering};
 use pn_runtime::fld::{FldParams, Limiter};
 use pn_runtime::pipeline::{solve_problem, Solution};
@@ -255,8 +256,18 @@ fn pointsource_rows(args: &BenchRequest, rows: &mut Vec<Row>) -> anyhow::Result<
         eprintln!("bench: {}", row.csv());
         rows.push(row);
     }
-    // FLD on the same cells, by both routes (nonlinear Gauss–Seidel, and Picard steps on
-    // multigrid CG with Anderson acceleration); φ is the fluence of a unit-power source.
+    fld_rows(args, n, rows)
+}
+
+/// FLD on the point source's cells, by both routes (nonlinear Gauss–Seidel, and Picard
+/// steps on multigrid CG with Anderson acceleration); φ is the fluence of a unit-power source.
+fn fld_rows(args: &BenchRequest, n: usize, rows: &mut Vec<Row>) -> anyhow::Result<()> {
+    let (params, _) = pointsource_options(n);
+    let h = 2.0 * params.half_width / n as f64;
+    let tau_per_cell = params.sigma_t * h;
+    let c = n / 2;
+    let max_k = n - 1 - c;
+    let norm = 4.0 * std::f64::consts::PI / (params.sigma_t * params.sigma_t);
     let problem = fld_point_source(n, &params)?;
     let cells = problem.grid.len();
     let fparams = FldParams::for_grid(Limiter::LevermorePomraning, &problem.grid);
@@ -307,54 +318,70 @@ fn pointsource_rows(args: &BenchRequest, rows: &mut Vec<Row>) -> anyhow::Result<
 }
 
 /// Markdown table plus the side-by-side speed-ups of parity-cg over cgnr.
-fn markdown(rows: &[Row], quick: bool) -> String {
+fn markdown(rows: &[Row], quick: bool) -> anyhow::Result<String> {
     let mut md = String::new();
     let _ = writeln!(md, "# pn bench{}\n", if quick { " --quick" } else { "" });
-    let _ = writeln!(md, "| problem | method | solver | N | resolution | unknowns | iterations | assemble s | solve s | peak MB | error | vs |");
-    let _ = writeln!(md, "|---|---|---|---|---|---|---|---|---|---|---|---|");
+    let mut t = Table::new(&[
+        "problem",
+        "method",
+        "solver",
+        "N",
+        "resolution",
+        "unknowns",
+        "iterations",
+        "assemble s",
+        "solve s",
+        "peak MB",
+        "error",
+        "vs",
+    ]);
     for r in rows {
-        let _ = writeln!(
-            md,
-            "| {} | {} | {} | {} | {} | {} | {}{} | {:.3} | {:.3} | {:.0} | {} | {} |",
-            r.problem,
-            r.method,
-            r.solver,
-            r.order,
-            r.resolution,
-            r.unknowns,
-            r.iterations,
-            if r.converged { "" } else { " (not converged)" },
-            r.seconds_assemble,
-            r.seconds_solve,
-            r.peak_memory_bytes as f64 / 1e6,
+        t.push_row([
+            r.problem.clone(),
+            r.method.clone(),
+            r.solver.clone(),
+            r.order.to_string(),
+            r.resolution.clone(),
+            r.unknowns.to_string(),
+            format!(
+                "{}{}",
+                r.iterations,
+                if r.converged { "" } else { " (not converged)" }
+            ),
+            format!("{:.3}", r.seconds_assemble),
+            format!("{:.3}", r.seconds_solve),
+            format!("{:.0}", r.peak_memory_bytes as f64 / 1e6),
             r.error.map_or("–".into(), |e| format!("{e:.2e}")),
-            r.reference
-        );
+            r.reference.to_string(),
+        ])?;
     }
+    md += &t.to_markdown();
     let _ = writeln!(md, "\n## parity-cg vs cgnr (same process)\n");
-    let _ = writeln!(
-        md,
-        "| problem | N | resolution | cgnr s | parity-cg s | time ratio |"
-    );
-    let _ = writeln!(md, "|---|---|---|---|---|---|");
+    let mut t = Table::new(&[
+        "problem",
+        "N",
+        "resolution",
+        "cgnr s",
+        "parity-cg s",
+        "time ratio",
+    ]);
     for a in rows
         .iter()
         .filter(|r| r.solver == "cgnr" && r.method == "pn")
     {
         if let Some(b) = same_problem(rows, a, "parity-cg") {
-            let _ = writeln!(
-                md,
-                "| {} | {} | {} | {:.3} | {:.3} | {:.1}× |",
-                a.problem,
-                a.order,
-                a.resolution,
-                a.seconds_solve,
-                b.seconds_solve,
-                a.seconds_solve / b.seconds_solve.max(1e-9)
-            );
+            t.push_row([
+                a.problem.clone(),
+                a.order.to_string(),
+                a.resolution.clone(),
+                format!("{:.3}", a.seconds_solve),
+                format!("{:.3}", b.seconds_solve),
+                format!("{:.1}×", a.seconds_solve / b.seconds_solve.max(1e-9)),
+            ])?;
         }
     }
-    md
+    md += &t.to_markdown();
+    Ok(md)
 }
 
 /// The row of `solver` on the same problem, method, order and resolution as `like`.
@@ -371,7 +398,7 @@ fn same_problem<'a>(rows: &'a [Row], like: &Row, solver: &str) -> Option<&'a Row
 /// Work in products with `A` (the target is ≥ 20× fewer for parity-cg than for cgnr to the same
 /// tolerance): cgnr counts A and Aᵀ, the parity solvers every application of the reduced
 /// operator (multigrid cycle and setup included), which touches A's off-diagonal entries once.
-fn work_comparison(rows: &[Row]) -> String {
+fn work_comparison(rows: &[Row]) -> anyhow::Result<String> {
     let mut md =
         String::from("\n## Work: products with A to the same tolerance (same process)\n\n");
     md.push_str(
@@ -379,8 +406,16 @@ fn work_comparison(rows: &[Row]) -> String {
                  (Krylov, multigrid smoothing and residuals on the finest level, setup, probes) \
                  plus the final residual checks. ILU(0)'s triangular solves are not counted.\n\n",
     );
-    md.push_str("| problem | N | resolution | cgnr | parity-cg (ILU/Jacobi) | parity-mg | cgnr / parity-cg | cgnr / parity-mg |\n");
-    md.push_str("|---|---|---|---|---|---|---|---|\n");
+    let mut t = Table::new(&[
+        "problem",
+        "N",
+        "resolution",
+        "cgnr",
+        "parity-cg (ILU/Jacobi)",
+        "parity-mg",
+        "cgnr / parity-cg",
+        "cgnr / parity-mg",
+    ]);
     for c in rows
         .iter()
         .filter(|r| r.solver == "cgnr" && r.method == "pn")
@@ -397,28 +432,38 @@ fn work_comparison(rows: &[Row]) -> String {
             })
         };
         let (p, m) = (find("parity-cg"), find("parity-mg"));
-        let _ = writeln!(
-            md,
-            "| {} | {} | {} | {} | {} | {} | {} | {} |",
-            c.problem,
-            c.order,
-            c.resolution,
-            c.operator_applications,
+        t.push_row([
+            c.problem.clone(),
+            c.order.to_string(),
+            c.resolution.clone(),
+            c.operator_applications.to_string(),
             apps(p),
             apps(m),
             ratio(p),
-            ratio(m)
-        );
+            ratio(m),
+        ])?;
     }
-    md
+    md += &t.to_markdown();
+    Ok(md)
 }
 
 /// parity-mg (multigrid-preconditioned) against parity-cg (ILU(0)/Jacobi) and cgnr on the
 /// same problems, same process: iterations and assembly + solve seconds.
-fn mg_comparison(rows: &[Row]) -> String {
+fn mg_comparison(rows: &[Row]) -> anyhow::Result<String> {
     let mut md = String::from("\n## parity-mg vs parity-cg and cgnr (same process)\n\n");
-    md.push_str("| problem | N | resolution | mg it | mg s | parity-cg it | parity-cg s | cgnr it | cgnr s | mg speed-up vs parity-cg | vs cgnr |\n");
-    md.push_str("|---|---|---|---|---|---|---|---|---|---|---|\n");
+    // Iterations and seconds of parity-cg and of cgnr share a cell each, as `it|s`: two
+    // Markdown columns.
+    let mut t = Table::new(&[
+        "problem",
+        "N",
+        "resolution",
+        "mg it",
+        "mg s",
+        "parity-cg it | parity-cg s",
+        "cgnr it | cgnr s",
+        "mg speed-up vs parity-cg",
+        "vs cgnr",
+    ]);
     let total = |r: &Row| r.seconds_assemble + r.seconds_solve;
     for m in rows
         .iter()
@@ -439,38 +484,42 @@ fn mg_comparison(rows: &[Row]) -> String {
         if p.is_none() && c.is_none() {
             continue;
         }
-        let _ = writeln!(
-            md,
-            "| {} | {} | {} | {} | {:.3} | {} | {} | {} | {} |",
-            m.problem,
-            m.order,
-            m.resolution,
-            m.iterations,
-            total(m),
+        t.push_row([
+            m.problem.clone(),
+            m.order.to_string(),
+            m.resolution.clone(),
+            m.iterations.to_string(),
+            format!("{:.3}", total(m)),
             cell(p),
             cell(c),
             ratio(p),
-            ratio(c)
-        );
+            ratio(c),
+        ])?;
     }
-    md
+    md += &t.to_markdown();
+    Ok(md)
 }
 
 /// Side-by-side tables of the iterative solvers (same process): iterations and seconds of
 /// lsqr, lsmr and cgnr against parity-cg, and matrix-free (`cgnr-mf`) against assembled
 /// (`cgnr`) CGNR in solve time, setup time and peak memory.
-fn solver_comparison(rows: &[Row]) -> String {
+fn solver_comparison(rows: &[Row]) -> anyhow::Result<String> {
     let mut md = String::new();
     let find = |a: &Row, solver: &str| same_problem(rows, a, solver);
     let _ = writeln!(
         md,
         "\n## Solvers: iterations and solve seconds (same process)\n"
     );
-    let _ = writeln!(
-        md,
-        "| problem | N | resolution | parity-cg | cgnr | cgnr-mf | lsqr | lsmr |"
-    );
-    let _ = writeln!(md, "|---|---|---|---|---|---|---|---|");
+    let mut t = Table::new(&[
+        "problem",
+        "N",
+        "resolution",
+        "parity-cg",
+        "cgnr",
+        "cgnr-mf",
+        "lsqr",
+        "lsmr",
+    ]);
     let cell = |r: Option<&Row>| {
         r.map_or("–".to_string(), |r| {
             format!(
@@ -485,59 +534,66 @@ fn solver_comparison(rows: &[Row]) -> String {
         .iter()
         .filter(|r| r.solver == "parity-cg" && r.method == "pn" && find(r, "cgnr").is_some())
     {
-        let _ = writeln!(
-            md,
-            "| {} | {} | {} | {} | {} | {} | {} | {} |",
-            a.problem,
-            a.order,
-            a.resolution,
+        t.push_row([
+            a.problem.clone(),
+            a.order.to_string(),
+            a.resolution.clone(),
             cell(Some(a)),
             cell(find(a, "cgnr")),
             cell(find(a, "cgnr-mf")),
             cell(find(a, "lsqr")),
             cell(find(a, "lsmr")),
-        );
+        ])?;
     }
+    md += &t.to_markdown();
     let _ = writeln!(md, "\n## Matrix-free vs assembled CGNR (same process)\n");
     let _ = writeln!(
         md,
         "Setup is assembly (CSR) or the weight tables (matrix-free); peak memory is the \
          process's VmHWM, reset before each problem.\n"
     );
-    let _ = writeln!(
-        md,
-        "| problem | N | resolution | setup s (asm / mf) | solve s (asm / mf) | solve ratio mf/asm | peak MB (asm / mf) | memory ratio asm/mf |"
-    );
-    let _ = writeln!(md, "|---|---|---|---|---|---|---|---|");
+    let mut t = Table::new(&[
+        "problem",
+        "N",
+        "resolution",
+        "setup s (asm / mf)",
+        "solve s (asm / mf)",
+        "solve ratio mf/asm",
+        "peak MB (asm / mf)",
+        "memory ratio asm/mf",
+    ]);
     for a in rows
         .iter()
         .filter(|r| r.solver == "cgnr" && r.method == "pn")
     {
         if let Some(b) = find(a, "cgnr-mf") {
-            let _ = writeln!(
-                md,
-                "| {} | {} | {} | {:.3} / {:.3} | {:.3} / {:.3} | {:.2} | {:.0} / {:.0} | {:.2} |",
-                a.problem,
-                a.order,
-                a.resolution,
-                a.seconds_assemble,
-                b.seconds_assemble,
-                a.seconds_solve,
-                b.seconds_solve,
-                b.seconds_solve / a.seconds_solve.max(1e-9),
-                a.peak_memory_bytes as f64 / 1e6,
-                b.peak_memory_bytes as f64 / 1e6,
-                a.peak_memory_bytes as f64 / (b.peak_memory_bytes as f64).max(1.0),
-            );
+            t.push_row([
+                a.problem.clone(),
+                a.order.to_string(),
+                a.resolution.clone(),
+                format!("{:.3} / {:.3}", a.seconds_assemble, b.seconds_assemble),
+                format!("{:.3} / {:.3}", a.seconds_solve, b.seconds_solve),
+                format!("{:.2}", b.seconds_solve / a.seconds_solve.max(1e-9)),
+                format!(
+                    "{:.0} / {:.0}",
+                    a.peak_memory_bytes as f64 / 1e6,
+                    b.peak_memory_bytes as f64 / 1e6
+                ),
+                format!(
+                    "{:.2}",
+                    a.peak_memory_bytes as f64 / (b.peak_memory_bytes as f64).max(1.0)
+                ),
+            ])?;
         }
     }
-    md
+    md += &t.to_markdown();
+    Ok(md)
 }
 
 /// The roofline section: for each P_N row with an operator model, the modelled bytes of one
 /// application, the median time of one (timed on its own after the solves), the achieved
 /// bandwidth and the ratio to the limit set by the measured triad bandwidth.
-fn roofline_section(rows: &[Row], bw: &pn_runtime::bandwidth::Bandwidth) -> String {
+fn roofline_section(rows: &[Row], bw: &pn_runtime::bandwidth::Bandwidth) -> anyhow::Result<String> {
     let mut md =
         String::from("\n## Roofline: operator applications against the memory bandwidth\n\n");
     let _ = writeln!(
@@ -562,26 +618,35 @@ fn roofline_section(rows: &[Row], bw: &pn_runtime::bandwidth::Bandwidth) -> Stri
          operator's traffic per unknown and iteration (applications × bytes / (unknowns × \
          iterations)).\n\n",
     );
-    md.push_str("| problem | N | resolution | solver | operator | MB / application | bytes / (unknown·it) | ms / application | GB/s | ratio to limit |\n");
-    md.push_str("|---|---|---|---|---|---|---|---|---|---|\n");
+    let mut t = Table::new(&[
+        "problem",
+        "N",
+        "resolution",
+        "solver",
+        "operator",
+        "MB / application",
+        "bytes / (unknown·it)",
+        "ms / application",
+        "GB/s",
+        "ratio to limit",
+    ]);
     for r in rows {
         let Some(rf) = &r.roofline else { continue };
-        let _ = writeln!(
-            md,
-            "| {} | {} | {} | {} | {} | {:.2} | {:.0} | {:.3} | {:.2} | {:.2} |",
-            r.problem,
-            r.order,
-            r.resolution,
-            r.solver,
-            rf.operator,
-            rf.bytes_per_application as f64 / 1e6,
-            r.bytes_per_unknown_iteration().unwrap_or(f64::NAN),
-            rf.seconds_per_application * 1e3,
-            rf.achieved_gbs(),
-            rf.ratio(bw.triad_gbs)
-        );
+        t.push_row([
+            r.problem.clone(),
+            r.order.to_string(),
+            r.resolution.clone(),
+            r.solver.clone(),
+            rf.operator.to_string(),
+            format!("{:.2}", rf.bytes_per_application as f64 / 1e6),
+            format!("{:.0}", r.bytes_per_unknown_iteration().unwrap_or(f64::NAN)),
+            format!("{:.3}", rf.seconds_per_application * 1e3),
+            format!("{:.2}", rf.achieved_gbs()),
+            format!("{:.2}", rf.ratio(bw.triad_gbs)),
+        ])?;
     }
-    md
+    md += &t.to_markdown();
+    Ok(md)
 }
 
 /// Runs `pn bench`: writes `bench.csv` and `bench.md` and prints the Markdown to `stdout`.
@@ -603,24 +668,19 @@ pub fn run(args: &BenchRequest, stdout: &mut dyn std::io::Write) -> anyhow::Resu
     let kernels = crate::bench_kernels::kernel_rows(&[1, 3, 5, 7], kernel_res)?;
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
-    let mut csv = String::from(CSV_HEADER);
-    csv.push('\n');
+    let mut csv = Table::new(&CSV_HEADER.split(',').collect::<Vec<_>>());
     for r in &rows {
-        csv.push_str(&r.csv_line(Some(bandwidth.triad_gbs)));
-        csv.push('\n');
+        csv.push_row(r.cells(Some(bandwidth.triad_gbs)))?;
     }
-    std::fs::write(args.out.join("bench.csv"), csv)?;
-    std::fs::write(
-        args.out.join("kernels.csv"),
-        crate::bench_kernels::csv(&kernels),
-    )?;
-    let mut md = markdown(&rows, args.quick);
-    md.push_str(&solver_comparison(&rows));
-    md.push_str(&mg_comparison(&rows));
-    md.push_str(&work_comparison(&rows));
-    md.push_str(&roofline_section(&rows, &bandwidth));
+    csv.write_csv(&args.out.join("bench.csv"))?;
+    crate::bench_kernels::table(&kernels)?.write_csv(&args.out.join("kernels.csv"))?;
+    let mut md = markdown(&rows, args.quick)?;
+    md.push_str(&solver_comparison(&rows)?);
+    md.push_str(&mg_comparison(&rows)?);
+    md.push_str(&work_comparison(&rows)?);
+    md.push_str(&roofline_section(&rows, &bandwidth)?);
     md.push_str(&model_md);
-    md.push_str(&crate::bench_kernels::markdown(&kernels));
+    md.push_str(&crate::bench_kernels::markdown(&kernels)?);
     std::fs::write(args.out.join("bench.md"), &md)?;
     writeln!(stdout, "{md}")?;
     eprintln!(

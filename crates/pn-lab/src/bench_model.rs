@@ -11,6 +11,7 @@
 //!   numbers show that the count does not depend on the phase function.
 
 use crate::bench_rows::{reset_peak_memory, row_from, Row};
+use pn_formats::table::Table;
 use pn_kernels::{pn_kernel, Dim, Staggering};
 use pn_runtime::pipeline::{solve_problem, Solution};
 use pn_runtime::problem::{Phase, Problem};
@@ -65,11 +66,15 @@ pub(crate) fn model_rows(
         "### 2D problems solve only the 2D moments\n\nCheckerboard 71², parity-cg to 1e-10, \
          solved with the 2D stencil and as a 71×71×1 slab with the 3D stencil (same process).\n"
     );
-    let _ = writeln!(
-        md,
-        "| N | unknowns 2D / slab | non-zeros 2D / slab | seconds 2D / slab (assemble+solve) | unknown ratio | time ratio | max rel. difference |"
-    );
-    let _ = writeln!(md, "|---|---|---|---|---|---|---|");
+    let mut t = Table::new(&[
+        "N",
+        "unknowns 2D / slab",
+        "non-zeros 2D / slab",
+        "seconds 2D / slab (assemble+solve)",
+        "unknown ratio",
+        "time ratio",
+        "max rel. difference",
+    ]);
     let orders: &[usize] = if quick { &[1, 3] } else { &[1, 3, 5] };
     for &order in orders {
         let two = builtin(
@@ -107,18 +112,17 @@ pub(crate) fn model_rows(
         rows.push(row);
         let t2 = s2.seconds_assembly + s2.seconds_solve;
         let t3 = s3.seconds_assembly + s3.seconds_solve;
-        let _ = writeln!(
-            md,
-            "| {order} | {} / {} | {} / {} | {t2:.3} / {t3:.3} | {:.2} | {:.2} | {:.1e} |",
-            s2.unknowns,
-            s3.unknowns,
-            s2.nonzeros,
-            s3.nonzeros,
-            s3.unknowns as f64 / s2.unknowns as f64,
-            t3 / t2.max(1e-9),
-            max_rel(&s3.l00(), &s2.l00()),
-        );
+        t.push_row([
+            order.to_string(),
+            format!("{} / {}", s2.unknowns, s3.unknowns),
+            format!("{} / {}", s2.nonzeros, s3.nonzeros),
+            format!("{t2:.3} / {t3:.3}"),
+            format!("{:.2}", s3.unknowns as f64 / s2.unknowns as f64),
+            format!("{:.2}", t3 / t2.max(1e-9)),
+            format!("{:.1e}", max_rel(&s3.l00(), &s2.l00())),
+        ])?;
     }
+    md += &t.to_markdown();
 
     let n = if quick { 24 } else { 40 };
     let _ = writeln!(
@@ -128,11 +132,15 @@ pub(crate) fn model_rows(
          moment removes no entry: the non-zeros are the same for every phase function, and \
          isotropic and HG g = 0 give the same system.\n"
     );
-    let _ = writeln!(
-        md,
-        "| N | phase | unknowns | non-zeros | assemble s | solve s | iterations |"
-    );
-    let _ = writeln!(md, "|---|---|---|---|---|---|---|");
+    let mut t = Table::new(&[
+        "N",
+        "phase",
+        "unknowns",
+        "non-zeros",
+        "assemble s",
+        "solve s",
+        "iterations",
+    ]);
     for &order in &orders[..2] {
         for (label, phase) in [
             ("isotropic", Phase::Isotropic),
@@ -162,12 +170,17 @@ pub(crate) fn model_rows(
             );
             eprintln!("bench: {}", row.csv());
             rows.push(row);
-            let _ = writeln!(
-                md,
-                "| {order} | {label} | {} | {} | {:.3} | {:.3} | {} |",
-                s.unknowns, s.nonzeros, s.seconds_assembly, s.seconds_solve, s.stats.iterations
-            );
+            t.push_row([
+                order.to_string(),
+                label.to_string(),
+                s.unknowns.to_string(),
+                s.nonzeros.to_string(),
+                format!("{:.3}", s.seconds_assembly),
+                format!("{:.3}", s.seconds_solve),
+                s.stats.iterations.to_string(),
+            ])?;
         }
     }
+    md += &t.to_markdown();
     Ok(md)
 }

@@ -423,6 +423,37 @@ impl PnRunner {
     }
 }
 
+/// The settings text of a pn row: `res=24` plus the render arguments (`spp=16`; a `--set`
+/// as its `SECTION.KEY=VALUE`), with no comma or double quote (a CSV cell).
+pub(super) fn pn_settings(p: &PnPoint, args: &[String]) -> String {
+    let mut s = if p.family == Family::None {
+        String::from("-")
+    } else {
+        format!("res={}", p.solve_res)
+    };
+    let all: Vec<String> = args.iter().cloned().chain(p.render_args()).collect();
+    let mut it = all.iter().peekable();
+    while let Some(a) = it.next() {
+        let key = a.trim_start_matches('-');
+        if let Some(v) = key.strip_prefix("set=") {
+            s += &format!(" {v}");
+            continue;
+        }
+        match it.peek() {
+            Some(v) if key == "set" => {
+                s += &format!(" {v}");
+                it.next();
+            }
+            Some(v) if !v.starts_with("--") => {
+                s += &format!(" {key}={v}");
+                it.next();
+            }
+            _ => s += &format!(" {key}"),
+        }
+    }
+    s.replace(',', ";").replace('"', "'")
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -488,5 +519,28 @@ mod tests {
         ] {
             assert!(PnPoint::parse(bad).is_err(), "{bad}");
         }
+    }
+
+    #[test]
+    fn settings_text_of_a_row() {
+        assert_eq!(
+            pn_settings(
+                &PnPoint::parse("p5@24").unwrap(),
+                &["--spp".into(), "16".into()]
+            ),
+            "res=24 spp=16"
+        );
+        assert_eq!(
+            pn_settings(
+                &PnPoint::parse("p3@24").unwrap(),
+                &[
+                    "--set".into(),
+                    "camera.position=[0,0,3]".into(),
+                    "--set=solve.absorber=\"box\"".into(),
+                    "--exact-transmittance".into()
+                ]
+            ),
+            "res=24 camera.position=[0;0;3] solve.absorber='box' exact-transmittance"
+        );
     }
 }

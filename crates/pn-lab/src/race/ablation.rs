@@ -12,15 +12,15 @@
 
 use super::metrics::{errors, Errors};
 use super::plot::{draw_bias_vs_order, OrderSeries};
+use super::pn_side::pn_settings;
 use super::pn_side::{PnPoint, PnRunner};
-use super::{pn_settings, Ctx, WORK};
+use super::{Ctx, WORK};
 use anyhow::{anyhow, bail, ensure, Context, Result};
 use pn_formats::table::{num, Table};
 use pn_render::compare::{read_gray, GrayImage};
 use pn_render::{RenderScene, SceneOverride};
 use serde::Deserialize;
 use std::collections::{BTreeMap, HashMap, HashSet};
-use std::fmt::Write as _;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -392,7 +392,7 @@ pub(super) fn run(
         for r in rows.iter().flatten() {
             t.push(r)?;
         }
-        t.write(&path)?;
+        t.write_csv(&path)?;
     }
     Ok(())
 }
@@ -463,7 +463,7 @@ fn order_series(out: &Path) -> Result<Vec<OrderSeries>> {
     dirs.sort();
     let mut all = vec![];
     for d in dirs {
-        let t = Table::read(&d.join("ablation.csv"))?;
+        let t = Table::read_csv(&d.join("ablation.csv"))?;
         let mut points = vec![];
         for r in t.records() {
             if r.get("group").map(String::as_str) != Some(ORDER_GROUP) {
@@ -516,39 +516,41 @@ fn pct(v: &str, scale: f64, unit: &str) -> String {
 /// The Markdown of one scene's `ablation.csv`: one table, rows grouped by group (in the
 /// order of their first arm). A file of the former four-step ablation (a `step` column)
 /// is shown as it is.
-pub fn markdown(t: &Table) -> String {
+pub fn markdown(t: &Table) -> Result<String> {
     let mut s = String::new();
     let recs = t.records();
     if !t.header.iter().any(|h| h == "group") {
-        let cols = [
-            ("step", "step"),
-            ("point", "point"),
-            ("settings", "settings"),
-            ("seconds", "seconds"),
-            ("rel. RMSE", "rel_rmse"),
-            ("rel. bias", "rel_bias"),
-            ("change", "change_from_previous"),
-        ];
         s += "\nAblation (former four-step form: each step refines one thing; `change` = \
               ‖image − previous image‖₂ / ‖reference‖₂, the error that step removes):\n\n";
-        let _ = writeln!(
-            s,
-            "| {} |\n|{}",
-            cols.map(|c| c.0).join(" | "),
-            "---|".repeat(cols.len())
-        );
-        for r in &recs {
-            let cells: Vec<&str> = cols.iter().map(|c| get(r, c.1)).collect();
-            let _ = writeln!(s, "| {} |", cells.join(" | "));
-        }
-        return s;
+        s += &t
+            .select(&[
+                ("step", "step"),
+                ("point", "point"),
+                ("settings", "settings"),
+                ("seconds", "seconds"),
+                ("rel. RMSE", "rel_rmse"),
+                ("rel. bias", "rel_bias"),
+                ("change", "change_from_previous"),
+            ])
+            .to_markdown();
+        return Ok(s);
     }
     s += "\n### Ablation\n\nEach arm changes one thing against the base (pn render \
           arguments in `settings`); bias = (mean image − mean reference) / mean reference; \
           Δ bias = bias − the base's bias in percentage points; image change = ‖image − base \
           image‖₂ / ‖reference‖₂.\n\n";
-    s += "| group | arm | point | settings | seconds | rel. RMSE | bias | Δ bias vs base | image change vs base | converged |\n";
-    s += "|---|---|---|---|---|---|---|---|---|---|\n";
+    let mut md = Table::new(&[
+        "group",
+        "arm",
+        "point",
+        "settings",
+        "seconds",
+        "rel. RMSE",
+        "bias",
+        "Δ bias vs base",
+        "image change vs base",
+        "converged",
+    ]);
     let mut groups: Vec<&str> = vec![];
     for r in &recs {
         let g = get(r, "group");
@@ -560,14 +562,12 @@ pub fn markdown(t: &Table) -> String {
         let mut first = true;
         for r in recs.iter().filter(|r| get(r, "group") == g) {
             let failed = get(r, "error");
-            let _ = writeln!(
-                s,
-                "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
-                if first { g } else { "" },
-                get(r, "arm"),
-                get(r, "point"),
-                get(r, "settings"),
-                get(r, "seconds"),
+            md.push_row([
+                if first { g } else { "" }.to_string(),
+                get(r, "arm").to_string(),
+                get(r, "point").to_string(),
+                get(r, "settings").to_string(),
+                get(r, "seconds").to_string(),
                 if failed.is_empty() {
                     get(r, "rel_rmse").to_string()
                 } else {
@@ -575,13 +575,14 @@ pub fn markdown(t: &Table) -> String {
                 },
                 pct(get(r, "rel_bias"), 100.0, " %"),
                 pct(get(r, "bias_change_vs_base"), 1.0, " pp"),
-                get(r, "image_change_vs_base"),
-                get(r, "converged"),
-            );
+                get(r, "image_change_vs_base").to_string(),
+                get(r, "converged").to_string(),
+            ])?;
             first = false;
         }
     }
-    s
+    s += &md.to_markdown();
+    Ok(s)
 }
 
 #[cfg(test)]
@@ -747,7 +748,7 @@ mod tests {
             ])
             .unwrap();
         }
-        let md = markdown(&t);
+        let md = markdown(&t).unwrap();
         let order = md.find("| order | p1").unwrap();
         assert!(md.find("|  | p5").unwrap() > order, "{md}");
         assert!(
@@ -756,7 +757,7 @@ mod tests {
         );
         assert!(md.contains("-30.00 %") && md.contains("+1.50 pp"), "{md}");
         let old = Table::new(&["scene", "step", "point", "change_from_previous"]);
-        assert!(markdown(&old).contains("former four-step form"));
+        assert!(markdown(&old).unwrap().contains("former four-step form"));
     }
 
     #[test]

@@ -1,6 +1,6 @@
 //! Times one application of the reduced operator `S` from its stencils
 //! (`solver::parity::stencil_s`) on the point source, in f64 and f32, against the
-//! roofline byte model: `cargo run --release -p pn-drivers --example stencil_apply -- 80 5`.
+//! roofline byte model: `cargo run --release -p pn-lab --example stencil_apply -- 80 5`.
 
 use pn_kernels::{pn_kernel, Dim, Staggering};
 use pn_runtime::assemble_split::assemble_split_stencil;

@@ -17,6 +17,7 @@
 
 use anyhow::Context;
 use pn_codegen::discretize::{pn_ir_for_order, pn_name};
+use pn_formats::table::Table;
 use pn_kernels::{compiled, Dim, Staggering};
 use pn_runtime::assemble::assemble;
 use pn_runtime::context::RowContext;
@@ -24,7 +25,6 @@ use pn_runtime::layout::Layout;
 use pn_runtime::problem::Problem;
 use pn_runtime::scenes::{builtin, BuiltinOptions};
 use pn_stencil::{InterpretedKernel, StencilKernel, TreeWalk};
-use std::fmt::Write as _;
 use std::time::Instant;
 
 /// Passes over all rows per eval timing (the median is reported).
@@ -63,21 +63,28 @@ pub struct KernelRow {
 
 impl KernelRow {
     fn csv(&self) -> String {
+        self.cells().join(",")
+    }
+
+    /// The cells of [`KernelRow::csv`], one per column of [`CSV_HEADER`].
+    fn cells(&self) -> Vec<String> {
         let opt = |v: Option<f64>| v.map(|x| format!("{x:.3}")).unwrap_or_default();
-        format!(
-            "{},{},{},{},{},{},{:.1},{:.2},{:.4},{},{}",
-            self.stencil,
-            self.order,
-            self.kind,
-            self.resolution,
-            self.rows,
-            self.terms,
-            self.eval_ns_per_row,
-            self.eval_ns_per_row * self.rows as f64 / self.terms.max(1) as f64,
-            self.assemble_seconds,
+        vec![
+            self.stencil.clone(),
+            self.order.to_string(),
+            self.kind.to_string(),
+            self.resolution.to_string(),
+            self.rows.to_string(),
+            self.terms.to_string(),
+            format!("{:.1}", self.eval_ns_per_row),
+            format!(
+                "{:.2}",
+                self.eval_ns_per_row * self.rows as f64 / self.terms.max(1) as f64
+            ),
+            format!("{:.4}", self.assemble_seconds),
             opt(self.eval_ratio),
-            opt(self.assemble_ratio)
-        )
+            opt(self.assemble_ratio),
+        ]
     }
 }
 
@@ -201,19 +208,17 @@ pub fn kernel_rows(orders: &[usize], res: usize) -> anyhow::Result<Vec<KernelRow
     Ok(out)
 }
 
-/// `kernels.csv`'s text.
-pub fn csv(rows: &[KernelRow]) -> String {
-    let mut s = String::from(CSV_HEADER);
-    s.push('\n');
+/// The table of `kernels.csv`.
+pub fn table(rows: &[KernelRow]) -> anyhow::Result<Table> {
+    let mut t = Table::new(&CSV_HEADER.split(',').collect::<Vec<_>>());
     for r in rows {
-        s.push_str(&r.csv());
-        s.push('\n');
+        t.push_row(r.cells())?;
     }
-    s
+    Ok(t)
 }
 
 /// The Markdown section.
-pub fn markdown(rows: &[KernelRow]) -> String {
+pub fn markdown(rows: &[KernelRow]) -> anyhow::Result<String> {
     let mut md = String::from("\n## Compiled against interpreted stencils\n\n");
     md.push_str(
         "The 3D staggered P_N stencil on the point source's grid, generated code (`build.rs`, \
@@ -222,23 +227,34 @@ pub fn markdown(rows: &[KernelRow]) -> String {
          *assembly*: the whole CSR system on all threads (median of 3). Ratios are \
          interpreted / compiled; orders not compiled in have no ratio.\n\n",
     );
-    md.push_str("| stencil | kind | resolution | rows | ns / row | ns / term | eval ratio | assembly s | assembly ratio |\n");
-    md.push_str("|---|---|---|---|---|---|---|---|---|\n");
+    let mut t = Table::new(&[
+        "stencil",
+        "kind",
+        "resolution",
+        "rows",
+        "ns / row",
+        "ns / term",
+        "eval ratio",
+        "assembly s",
+        "assembly ratio",
+    ]);
     for r in rows {
         let opt = |v: Option<f64>| v.map(|x| format!("{x:.2}")).unwrap_or_else(|| "–".into());
-        let _ = writeln!(
-            md,
-            "| {} | {} | {}³ | {} | {:.0} | {:.1} | {} | {:.3} | {} |",
-            r.stencil,
-            r.kind,
-            r.resolution,
-            r.rows,
-            r.eval_ns_per_row,
-            r.eval_ns_per_row * r.rows as f64 / r.terms.max(1) as f64,
+        t.push_row([
+            r.stencil.clone(),
+            r.kind.to_string(),
+            format!("{}³", r.resolution),
+            r.rows.to_string(),
+            format!("{:.0}", r.eval_ns_per_row),
+            format!(
+                "{:.1}",
+                r.eval_ns_per_row * r.rows as f64 / r.terms.max(1) as f64
+            ),
             opt(r.eval_ratio),
-            r.assemble_seconds,
-            opt(r.assemble_ratio)
-        );
+            format!("{:.3}", r.assemble_seconds),
+            opt(r.assemble_ratio),
+        ])?;
     }
-    md
+    md += &t.to_markdown();
+    Ok(md)
 }
