@@ -55,6 +55,7 @@ pub fn solve_at(req: &SolveRequest, res: Vec<usize>) -> Result<LevelSolve> {
     let sol = pn_runtime::threads::with_threads(a.threads, || {
         solve_problem(&problem, kernel, a.solver, &opts)
     })??;
+    crate::progress::print_notes(&sol.stats.notes);
     let seconds = t0.elapsed().as_secs_f64();
     let g = &problem.grid;
     ensure!(

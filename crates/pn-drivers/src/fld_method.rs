@@ -126,6 +126,7 @@ fn as_solution(grid: &pn_runtime::problem::Grid, run: &FldRun, tol: f64) -> Resu
         history: s.residual_history.iter().skip(1).copied().collect(),
         // Nonlinear sweeps, not products with a fixed matrix: not counted.
         operator_applications: 0,
+        notes: Vec::new(),
     };
     Ok(Solution {
         layout,

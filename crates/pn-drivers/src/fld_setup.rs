@@ -238,6 +238,7 @@ pub fn solve_fld_route(
                 &opts,
                 initial,
             )?;
+            crate::progress::print_notes(&p.notes);
             FldRun {
                 solution: p.fld,
                 route: Route::Picard,

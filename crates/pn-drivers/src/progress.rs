@@ -1,5 +1,6 @@
-//! The terminal's progress bar for a solve, drawn from the solver's iteration observer (the
-//! libraries never draw or print).
+//! What a command shows on the terminal while and after a library works: the progress bar
+//! of a solve, drawn from the solver's iteration observer, and the notes a library returns
+//! (the libraries never draw or print).
 
 use pn_runtime::solver::IterationObserver;
 use std::io::IsTerminal;
@@ -40,4 +41,12 @@ pub fn terminal_observer(
             }
         },
     ))
+}
+
+/// Prints what a library returned for the user to read (notes, warnings, per-phase timings
+/// when asked for) to stderr, one line each, as the command's own output.
+pub fn print_notes(notes: &[String]) {
+    for note in notes {
+        eprintln!("{note}");
+    }
 }

@@ -943,6 +943,7 @@ fn solve_ms(
         &opts,
         guesses,
     )?;
+    crate::progress::print_notes(&sol.stats.notes);
     if !sol.stats.converged() {
         eprintln!(
             "warning: the solver stopped ({:?}) at relative residual {:.3e} after {} iterations",

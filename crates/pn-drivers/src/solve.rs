@@ -55,6 +55,7 @@ pub fn run(req: &SolveRequest, stdout: &mut dyn Write) -> anyhow::Result<()> {
     let sol = pn_runtime::threads::with_threads(a.threads, || {
         solve_problem(problem, kernel, a.solver, &opts)
     })??;
+    crate::progress::print_notes(&sol.stats.notes);
 
     let info = RunInfo {
         scene: scene.name.clone(),

@@ -253,6 +253,7 @@ pub fn run_from_zero(
         tolerance: opts.tol,
         history: ctl.history,
         operator_applications: counted.count(),
+        notes: Vec::new(),
     };
     (x, stats)
 }

@@ -130,9 +130,20 @@ pub struct SolveStats {
     /// (`pn_runtime`'s parity report); multigrid-CG on a scalar
     /// system counts its products with the matrix. 0 where nothing is counted (FLD).
     pub operator_applications: usize,
+    /// What the solve wants its caller to know (a preconditioner that could not be built, a
+    /// fallback taken, per-phase timings when asked for): the libraries never print, a
+    /// command line prints these.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub notes: Vec<String>,
 }
 
 impl SolveStats {
+    /// The same statistics with `note` added after the existing notes.
+    pub fn with_note(mut self, note: impl Into<String>) -> Self {
+        self.notes.push(note.into());
+        self
+    }
+
     /// Whether the tolerance was reached.
     pub fn converged(&self) -> bool {
         self.status == SolveStatus::Converged

@@ -80,6 +80,7 @@ fn run_pipeline(
         ..Default::default()
     };
     let sol = solve_problem(&scene.problem, choice.kernel.as_ref(), solver, &sopts)?;
+    pn_drivers::progress::print_notes(&sol.stats.notes);
     Ok((sol, grid_label(&scene.problem.grid)))
 }
 

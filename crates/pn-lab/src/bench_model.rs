@@ -31,7 +31,9 @@ fn solve(
         tuning: tuning.clone(),
         ..Default::default()
     };
-    solve_problem(problem, k.kernel.as_ref(), SolverKind::ParityCg, &opts)
+    let sol = solve_problem(problem, k.kernel.as_ref(), SolverKind::ParityCg, &opts)?;
+    pn_drivers::progress::print_notes(&sol.stats.notes);
+    Ok(sol)
 }
 
 fn res_label(p: &Problem) -> String {

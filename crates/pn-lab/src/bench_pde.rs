@@ -64,6 +64,7 @@ fn solve_variant(
         &opts,
     )
     .map_err(|e| e.context(format!("{problem} with pdes/{name}")))?;
+    pn_drivers::progress::print_notes(&sol.stats.notes);
     Ok((sol, grid_label(&scene.problem.grid)))
 }
 

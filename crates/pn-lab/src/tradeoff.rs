@@ -173,6 +173,7 @@ fn measure(
         SolverKind::ParityCg,
         &opts,
     )?;
+    pn_drivers::progress::print_notes(&sol.stats.notes);
     let l00 = sol.l00();
     let at = |k: usize| l00[((c + k) * n + c) * n + c] * norm;
     let (error_own, own_reference) = if method == "cda" {

@@ -129,6 +129,8 @@ pub struct PicardSolution {
     pub unknowns: usize,
     /// Stored non-zeros of the last assembled matrix.
     pub nonzeros: usize,
+    /// Per-step timings when the solver tuning asks for a profile (the caller prints them).
+    pub notes: Vec<String>,
 }
 
 impl PicardSolution {
@@ -192,6 +194,7 @@ pub fn solve_fld_picard(
             solver: solver_name,
             unknowns: interior.len(),
             nonzeros: 0,
+            notes: Vec::new(),
         });
     }
     let voxels = |data: &[f64]| -> Result<VoxelGrid> {
@@ -207,6 +210,7 @@ pub fn solve_fld_picard(
     let mut d = FaceCoefficients::zeros(grid);
     let mut history = Vec::new();
     let mut linear_iterations = Vec::new();
+    let mut notes = Vec::new();
     let mut nonzeros = 0;
     let linear_opts = SolverOptions {
         tol: opts.linear_tol,
@@ -251,7 +255,7 @@ pub fn solve_fld_picard(
             multigrid.unwrap_or_else(|| solver.solve(&system.matrix, &r, &linear_opts));
         linear_iterations.push(stats.iterations);
         if profile {
-            eprintln!(
+            notes.push(format!(
                 "profile picard step {}: D and nonlinear residual {:.3} s, assembly {:.3} s, \
                  linear solve {:.3} s ({} iterations)",
                 linear_iterations.len(),
@@ -259,7 +263,7 @@ pub fn solve_fld_picard(
                 t_assembly,
                 t2.elapsed().as_secs_f64(),
                 stats.iterations
-            );
+            ));
         }
         if stats.status == SolveStatus::Diverged || delta.iter().any(|v| !v.is_finite()) {
             bail!(
@@ -287,6 +291,7 @@ pub fn solve_fld_picard(
         solver: solver_name,
         unknowns: interior.len(),
         nonzeros,
+        notes,
     })
 }
 

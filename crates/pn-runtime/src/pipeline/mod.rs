@@ -168,19 +168,22 @@ fn solve_split_system(
         Err(_) => return Ok(None),
     };
     let seconds_assembly = t0.elapsed().as_secs_f64();
-    if opts.tuning.profile {
-        eprintln!(
+    let assembly_note = opts.tuning.profile.then(|| {
+        format!(
             "profile assemble-split: rows {:.3} s (parallel), append {:.3} s",
             system.seconds_rows, system.seconds_append
-        );
-    }
+        )
+    });
     check_magnitude_values(system.max_entry, true, &system.rhs)?;
     let t1 = Instant::now();
     // The guesses' combination is fitted to the (possibly rescaled) rhs, so they need no
     // rescaling.
-    let (u, stats) = solve_with_scaled_rhs(&system.rhs, |b| {
+    let (u, mut stats) = solve_with_scaled_rhs(&system.rhs, |b| {
         parity.solve_split_from(&system.split, b, opts, guesses)
     });
+    if let Some(note) = assembly_note {
+        stats.notes.insert(0, note);
+    }
     let seconds_solve = t1.elapsed().as_secs_f64();
     let nonzeros = system.split.nnz_a;
     drop(system);

@@ -324,6 +324,7 @@ impl ParityCg {
             });
         }
         let t0 = Instant::now();
+        let mut notes = Vec::new();
         let nnz_a = sp.nnz_a;
         let mut precond_used = self.resolve_precond(nnz_a);
         let mode = match self.mode {
@@ -365,7 +366,7 @@ impl ParityCg {
         };
         let t_pre = t_split + t0.elapsed().as_secs_f64();
         if let (true, precond::Built::Multigrid(mg)) = (tuning.profile, &pre) {
-            eprintln!("profile mg setup: {}", mg.describe_setup());
+            notes.push(format!("profile mg setup: {}", mg.describe_setup()));
         }
         // With multigrid, an asymmetric first Galerkin operator PᵀSP proves S asymmetric
         // (PᵀSP is symmetric whenever S is), so the random probes, 2·PROBE_PAIRS
@@ -446,9 +447,9 @@ impl ParityCg {
         if tuning.profile {
             let it = t1.elapsed().as_secs_f64();
             if let precond::Built::Multigrid(mg) = &pre {
-                eprintln!("profile mg: {}", mg.describe());
+                notes.push(format!("profile mg: {}", mg.describe()));
             }
-            eprintln!(
+            notes.push(format!(
                 "profile parity: split {t_split:.3} s, form S {:.3} s (nnz {:?}, stencil {}), precond {} {:.3} s, \
                  probes {:.3} s, iterate {it:.3} s ({} it, {} S-apps, {:.4} s/it), asymmetry {asymmetry:.2e}, {}",
                 t_form - t_split,
@@ -461,7 +462,7 @@ impl ParityCg {
                 s_apps.count() + pre.single_applications(),
                 it / ctl.iterations.max(1) as f64,
                 method.name(),
-            );
+            ));
         }
         let stats = SolveStats {
             solver: if precond_used == Precond::Multigrid {
@@ -478,6 +479,7 @@ impl ParityCg {
             tolerance: opts.tol,
             history: ctl.history,
             operator_applications: 0,
+            notes,
         };
         let mut report = ParityReport {
             stats,

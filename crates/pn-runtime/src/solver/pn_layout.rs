@@ -173,17 +173,23 @@ impl LayoutSolver {
             }
             Ok((u, report)) => (u, report.stats),
             Err(e) => {
-                eprintln!("note: the parity preconditioner could not be built ({e}); using Jacobi");
+                let jacobi_note = format!(
+                    "note: the parity preconditioner could not be built ({e}); using Jacobi"
+                );
                 let jacobi = self.parity.clone().with_precond(Precond::Jacobi);
                 match jacobi.solve_split_from(split, b, opts, guesses) {
-                    Ok((u, report)) => (u, report.stats),
+                    Ok((u, report)) => (u, report.stats.with_note(jacobi_note)),
                     Err(e) => {
-                        eprintln!("note: Jacobi could not be built either ({e}); unpreconditioned");
+                        let none_note = format!(
+                            "note: Jacobi could not be built either ({e}); unpreconditioned"
+                        );
                         match jacobi
                             .with_precond(Precond::None)
                             .solve_split_from(split, b, opts, guesses)
                         {
-                            Ok((u, report)) => (u, report.stats),
+                            Ok((u, report)) => {
+                                (u, report.stats.with_note(jacobi_note).with_note(none_note))
+                            }
                             // Unreachable: `Precond::None` builds nothing that can fail.
                             Err(e) => failed_solve(b.len(), opts, &e.to_string()),
                         }
@@ -196,7 +202,6 @@ impl LayoutSolver {
 
 /// A `Diverged` result for a solve that could not start.
 fn failed_solve(n: usize, opts: &SolverOptions, why: &str) -> (Vec<f64>, SolveStats) {
-    eprintln!("error: the parity solve could not start: {why}");
     (
         vec![0.0; n],
         SolveStats {
@@ -209,6 +214,7 @@ fn failed_solve(n: usize, opts: &SolverOptions, why: &str) -> (Vec<f64>, SolveSt
             tolerance: opts.tol,
             history: Vec::new(),
             operator_applications: 0,
+            notes: vec![format!("error: the parity solve could not start: {why}")],
         },
     )
 }
@@ -225,8 +231,10 @@ impl LinearSolver for LayoutSolver {
                 Some(g) if g.len() == a.rows() => match mg_krylov(a, b, g, opts) {
                     Ok(r) => r,
                     Err(err) => {
-                        eprintln!("note: multigrid does not apply ({err}); falling back to cgnr");
-                        Cgnr.solve(a, b, opts)
+                        let (u, stats) = Cgnr.solve(a, b, opts);
+                        let note =
+                            format!("note: multigrid does not apply ({err}); falling back to cgnr");
+                        (u, stats.with_note(note))
                     }
                 },
                 _ => super::parity::fallback::fallback(a, b, opts, &e.to_string()),

@@ -47,8 +47,9 @@ pub fn mg_krylov(
         &a_csr
     };
     let mg = Multigrid::for_matrix(a, geometry, &opts.tuning.multigrid_options())?;
+    let mut notes = Vec::new();
     if opts.tuning.profile {
-        eprintln!("profile mg setup: {}", mg.describe_setup());
+        notes.push(format!("profile mg setup: {}", mg.describe_setup()));
     }
     let method = if asymmetry(a) <= SYMMETRY_TOL {
         KrylovMethod::Cg
@@ -79,7 +80,7 @@ pub fn mg_krylov(
         Outcome::Reached | Outcome::Stagnated => SolveStatus::Stagnated,
     };
     if opts.tuning.profile {
-        eprintln!("profile mg-{}: {}", method.name(), mg.describe());
+        notes.push(format!("profile mg-{}: {}", method.name(), mg.describe()));
     }
     Ok((
         x,
@@ -94,6 +95,7 @@ pub fn mg_krylov(
             history: ctl.history,
             // The products above, the final residual, and the setup's `λ_max` estimate.
             operator_applications: products.count() + 1 + mg.setup_fine_applications(),
+            notes,
         },
     ))
 }

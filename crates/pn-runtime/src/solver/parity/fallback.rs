@@ -35,19 +35,22 @@ pub fn gmres_ilu(
 }
 
 /// The fallback for a system the parity solver cannot take (`why`): [`gmres_ilu`], else
-/// CGNR; prints which one runs.
+/// CGNR; the statistics' notes say which one ran.
 pub fn fallback(
     a: &CsMat<f64>,
     b: &[f64],
     opts: &SolverOptions,
     why: &str,
 ) -> (Vec<f64>, SolveStats) {
-    eprintln!(
+    let ilu_note = format!(
         "note: parity-cg does not apply ({why}); solving A u = b with ILU(0)-preconditioned GMRES"
     );
-    if let Some(r) = gmres_ilu(a, b, opts) {
-        return r;
+    if let Some((u, stats)) = gmres_ilu(a, b, opts) {
+        return (u, stats.with_note(ilu_note));
     }
-    eprintln!("note: ILU(0)-GMRES did not converge; falling back to cgnr");
-    Cgnr.solve(a, b, opts)
+    let (u, stats) = Cgnr.solve(a, b, opts);
+    let stats = stats
+        .with_note(ilu_note)
+        .with_note("note: ILU(0)-GMRES did not converge; falling back to cgnr");
+    (u, stats)
 }
