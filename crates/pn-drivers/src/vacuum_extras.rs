@@ -31,10 +31,6 @@ pub fn applies(scene: &str) -> bool {
 /// prints the measurements. `order` is the P_N order (0 for CDA and text PDEs: no
 /// reference); `kernel` is the solved stencil (a text PDE closing the faces itself gives R
 /// and T through its conditions).
-#[expect(
-    clippy::too_many_arguments,
-    reason = "the solve's pieces, passed through from the driver"
-)]
 pub fn measure(
     scene: &str,
     problem: &Problem,
