@@ -8,7 +8,7 @@
 //! * rotational invariance: the face-diagonal profile matches the axis profile;
 //! * `pn solve pointsource` writes `profile.csv` / `profile.png` / `profile_diagonal.csv`.
 //!
-//! Numbers measured with these tests are in `README_pointsource.md`.
+//! Numbers measured with these tests are in `docs/pointsource.md`.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
 use pn_drivers::pointsource_extras::{exact_modes, profile, Ray};
@@ -328,7 +328,7 @@ fn paper_setup_p1() {
 }
 
 /// (c) The paper's setup for P_5 (18.7M unknowns, 239M non-zeros: ~12 min and 9 GB with
-/// parity-CG on 2 cores; ignored, see README_pointsource.md).
+/// parity-CG on 2 cores; ignored, see docs/pointsource.md).
 #[test]
 #[ignore]
 fn paper_setup_p5() {

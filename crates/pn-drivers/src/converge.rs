@@ -15,6 +15,23 @@ use pn_runtime::convergence::{analyse, check_nesting, Level};
 use std::io::Write;
 use std::path::PathBuf;
 
+/// `convergence.json` (keys in the order of earlier versions of the file).
+#[derive(serde::Serialize)]
+struct ConvergeReport<'a> {
+    /// The boundary closure's name.
+    boundary: String,
+    /// `pn` or `cda`.
+    method: &'static str,
+    /// `--order` as given (null: the scene's default).
+    order: Option<usize>,
+    /// The resolved sampling mode.
+    sampling: String,
+    /// The scene's name.
+    scene: String,
+    /// The study.
+    table: &'a pn_runtime::convergence::StudyTable,
+}
+
 /// Blocks per axis of the scenes that define blocks.
 fn scene_blocks(scene: &str, axes: usize) -> Option<[usize; 3]> {
     match scene {
@@ -95,18 +112,15 @@ pub fn run(req: &SolveRequest, stdout: &mut dyn Write) -> Result<()> {
         format!("P_{}", a.order.map_or("default".into(), |o| o.to_string()))
     };
     let sampling = a.sampling.resolved(axes).name();
-    let json = serde_json::json!({
-        "scene": name,
-        "method": a.method.name(),
-        "order": a.order,
-        "sampling": sampling,
-        "boundary": boundary,
-        "table": table,
-    });
-    std::fs::write(
-        out.join("convergence.json"),
-        serde_json::to_string_pretty(&json)? + "\n",
-    )?;
+    let report = ConvergeReport {
+        boundary,
+        method: a.method.name(),
+        order: a.order,
+        sampling: sampling.clone(),
+        scene: name.clone(),
+        table: &table,
+    };
+    pn_formats::json::write_atomic(&out.join("convergence.json"), &report)?;
     let title = format!("{name} {what}, sampling {sampling}: self-convergence");
     write_convergence_png(
         &out.join("convergence.png"),

@@ -12,8 +12,9 @@
 use crate::scene_setup::{
     check_memory_and_set_sigma_t_min, kernel_for, sampled_problem, scene_from_request, SolveRequest,
 };
-use anyhow::{ensure, Context, Result};
+use anyhow::{ensure, Result};
 use pn_formats::output::cell_shape;
+use pn_formats::output::report::ErrorEstimate;
 use pn_formats::png::{write_png, Slice};
 use pn_runtime::convergence::{l2_diff, observed_order, rel_l2_diff, restrict, richardson};
 use pn_runtime::field::Sampling;
@@ -93,54 +94,30 @@ pub fn check_request(req: &SolveRequest, grid: &Grid) -> Result<()> {
     Ok(())
 }
 
-/// The estimate written to `report.json` under `"error_estimate"`.
-#[derive(serde::Serialize)]
-struct EstimateReport {
-    /// What is estimated.
-    quantity: &'static str,
-    /// Resolution of the extra (coarse) solve, where the per-cell estimate lives.
-    coarse_resolution: [usize; 3],
-    /// Richardson estimate (order, relative L2, max, ...).
-    #[serde(flatten)]
-    estimate: pn_runtime::convergence::RichardsonEstimate,
-    /// The observed order from three levels, if a quarter-resolution solve was possible.
-    observed_order: Option<f64>,
-    /// Relative L2 differences ‖u_half − u_fine‖/‖u_fine‖ (on the half grid) and
-    /// ‖u_quarter − u_half‖/‖u_half‖ (on the quarter grid, when solved).
-    level_differences: Vec<f64>,
-    /// Seconds of the extra solves (assembly + solve).
-    extra_seconds: f64,
-    /// Extra seconds relative to the fine solve.
-    extra_cost_fraction: f64,
+/// The sampling mode as `report.json` records it: present when it is not the default or
+/// with `--error-estimate`.
+pub fn sampling_entry(req: &SolveRequest, grid: &Grid) -> Option<String> {
+    (req.error_estimate || req.sampling != Sampling::Exact)
+        .then(|| req.sampling.resolved(grid.dim.axes()).name())
 }
 
-/// After a fine solve: records the sampling mode in `report.json` when it is not the default
-/// and, with `--error-estimate`, runs the coarse solve(s) and writes `error.npy`,
-/// `error.png` and the `"error_estimate"` entry. Leaves the outputs untouched otherwise.
-pub fn after_solve(
-    req: &SolveRequest,
-    problem: &Problem,
-    sol: &Solution,
-    out: &Path,
-) -> Result<()> {
-    let a = req;
-    if !a.error_estimate && a.sampling == Sampling::Exact {
-        return Ok(());
-    }
-    let mut extra = serde_json::Map::new();
-    let axes = problem.grid.dim.axes();
-    extra.insert(
-        "sampling".into(),
-        serde_json::Value::String(a.sampling.resolved(axes).name()),
-    );
-    if a.error_estimate {
-        if req.scene == "pointsource" {
-            eprintln!(
-                "note: the pointsource scene centres its source on cell n/2, i.e. at w + w/n, \
-                 which moves by h/2 between n and n/2 cells; the estimate includes that shift"
-            );
-        }
-        let est = estimate(req, problem, sol, out)?;
+/// An error estimate of a fine solve: its `report.json` section and what `error.npy` and
+/// `error.png` hold.
+pub struct Estimate {
+    /// The section `"error_estimate"` (its per-cell values are the files' contents).
+    pub report: ErrorEstimate,
+    /// The coarse grid the per-cell estimate lives on.
+    grid: Grid,
+    /// Title of `error.png`.
+    title: String,
+}
+
+impl Estimate {
+    /// Writes `error.npy` and `error.png` into `out` (which exists) and prints the summary
+    /// line to stderr.
+    pub fn write_files(&self, out: &Path) -> Result<()> {
+        let est = &self.report;
+        write_error_files(out, &self.grid, &est.estimate.per_cell, &self.title)?;
         eprintln!(
             "error estimate (Richardson, p = {:.2}, {}): relative L2 {:.3e}, max {:.3e} \
              ({:.3e} of max L_0^0); extra cost {:.3} s -> {}",
@@ -152,26 +129,30 @@ pub fn after_solve(
             est.extra_seconds,
             out.join("error.npy").display()
         );
-        extra.insert("error_estimate".into(), serde_json::to_value(&est)?);
+        Ok(())
     }
-    let path = out.join("report.json");
-    let text =
-        std::fs::read_to_string(&path).with_context(|| format!("reading {}", path.display()))?;
-    let mut json: serde_json::Value = serde_json::from_str(&text)?;
-    if let Some(obj) = json.as_object_mut() {
-        obj.extend(extra);
-    }
-    std::fs::write(&path, serde_json::to_string_pretty(&json)? + "\n")
-        .with_context(|| format!("writing {}", path.display()))?;
-    Ok(())
 }
 
-fn estimate(
+/// With `--error-estimate`, after the fine solve `sol` of `problem`: runs the coarse
+/// solve(s) and returns the estimate (nothing is written here). `None` without the flag.
+pub fn estimate_for(
     req: &SolveRequest,
     problem: &Problem,
     sol: &Solution,
-    out: &Path,
-) -> Result<EstimateReport> {
+) -> Result<Option<Estimate>> {
+    if !req.error_estimate {
+        return Ok(None);
+    }
+    if req.scene == "pointsource" {
+        eprintln!(
+            "note: the pointsource scene centres its source on cell n/2, i.e. at w + w/n, \
+             which moves by h/2 between n and n/2 cells; the estimate includes that shift"
+        );
+    }
+    estimate(req, problem, sol).map(Some)
+}
+
+fn estimate(req: &SolveRequest, problem: &Problem, sol: &Solution) -> Result<Estimate> {
     let g = &problem.grid;
     let axes = g.dim.axes();
     let half: Vec<usize> = g.res[..axes].iter().map(|n| n / 2).collect();
@@ -216,14 +197,8 @@ fn estimate(
         ),
     };
     let est = richardson(&u_fine, &u_coarse, 2.0, p, &source);
-    write_error_files(
-        out,
-        &cg,
-        &est.per_cell,
-        &format!("{} |error| estimate, p = {p:.2}", req.scene),
-    )?;
-    Ok(EstimateReport {
-        quantity: "L_0^0 (fluence.npy) of the fine solution, on the half-resolution grid",
+    let report = ErrorEstimate {
+        quantity: "L_0^0 (fluence.npy) of the fine solution, on the half-resolution grid".into(),
         coarse_resolution: cg.res,
         estimate: est,
         observed_order: observed,
@@ -234,6 +209,11 @@ fn estimate(
         } else {
             0.0
         },
+    };
+    Ok(Estimate {
+        report,
+        grid: cg,
+        title: format!("{} |error| estimate, p = {p:.2}", req.scene),
     })
 }
 

@@ -27,7 +27,7 @@
 mod plot;
 
 use anyhow::{bail, ensure, Context, Result};
-use pn_formats::output::report::{Report, RunInfo};
+use pn_formats::output::report::{FldSection, Report, RunInfo, SolveReport};
 use pn_formats::output::write_outputs;
 use pn_kernels::{diffusion_kernel, Dim};
 use pn_runtime::layout::Layout;
@@ -36,54 +36,9 @@ use pn_runtime::solver::{SolveStats, SolveStatus, SolverKind};
 use pn_runtime::unstagger::CellMoments;
 use pn_stencil::MomentPlacement;
 use std::io::Write;
-use std::path::Path;
 
 use crate::fld_setup::{fld_problem, settings_from_request, solve_fld_route, FldRun, SQRT_4PI};
 use crate::scene_setup::{scene_from_request, Route, SolveRequest};
-
-/// FLD-specific entries of `report.json` (the key `fld`).
-#[derive(Clone, Debug, PartialEq, serde::Serialize)]
-pub struct FldReportSection {
-    /// `gs` (red–black Gauss–Seidel/SOR) or `picard` (linear solves through the stencil).
-    pub route: String,
-    /// Limiter name (`lp`, `sum`, `max`, `kershaw`, `larsen2`, `cda`).
-    pub limiter: String,
-    /// SOR factor ω (Gauss–Seidel route; null for Picard).
-    pub omega: Option<f64>,
-    /// Extinction threshold σ_ε (1/length).
-    pub sigma_eps: f64,
-    /// ε of the lower bounds and the boundary value.
-    pub eps: f64,
-    /// RMS source j̄ (fluence units, `q = √(4π) Q_0^0`).
-    pub rms_source: f64,
-    /// Dirichlet value φ = ε j̄ h on the outermost cell layer (fluence units).
-    pub phi_boundary: f64,
-    /// Gauss–Seidel iterations or Picard steps.
-    pub iterations: usize,
-    /// Final relative residual (RMS over the interior / j̄).
-    pub residual: f64,
-    /// Tolerance on it.
-    pub tolerance: f64,
-    /// Whether it converged.
-    pub converged: bool,
-    /// Linear solver of the Picard steps.
-    pub linear_solver: Option<String>,
-    /// Linear iterations of each Picard step.
-    pub linear_iterations: Vec<usize>,
-    /// What the output arrays hold.
-    pub output_normalisation: String,
-}
-
-/// `report.json` of an FLD run: the P_N report fields (solver statistics re-read for the
-/// nonlinear iteration) plus [`FldReportSection`] under `fld`.
-#[derive(Clone, Debug, PartialEq, serde::Serialize)]
-pub struct FldReport {
-    /// The common fields.
-    #[serde(flatten)]
-    pub base: Report,
-    /// The FLD entries.
-    pub fld: FldReportSection,
-}
 
 /// Wraps an FLD answer as a [`Solution`] (one moment, L_0^0 at the cell centres) so that
 /// [`write_outputs`] writes the same files as for P_N.
@@ -183,6 +138,9 @@ pub fn run(a: &SolveRequest, stdout: &mut dyn Write) -> Result<()> {
     }
     // The stencil is only used by the Picard route, but the report names it either way.
     let kernel = diffusion_kernel(Dim::Three)?;
+    if let Some(note) = &kernel.note {
+        eprintln!("{note}");
+    }
     let run = pn_runtime::threads::with_threads(a.threads, || {
         solve_fld_route(&fp, &settings, &kernel, None)
     })??;
@@ -207,9 +165,8 @@ pub fn run(a: &SolveRequest, stdout: &mut dyn Write) -> Result<()> {
         "FLD: RMS residual over the interior cells / RMS source (nonlinear, D from phi)".into();
     base.sigma_t_min = None;
     let s = &run.solution;
-    let report = FldReport {
-        base,
-        fld: FldReportSection {
+    let report = SolveReport {
+        fld: Some(FldSection {
             route: run.route.name().into(),
             limiter: settings.params.limiter.to_string(),
             omega: (run.route == Route::GaussSeidel).then_some(settings.params.omega),
@@ -226,12 +183,12 @@ pub fn run(a: &SolveRequest, stdout: &mut dyn Write) -> Result<()> {
             output_normalisation: "fluence.npy, moments.npy and fluence.png hold L_0^0 = \
                                    phi / sqrt(4 pi) (phi the fluence), as for --method pn"
                 .into(),
-        },
+        }),
+        ..SolveReport::new(base)
     };
     let out = a.out_dir(&scene.name);
-    write_outputs(&out, &problem.grid, &sol, &report.base)
+    write_outputs(&out, &problem.grid, &sol, &report)
         .with_context(|| format!("writing results to {}", out.display()))?;
-    write_report(&out, &report)?;
     if scene.name == "pointsource" {
         plot::write_figure5(
             &out,
@@ -284,15 +241,5 @@ pub fn run(a: &SolveRequest, stdout: &mut dyn Write) -> Result<()> {
             out.display()
         );
     }
-    Ok(())
-}
-
-/// Replaces `report.json` in `dir` by the FLD report.
-fn write_report(dir: &Path, report: &FldReport) -> Result<()> {
-    let path = dir.join("report.json");
-    let tmp = dir.join(format!(".report.json.tmp-{}", std::process::id()));
-    std::fs::write(&tmp, serde_json::to_string_pretty(report)? + "\n")
-        .with_context(|| format!("writing {}", tmp.display()))?;
-    std::fs::rename(&tmp, &path).with_context(|| format!("writing {}", path.display()))?;
     Ok(())
 }

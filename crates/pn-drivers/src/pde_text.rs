@@ -84,6 +84,10 @@ impl PdeKernel {
             .with_context(|| format!("{}", path.display()))?;
         let source_band = ir.max_source_band().unwrap_or(0);
         let choice = pn_kernels::pde_ir_kernel(ir);
+        // The command shows the library's note (a compiled stencil built from other text).
+        if let Some(note) = &choice.note {
+            eprintln!("{note}");
+        }
         Ok(PdeKernel {
             source_band,
             name: pde.system.name.clone(),

@@ -296,8 +296,16 @@ pub fn sampled_problem(problem: &Problem, sampling: Sampling) -> Problem {
 }
 
 /// The stencil and P_N order the request selects (`--method pn` or `cda`; the order is 0
-/// for CDA).
+/// for CDA). Prints the choice's note (an interpreted stencil) to stderr.
 pub fn kernel_for(req: &SolveRequest, scene: &Scene) -> Result<(KernelChoice, usize)> {
+    let (choice, order) = select_kernel(req, scene)?;
+    if let Some(note) = &choice.note {
+        eprintln!("{note}");
+    }
+    Ok((choice, order))
+}
+
+fn select_kernel(req: &SolveRequest, scene: &Scene) -> Result<(KernelChoice, usize)> {
     ensure!(
         req.method == Method::Pn || req.method == Method::Cda,
         "--error-estimate and pn converge support --method pn and cda, not {}",

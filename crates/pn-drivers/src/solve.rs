@@ -4,10 +4,13 @@
 //! (extrapolation) boundary, relative residual 1e-10.
 
 use anyhow::{bail, Context};
-use pn_formats::output::report::{Report, RunInfo};
+use pn_formats::output::report::{Report, RunInfo, SolveReport, VacuumMeasurements};
 use pn_formats::output::write_outputs;
-use pn_runtime::pipeline::solve_problem;
+use pn_kernels::KernelChoice;
+use pn_runtime::pipeline::{solve_problem, Solution};
+use pn_runtime::problem::Problem;
 use std::io::Write;
+use std::path::Path;
 
 use crate::scene_setup::{
     check_memory_and_set_sigma_t_min, kernel_for, sampled_problem, scene_from_request, Method,
@@ -74,27 +77,19 @@ pub fn run(req: &SolveRequest, stdout: &mut dyn Write) -> anyhow::Result<()> {
         stencil_compiled: choice.compiled,
         threads: pn_runtime::threads::effective_threads(a.threads),
     };
-    let report = Report::new(&info, problem, kernel.name(), &sol);
+    let report = SolveReport::new(Report::new(&info, problem, kernel.name(), &sol));
     let out = a.out_dir(&scene.name);
-    write_outputs(&out, &problem.grid, &sol, &report)
-        .with_context(|| format!("writing results to {}", out.display()))?;
-    crate::error_estimate::after_solve(req, problem, &sol, &out)?;
-    // The extras compare with the P_N/CDA references (order 0: none, as for a text PDE,
-    // which gets the measurements only, and only when it closes the faces itself).
-    if crate::vacuum_extras::applies(&scene.name)
-        && (a.pde.is_none() || kernel.boundary_conditions().is_some())
-    {
-        crate::vacuum_extras::write_extras(
-            &out,
-            &scene.name,
-            problem,
-            kernel,
-            a.albedo,
-            &sol,
-            order,
-            stdout,
-        )?;
-    }
+    write_results(
+        req,
+        &scene.name,
+        problem,
+        &choice,
+        order,
+        &sol,
+        report,
+        &out,
+        stdout,
+    )?;
     if a.pde.is_none() && scene.name == "pointsource" {
         crate::pointsource_extras::write_extras(
             &out,
@@ -105,7 +100,6 @@ pub fn run(req: &SolveRequest, stdout: &mut dyn Write) -> anyhow::Result<()> {
             stdout,
         )?;
     }
-
     let g = &problem.grid;
     let res = g.res[..g.dim.axes()]
         .iter()
@@ -153,4 +147,57 @@ pub fn run(req: &SolveRequest, stdout: &mut dyn Write) -> anyhow::Result<()> {
         );
     }
     Ok(())
+}
+
+/// Completes `report` with the sections of this run (sampling, error estimate, the
+/// `slab`/`milne` measurements), computed before anything is written, then writes the
+/// result files with `report.json` once, and the error estimate's files. When a section
+/// cannot be computed, the solve's files are still written (with the sections completed
+/// before it) and the error is returned.
+#[expect(
+    clippy::too_many_arguments,
+    reason = "the solve's pieces, passed through from the driver"
+)]
+fn write_results(
+    req: &SolveRequest,
+    scene: &str,
+    problem: &Problem,
+    choice: &KernelChoice,
+    order: usize,
+    sol: &Solution,
+    mut report: SolveReport,
+    out: &Path,
+    stdout: &mut dyn Write,
+) -> anyhow::Result<()> {
+    let write = |report: &SolveReport| {
+        write_outputs(out, &problem.grid, sol, report)
+            .with_context(|| format!("writing results to {}", out.display()))
+    };
+    let estimate = match crate::error_estimate::estimate_for(req, problem, sol) {
+        Ok(e) => e,
+        Err(e) => {
+            write(&report)?;
+            return Err(e);
+        }
+    };
+    report.sampling = crate::error_estimate::sampling_entry(req, &problem.grid);
+    report.error_estimate = estimate.as_ref().map(|e| e.report.clone());
+    // The extras compare with the P_N/CDA references (order 0: none, as for a text PDE,
+    // which gets the measurements only, and only when it closes the faces itself).
+    let kernel = choice.kernel.as_ref();
+    let vacuum = if crate::vacuum_extras::applies(scene)
+        && (req.pde.is_none() || kernel.boundary_conditions().is_some())
+    {
+        crate::vacuum_extras::measure(scene, problem, kernel, req.albedo, sol, order, stdout)
+    } else {
+        Ok(VacuumMeasurements::default())
+    };
+    if let Ok(v) = &vacuum {
+        report.vacuum = v.clone();
+    }
+    write(&report)?;
+    if let Some(e) = &estimate {
+        e.write_files(out)?;
+    }
+    vacuum.map(|_| ())
 }

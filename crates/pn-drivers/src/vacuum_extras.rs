@@ -12,7 +12,8 @@
 //! * `milne`: `extrapolation_length` ([`milne_extrapolation_length`]) and
 //!   `reference_extrapolation_length` (P_N–Marshak) for odd N with a Marshak face at x = 0.
 
-use anyhow::{Context, Result};
+use anyhow::Result;
+use pn_formats::output::report::VacuumMeasurements;
 use pn_runtime::pipeline::Solution;
 use pn_runtime::problem::{BoundaryKind, Problem};
 use pn_runtime::reference::{pn_marshak_milne, pn_marshak_slab};
@@ -20,22 +21,17 @@ use pn_runtime::robin::RobinFaces;
 use pn_runtime::scenes::vacuum::{milne_extrapolation_length, slab_fluxes, SLAB_ALBEDO};
 use pn_stencil::StencilKernel;
 use std::io::Write;
-use std::path::Path;
 
 /// Whether `scene` has extras here.
 pub fn applies(scene: &str) -> bool {
     scene == "slab" || scene == "milne"
 }
 
-/// Adds the measurements of the `slab` or `milne` scene to `out/report.json` and prints
-/// them. `order` is the P_N order (0 for CDA and text PDEs: no reference); `kernel` is the
-/// solved stencil (a text PDE closing the faces itself gives R and T through its conditions).
-#[expect(
-    clippy::too_many_arguments,
-    reason = "the solve's pieces, passed through from the driver"
-)]
-pub fn write_extras(
-    out: &Path,
+/// Measures the `slab` or `milne` scene for `report.json` ([`VacuumMeasurements`]) and
+/// prints the measurements. `order` is the P_N order (0 for CDA and text PDEs: no
+/// reference); `kernel` is the solved stencil (a text PDE closing the faces itself gives R
+/// and T through its conditions).
+pub fn measure(
     scene: &str,
     problem: &Problem,
     kernel: &dyn StencilKernel,
@@ -43,15 +39,10 @@ pub fn write_extras(
     sol: &Solution,
     order: usize,
     stdout: &mut dyn Write,
-) -> Result<()> {
-    let path = out.join("report.json");
-    let text = std::fs::read_to_string(&path)
-        .with_context(|| format!("reading {} to add the {scene} results", path.display()))?;
-    let mut report: serde_json::Value =
-        serde_json::from_str(&text).with_context(|| format!("parsing {}", path.display()))?;
+) -> Result<VacuumMeasurements> {
     let b = &problem.boundary;
     let odd = order % 2 == 1;
-    let mut extra = serde_json::Map::new();
+    let mut m = VacuumMeasurements::default();
     if scene == "slab" {
         let robin = RobinFaces::new(problem, &sol.layout, kernel)?;
         let (r, t) = match &robin {
@@ -61,8 +52,8 @@ pub fn write_extras(
             ),
             _ => slab_fluxes(&sol.layout, &sol.u)?,
         };
-        extra.insert("reflection".into(), r.into());
-        extra.insert("transmission".into(), t.into());
+        m.reflection = Some(r);
+        m.transmission = Some(t);
         let tau = problem.grid.max[0] - problem.grid.min[0];
         let c = albedo.unwrap_or(SLAB_ALBEDO);
         let vacuum = b.face(0, 0) == BoundaryKind::Marshak && b.face(0, 1) == BoundaryKind::Marshak;
@@ -72,11 +63,8 @@ pub fn write_extras(
         )?;
         if odd && vacuum && c < 1.0 {
             let reference = pn_marshak_slab(order, tau, c)?;
-            extra.insert("reference_reflection".into(), reference.reflection.into());
-            extra.insert(
-                "reference_transmission".into(),
-                reference.transmission.into(),
-            );
+            m.reference_reflection = Some(reference.reflection);
+            m.reference_transmission = Some(reference.transmission);
             write!(
                 stdout,
                 " (1D P_{order}–Marshak: {:.6}, {:.6})",
@@ -86,19 +74,14 @@ pub fn write_extras(
         writeln!(stdout)?;
     } else {
         let z0 = milne_extrapolation_length(&problem.grid, &sol.layout, &sol.u)?;
-        extra.insert("extrapolation_length".into(), z0.into());
+        m.extrapolation_length = Some(z0);
         write!(stdout, "milne: extrapolation length {z0:.6}")?;
         if odd && b.face(0, 0) == BoundaryKind::Marshak {
             let reference = pn_marshak_milne(order)?;
-            extra.insert("reference_extrapolation_length".into(), reference.into());
+            m.reference_extrapolation_length = Some(reference);
             write!(stdout, " (P_{order}–Marshak: {reference:.6})")?;
         }
         writeln!(stdout)?;
     }
-    if let Some(obj) = report.as_object_mut() {
-        obj.extend(extra);
-    }
-    let text = serde_json::to_string_pretty(&report).context("serialising report.json")?;
-    std::fs::write(&path, text).with_context(|| format!("writing {}", path.display()))?;
-    Ok(())
+    Ok(m)
 }

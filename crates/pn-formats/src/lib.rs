@@ -8,12 +8,14 @@
 //! * Images: [`image_io`] (EXR written and read back, tone-mapped PNG), [`png`] (a slice of a
 //!   solution as a colour-mapped PNG).
 //! * Results: [`output`] (the files of a solve: `fluence.npy`, `moments.npy`, `fluence.png`,
-//!   `report.json`, written atomically), [`table`] (one table type for every CSV and Markdown
+//!   `report.json`, written atomically), [`json`] (every JSON report written atomically: a
+//!   file appears only when complete), [`table`] (one table type for every CSV and Markdown
 //!   table), [`plot`] (plot frames, the fonts registered once, the convergence and profile
 //!   plots).
 #![warn(missing_docs)]
 
 pub mod image_io;
+pub mod json;
 pub mod npy;
 pub mod output;
 pub mod plot;

@@ -11,7 +11,7 @@ use anyhow::Context;
 use pn_runtime::pipeline::Solution;
 use pn_runtime::problem::Grid;
 use pn_stencil::Dim;
-use report::Report;
+use report::SolveReport;
 use std::path::{Path, PathBuf};
 
 /// Names of the files [`write_outputs`] produces.
@@ -34,12 +34,14 @@ pub fn cell_shape(grid: &Grid) -> Vec<usize> {
     }
 }
 
-/// Writes all result files of `sol` into `dir` (created if needed).
+/// Writes all result files of `sol` into `dir` (created if needed), `report` as
+/// `report.json` (each file is written into a temporary directory first and moved into
+/// place only when all were written).
 pub fn write_outputs(
     dir: &Path,
     grid: &Grid,
     sol: &Solution,
-    report: &Report,
+    report: &SolveReport,
 ) -> anyhow::Result<()> {
     let parent = match dir.parent() {
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
@@ -67,10 +69,10 @@ pub fn write_outputs(
         .map(|(i, j)| l00[(i * ny + j) * nz + k])
         .collect();
     let title = match grid.dim {
-        Dim::Two => format!("{}: log10 L_0^0", report.scene),
+        Dim::Two => format!("{}: log10 L_0^0", report.base.scene),
         Dim::Three => format!(
             "{}: log10 L_0^0, z = {:.4}",
-            report.scene,
+            report.base.scene,
             grid.coord(2, 2 * k as i64 + 1)
         ),
     };
@@ -85,8 +87,7 @@ pub fn write_outputs(
             title,
         },
     )?;
-    let json = serde_json::to_string_pretty(report)?;
-    std::fs::write(tmp.0.join("report.json"), json + "\n")?;
+    crate::json::write_atomic(&tmp.0.join("report.json"), report)?;
 
     std::fs::create_dir_all(dir)
         .with_context(|| format!("cannot create output directory {}", dir.display()))?;

@@ -1,4 +1,9 @@
 //! `report.json`: what was solved, how, and what it cost.
+//!
+//! [`SolveReport`] is the whole file of one `pn solve`: the common [`Report`] plus the
+//! sections a run adds (the sampling mode, the error estimate, the `slab`/`milne`
+//! measurements, the FLD entries). A command builds it in memory and [`super::write_outputs`]
+//! writes it once, atomically ([`crate::json::write_atomic`]).
 
 use pn_runtime::energy::EnergyBalance;
 use pn_runtime::pipeline::Solution;
@@ -23,7 +28,7 @@ pub struct RunInfo {
     pub threads: usize,
 }
 
-/// The contents of `report.json`.
+/// The fields every `report.json` of a solve has (the first keys of [`SolveReport`]).
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct Report {
     /// Scene name.
@@ -146,4 +151,117 @@ impl Report {
             residual_history: history,
         }
     }
+}
+
+/// The contents of `report.json` of `pn solve`: [`Report`] plus the optional sections, each
+/// written only when present, in this order after the common keys.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct SolveReport {
+    /// The common fields.
+    #[serde(flatten)]
+    pub base: Report,
+    /// The field sampling mode (`exact`, `average:<k>`), recorded when it is not the default
+    /// or with an error estimate.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sampling: Option<String>,
+    /// `--error-estimate`: the Richardson estimate from the coarser solves.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub error_estimate: Option<ErrorEstimate>,
+    /// The `slab` and `milne` scenes: the Marshak vacuum boundary's measurements.
+    #[serde(flatten)]
+    pub vacuum: VacuumMeasurements,
+    /// `--method fld`: the FLD entries.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub fld: Option<FldSection>,
+}
+
+impl SolveReport {
+    /// The report with no optional section.
+    pub fn new(base: Report) -> Self {
+        SolveReport {
+            base,
+            sampling: None,
+            error_estimate: None,
+            vacuum: VacuumMeasurements::default(),
+            fld: None,
+        }
+    }
+}
+
+/// The estimate under `"error_estimate"` (`pn solve --error-estimate`, docs/convergence.md).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct ErrorEstimate {
+    /// What is estimated.
+    pub quantity: String,
+    /// Resolution of the extra (coarse) solve, where the per-cell estimate lives.
+    pub coarse_resolution: [usize; 3],
+    /// Richardson estimate (order, relative L2, max, ...).
+    #[serde(flatten)]
+    pub estimate: pn_runtime::convergence::RichardsonEstimate,
+    /// The observed order from three levels, if a quarter-resolution solve was possible.
+    pub observed_order: Option<f64>,
+    /// Relative L2 differences ‖u_half − u_fine‖/‖u_fine‖ (on the half grid) and
+    /// ‖u_quarter − u_half‖/‖u_half‖ (on the quarter grid, when solved).
+    pub level_differences: Vec<f64>,
+    /// Seconds of the extra solves (assembly + solve).
+    pub extra_seconds: f64,
+    /// Extra seconds relative to the fine solve.
+    pub extra_cost_fraction: f64,
+}
+
+/// What `pn solve slab` and `pn solve milne` add at the top level of the report; each key
+/// is written only when measured.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+pub struct VacuumMeasurements {
+    /// `slab`: collided outgoing flux through x = 0 per unit incident flux.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub reflection: Option<f64>,
+    /// `slab`: the same through x = τ.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub transmission: Option<f64>,
+    /// `slab`: the 1D P_N–Marshak reflection.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub reference_reflection: Option<f64>,
+    /// `slab`: the 1D P_N–Marshak transmission.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub reference_transmission: Option<f64>,
+    /// `milne`: the measured extrapolation length.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub extrapolation_length: Option<f64>,
+    /// `milne`: the P_N–Marshak extrapolation length.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub reference_extrapolation_length: Option<f64>,
+}
+
+/// FLD-specific entries of `report.json` (the key `fld`).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct FldSection {
+    /// `gs` (red–black Gauss–Seidel/SOR) or `picard` (linear solves through the stencil).
+    pub route: String,
+    /// Limiter name (`lp`, `sum`, `max`, `kershaw`, `larsen2`, `cda`).
+    pub limiter: String,
+    /// SOR factor ω (Gauss–Seidel route; null for Picard).
+    pub omega: Option<f64>,
+    /// Extinction threshold σ_ε (1/length).
+    pub sigma_eps: f64,
+    /// ε of the lower bounds and the boundary value.
+    pub eps: f64,
+    /// RMS source j̄ (fluence units, `q = √(4π) Q_0^0`).
+    pub rms_source: f64,
+    /// Dirichlet value φ = ε j̄ h on the outermost cell layer (fluence units).
+    pub phi_boundary: f64,
+    /// Gauss–Seidel iterations or Picard steps.
+    pub iterations: usize,
+    /// Final relative residual (RMS over the interior / j̄).
+    pub residual: f64,
+    /// Tolerance on it.
+    pub tolerance: f64,
+    /// Whether it converged.
+    pub converged: bool,
+    /// Linear solver of the Picard steps.
+    pub linear_solver: Option<String>,
+    /// Linear iterations of each Picard step.
+    pub linear_iterations: Vec<usize>,
+    /// What the output arrays hold.
+    pub output_normalisation: String,
 }
