@@ -63,6 +63,7 @@ use super::medium::{DensityFilter, DensityGrid};
 use super::renderer::{Image, MsField};
 use super::scene::{MsLookup, RenderScene};
 use super::shadow::{walk_lattice, Extinction};
+use crate::progress::{ProgressCallback, RowCounter};
 use rayon::prelude::*;
 
 /// Settings of the deterministic renderer.
@@ -410,21 +411,19 @@ impl<'a> Marcher<'a> {
     }
 
     /// Renders `camera`'s image, rows in parallel (the result does not depend on the number
-    /// of threads); a progress bar is drawn when `progress` and stderr is a terminal. The
-    /// standard errors are 0 (no sampling).
-    pub fn render(&self, camera: &Camera, progress: bool) -> Image {
+    /// of threads); `rows` hears of the finished rows. The standard errors are 0 (no
+    /// sampling).
+    pub fn render(&self, camera: &Camera, rows: Option<&ProgressCallback>) -> Image {
         let (w, h) = (camera.width, camera.height);
-        let bar = pn_runtime::solver::progress_bar(h, progress);
-        bar.set_message("image rows");
+        let counter = RowCounter::start(rows, h);
         let rows: Vec<Vec<f32>> = (0..h)
             .into_par_iter()
             .map(|py| {
                 let row = (0..w).map(|px| self.pixel(camera, px, py) as f32).collect();
-                bar.inc(1);
+                counter.row_done();
                 row
             })
             .collect();
-        bar.finish_and_clear();
         Image {
             width: w,
             height: h,
