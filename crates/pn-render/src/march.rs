@@ -511,7 +511,7 @@ height = {size}
         };
         let ld = LightDepth::compute(&ext, &s.lights);
         let m = Marcher::new(s, g, ms, &ld, set);
-        let img = m.render(&s.camera, false);
+        let img = m.render(&s.camera, None);
         img.data.iter().map(|v| *v as f64).collect()
     }
 
@@ -678,7 +678,7 @@ height = {size}
             let ld = LightDepth::compute(&ext, &s.lights);
             let det: Vec<f64> = Marcher::new(&s, &g, Some(&ms), &ld, settings(0.25))
                 .with_exact_transmittance()
-                .render(&s.camera, false)
+                .render(&s.camera, None)
                 .data
                 .iter()
                 .map(|v| *v as f64)
@@ -741,7 +741,7 @@ height = {size}
             let centres = LightDepth::compute_voxel_centres(&ext, &s.lights);
             let ld = &planes;
             let px = |m: Marcher| -> Vec<f64> {
-                let img = m.render(&s.camera, false);
+                let img = m.render(&s.camera, None);
                 img.data.iter().map(|v| *v as f64).collect()
             };
             let exact =

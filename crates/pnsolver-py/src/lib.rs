@@ -313,12 +313,8 @@ fn row_progress_bar() -> ProgressCallback {
     })
 }
 
-/// An indicatif bar of `len` rows, hidden unless stderr is a terminal.
+/// An indicatif bar of `len` rows (indicatif draws it only when its target is a terminal).
 fn new_bar(len: usize) -> indicatif::ProgressBar {
-    use std::io::IsTerminal;
-    if !std::io::stderr().is_terminal() {
-        return indicatif::ProgressBar::hidden();
-    }
     let pb = indicatif::ProgressBar::new(len as u64);
     if let Ok(style) = indicatif::ProgressStyle::with_template(
         "{spinner} [{elapsed_precise}] {pos} it  {msg}  ({per_sec})",
