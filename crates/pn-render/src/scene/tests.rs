@@ -1,6 +1,10 @@
 //! Tests of the render scenes.
 
 use super::*;
+use crate::medium::{DensityFilter, DensityGrid};
+use crate::{Light, SceneOverride};
+use pn_runtime::problem::Phase;
+use std::path::Path;
 
 const MINIMAL: &str = r#"
 [medium]
