@@ -5,7 +5,7 @@
 //! method ([`methods::MultipleScattering`], chosen once by [`methods::method_for`]: P_N,
 //! CDA, FLD, POP, none, or a text PDE), renders the views (the deterministic ray marcher or
 //! the Monte Carlo renderer) and fills the [`RenderReport`]. A coloured scene is solved and
-//! rendered per channel ([`rgb`]-module docs) and combined.
+//! rendered per channel (the `rgb` module) and combined.
 
 use crate::light_depth::LightDepth;
 use crate::pde_kernel::PdeKernel;

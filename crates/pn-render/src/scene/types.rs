@@ -52,7 +52,7 @@ pub struct MediumSpec {
     /// Albedo σ_s/σ_t.
     pub albedo: Albedo,
     /// How the density (and an albedo grid) is read between voxel centres
-    /// (`[medium] filter`, default trilinear as Mitsuba; see [`super::medium`]).
+    /// (`[medium] filter`, default trilinear as Mitsuba; see [`crate::medium`]).
     pub filter: DensityFilter,
 }
 
@@ -182,7 +182,7 @@ pub struct SolveSettings {
     /// Method pop, residuum: ε_L, the fraction of the injected power still in flight at
     /// which the isotropic iteration stops.
     pub pop_epsilon_l: f64,
-    /// Transport sweeps after the solve ([`super::transport_sweep`]; methods pn, cda, fld
+    /// Transport sweeps after the solve ([`crate::transport_sweep`]; methods pn, cda, fld
     /// and text PDEs; 0: the solution as solved). [`DEFAULT_SWEEPS`].
     pub sweeps: usize,
     /// Gauss–Legendre nodes in μ of the sweeps' directions (`n × 2n` directions,
@@ -233,11 +233,11 @@ pub const POP_MAX_ITERATIONS: usize = 100_000;
 #[serde(rename_all = "lowercase")]
 pub enum AbsorberPlacement {
     /// Outside the medium's convex hull, graded over [`SolveSettings::ramp_cells`], where light
-    /// cannot return ([`super::hull_absorber`]); plus the outer layer of `Box`. The default.
+    /// cannot return ([`crate::hull_absorber`]); plus the outer layer of `Box`. The default.
     #[default]
     Hull,
     /// Only the outermost [`SolveSettings::layer_cells`] of the solve grid, beyond the margin
-    /// ([`super::solve_setup::add_absorbing_layer`]; the treatment before issue 17).
+    /// ([`crate::solve_setup::add_absorbing_layer`]; the treatment before issue 17).
     Box,
 }
 
@@ -274,11 +274,11 @@ pub enum SolveBoundary {
 #[serde(rename_all = "lowercase")]
 pub enum RendererKind {
     /// Ray marching with a fixed pattern of camera rays: noise-free
-    /// ([`super::march`]; the default).
+    /// ([`crate::march`]; the default).
     #[default]
     Deterministic,
     /// Delta tracking with next-event estimation, `spp` random samples per pixel
-    /// ([`super::renderer`]).
+    /// ([`crate::renderer`]).
     MonteCarlo,
 }
 

@@ -3,7 +3,7 @@
 //! diffusion), [`pop`] (Principal-Ordinates Propagation), [`none`] (single scattering only)
 //! and [`pde`] (a text PDE, docs/pde-text.md). [`method_for`] picks the scene's once; the
 //! pipeline then only calls the trait. The grid methods (P_N, CDA, FLD, text PDEs) share
-//! [`grid`]: the cropped solve grid, the first-scatter source, the transport sweeps.
+//! `grid`: the cropped solve grid, the first-scatter source, the transport sweeps.
 
 use super::report::{SolverReport, UnknownStats};
 use super::RenderOptions;
