@@ -75,7 +75,7 @@ fn single_scattering_of_a_coloured_cloud_agrees_with_mitsuba_per_channel() {
             density: &grid,
             ms: None,
         }
-        .render(OURS_SPP, 777 + c as u64, false);
+        .render(OURS_SPP, 777 + c as u64, None);
         let n = ours.data.len();
         let m: Vec<f64> = (0..n)
             .map(|i| runs.iter().map(|r| r[c][i] as f64).sum::<f64>() / kf)

@@ -158,7 +158,7 @@ fn single_scattering_agrees(mut scene: RenderScene, filter: DensityFilter, label
         density: &grid,
         ms: None,
     }
-    .render(OURS_SPP, 12345, false);
+    .render(OURS_SPP, 12345, None);
     let ours_seconds = t.elapsed().as_secs_f64();
     let o = compare::GrayImage {
         width: ours.width,

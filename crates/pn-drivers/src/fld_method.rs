@@ -144,6 +144,7 @@ pub fn run(a: &SolveRequest, stdout: &mut dyn Write) -> Result<()> {
     let run = pn_runtime::threads::with_threads(a.threads, || {
         solve_fld_route(&fp, &settings, &kernel, None)
     })??;
+    crate::progress::print_notes(&run.notes);
 
     let sol = as_solution(&problem.grid, &run, a.tol)?;
     let info = RunInfo {

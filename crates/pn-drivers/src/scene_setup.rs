@@ -61,38 +61,9 @@ impl std::str::FromStr for Method {
     }
 }
 
-/// How the nonlinear FLD system is solved (`pn solve --method fld --fld-solver`).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum Route {
-    /// Nonlinear red–black Gauss–Seidel with SOR ([`pn_runtime::fld::solve_fld`]).
-    GaussSeidel,
-    /// Picard iteration, each step a linear solve through the `diffusion_3d` stencil
-    /// ([`pn_runtime::fld::solve_fld_picard`]), Anderson-accelerated. The default: on the
-    /// 63³ point source 1.7 s against 10.6 s for Gauss–Seidel (docs/fld.md).
-    #[default]
-    Picard,
-}
-
-impl Route {
-    /// `gs` or `picard`.
-    pub fn name(self) -> &'static str {
-        match self {
-            Route::GaussSeidel => "gs",
-            Route::Picard => "picard",
-        }
-    }
-}
-
-impl std::str::FromStr for Route {
-    type Err = anyhow::Error;
-    fn from_str(s: &str) -> Result<Self> {
-        match s {
-            "gs" => Ok(Route::GaussSeidel),
-            "picard" => Ok(Route::Picard),
-            _ => bail!("unknown FLD solver {s:?} (expected gs or picard)"),
-        }
-    }
-}
+/// How the nonlinear FLD system is solved (`pn solve --method fld --fld-solver`; it lives in
+/// [`pn_render::fld_problem`], shared with `pn render --method fld`).
+pub use pn_render::fld_problem::Route;
 
 /// The options of one solve (`pn solve`; `pn converge` with `res` listing the
 /// resolutions). `None` means "the scene's value" or the documented default.

@@ -283,6 +283,7 @@ fn fld_rows(args: &BenchRequest, n: usize, rows: &mut Vec<Row>) -> anyhow::Resul
             tuning: args.tuning.clone(),
         };
         let run = solve_fld_route(&problem, &settings, &dk, None)?;
+        pn_drivers::progress::print_notes(&run.notes);
         let fsol = run.solution;
         let seconds = t0.elapsed().as_secs_f64();
         let phi = &fsol.phi;

@@ -63,6 +63,7 @@ use super::medium::{DensityFilter, DensityGrid};
 use super::renderer::{Image, MsField};
 use super::scene::{MsLookup, RenderScene};
 use super::shadow::{walk_lattice, Extinction};
+use crate::progress::{ProgressCallback, RowCounter};
 use rayon::prelude::*;
 
 /// Settings of the deterministic renderer.
@@ -410,21 +411,19 @@ impl<'a> Marcher<'a> {
     }
 
     /// Renders `camera`'s image, rows in parallel (the result does not depend on the number
-    /// of threads); a progress bar is drawn when `progress` and stderr is a terminal. The
-    /// standard errors are 0 (no sampling).
-    pub fn render(&self, camera: &Camera, progress: bool) -> Image {
+    /// of threads); `rows` hears of the finished rows. The standard errors are 0 (no
+    /// sampling).
+    pub fn render(&self, camera: &Camera, rows: Option<&ProgressCallback>) -> Image {
         let (w, h) = (camera.width, camera.height);
-        let bar = crate::progress::progress_bar(h, progress);
-        bar.set_message("image rows");
+        let counter = RowCounter::start(rows, h);
         let rows: Vec<Vec<f32>> = (0..h)
             .into_par_iter()
             .map(|py| {
                 let row = (0..w).map(|px| self.pixel(camera, px, py) as f32).collect();
-                bar.inc(1);
+                counter.row_done();
                 row
             })
             .collect();
-        bar.finish_and_clear();
         Image {
             width: w,
             height: h,
@@ -512,7 +511,7 @@ height = {size}
         };
         let ld = LightDepth::compute(&ext, &s.lights);
         let m = Marcher::new(s, g, ms, &ld, set);
-        let img = m.render(&s.camera, false);
+        let img = m.render(&s.camera, None);
         img.data.iter().map(|v| *v as f64).collect()
     }
 
@@ -679,7 +678,7 @@ height = {size}
             let ld = LightDepth::compute(&ext, &s.lights);
             let det: Vec<f64> = Marcher::new(&s, &g, Some(&ms), &ld, settings(0.25))
                 .with_exact_transmittance()
-                .render(&s.camera, false)
+                .render(&s.camera, None)
                 .data
                 .iter()
                 .map(|v| *v as f64)
@@ -742,7 +741,7 @@ height = {size}
             let centres = LightDepth::compute_voxel_centres(&ext, &s.lights);
             let ld = &planes;
             let px = |m: Marcher| -> Vec<f64> {
-                let img = m.render(&s.camera, false);
+                let img = m.render(&s.camera, None);
                 img.data.iter().map(|v| *v as f64).collect()
             };
             let exact =

@@ -29,6 +29,7 @@ use super::lights::phase_value;
 use super::medium::DensityGrid;
 use super::scene::{MsLookup, RenderScene};
 use super::shadow::Extinction;
+use crate::progress::{ProgressCallback, RowCounter};
 use pn_runtime::field::trilinear_corners;
 use pn_runtime::problem::{Grid, Phase};
 use pn_runtime::unstagger::CellMoments;
@@ -292,25 +293,23 @@ impl Renderer<'_> {
         (mean, (var / n).sqrt())
     }
 
-    /// Renders the image with `spp` samples per pixel, rows in parallel; a progress bar is
-    /// drawn when `progress` and stderr is a terminal.
-    pub fn render(&self, spp: usize, seed: u64, progress: bool) -> Image {
+    /// Renders the image with `spp` samples per pixel, rows in parallel; `rows` hears of the
+    /// finished rows.
+    pub fn render(&self, spp: usize, seed: u64, rows: Option<&ProgressCallback>) -> Image {
         let cam = &self.scene.camera;
         let (w, h) = (cam.width, cam.height);
         let majorant = self.majorant();
-        let bar = crate::progress::progress_bar(h, progress);
-        bar.set_message("image rows");
+        let counter = RowCounter::start(rows, h);
         let rows: Vec<Vec<(f64, f64)>> = (0..h)
             .into_par_iter()
             .map(|py| {
                 let row = (0..w)
                     .map(|px| self.pixel_with_majorant(px, py, spp, seed, majorant))
                     .collect();
-                bar.inc(1);
+                counter.row_done();
                 row
             })
             .collect();
-        bar.finish_and_clear();
         let (data, std_err) = rows
             .into_iter()
             .flatten()

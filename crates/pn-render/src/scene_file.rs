@@ -288,8 +288,47 @@ fn build(spec: SceneSpec, base: &Path, path: &Path) -> anyhow::Result<Scene> {
         spec.g
     );
 
+    let sources = build_sources(&spec.source, source_voxels, min, max)?;
+    ensure!(!sources.is_empty(), "the scene has no [[source]]");
+
+    let problem = Problem {
+        grid,
+        sigma_t,
+        scattering,
+        phase: if spec.g == 0.0 {
+            Phase::Isotropic
+        } else {
+            Phase::HenyeyGreenstein(spec.g)
+        },
+        sources,
+        boundary: spec.boundary.unwrap_or(Boundary::Neumann),
+        sigma_t_min: spec.sigma_t_min,
+    };
+    problem.validate()?;
+    let name = spec.name.unwrap_or_else(|| {
+        path.file_stem()
+            .and_then(|s| s.to_str())
+            .unwrap_or("scene")
+            .to_string()
+    });
+    Ok(Scene {
+        name,
+        problem,
+        default_order: spec.order.unwrap_or(1),
+        notes,
+    })
+}
+
+/// The `[[source]]` terms: a constant (optionally inside a box) or voxel data (`vox`, loaded
+/// with the scene's other voxel files) over the domain `min`..`max`.
+fn build_sources(
+    specs: &[SourceSpec],
+    vox: Vec<Option<Loaded>>,
+    min: [f64; 3],
+    max: [f64; 3],
+) -> anyhow::Result<Vec<SourceTerm>> {
     let mut sources = Vec::new();
-    for (s, vox) in spec.source.iter().zip(source_voxels) {
+    for (s, vox) in specs.iter().zip(vox) {
         ensure!(
             s.m.unsigned_abs() <= s.l,
             "source Q_{}^{}: |m| must not exceed l",
@@ -345,34 +384,7 @@ fn build(spec: SceneSpec, base: &Path, path: &Path) -> anyhow::Result<Scene> {
             field,
         });
     }
-    ensure!(!sources.is_empty(), "the scene has no [[source]]");
-
-    let problem = Problem {
-        grid,
-        sigma_t,
-        scattering,
-        phase: if spec.g == 0.0 {
-            Phase::Isotropic
-        } else {
-            Phase::HenyeyGreenstein(spec.g)
-        },
-        sources,
-        boundary: spec.boundary.unwrap_or(Boundary::Neumann),
-        sigma_t_min: spec.sigma_t_min,
-    };
-    problem.validate()?;
-    let name = spec.name.unwrap_or_else(|| {
-        path.file_stem()
-            .and_then(|s| s.to_str())
-            .unwrap_or("scene")
-            .to_string()
-    });
-    Ok(Scene {
-        name,
-        problem,
-        default_order: spec.order.unwrap_or(1),
-        notes,
-    })
+    Ok(sources)
 }
 
 fn check_values(what: &str, file: &Path, l: &Loaded, nonneg: bool) -> anyhow::Result<()> {

@@ -186,7 +186,7 @@ fn camera_inside_the_medium_matches_quadrature() {
         density: &density,
         ms: None,
     }
-    .render(64, 1, false);
+    .render(64, 1, None);
     // 64 samples per pixel: the chance that all escape (P ≈ e^{−1.8} each) is ~1e-49.
     assert!(img.data.iter().all(|v| v.is_finite() && *v > 0.0));
 }
@@ -208,6 +208,6 @@ fn vacuum_renders_exactly_zero() {
         density: &density,
         ms: None,
     }
-    .render(8, 1, false);
+    .render(8, 1, None);
     assert!(img.data.iter().all(|v| *v == 0.0));
 }

@@ -3,13 +3,13 @@
 //!
 //! It exposes the library, not the command line: a [`Scene`] from a TOML file, a built-in
 //! name or a settings dictionary with numpy density and albedo arrays; [`render`] and
-//! [`solve`], which call `pn_drivers::render::render_views` with the interpreter lock
+//! [`solve`], which call [`pn_render::render_views`] with the interpreter lock
 //! released and return numpy arrays and the report as a dictionary. Errors are `ValueError`s
 //! with the messages of `pn render`.
 
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArrayDyn, PyUntypedArrayMethods};
-use pn_drivers::render::{render_views, RenderOptions, RenderRun};
 use pn_render::RenderScene;
+use pn_render::{render_views, ProgressCallback, RenderOptions, RenderRun};
 use pyo3::exceptions::{PyImportError, PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
@@ -252,7 +252,11 @@ fn run_interruptible(
         rx = back;
         report()?;
         match received {
-            Ok(result) => return result.map_err(value_error),
+            Ok(result) => {
+                let run = result.map_err(value_error)?;
+                write_notes(py, &run.notes)?;
+                return Ok(run);
+            }
             Err(RecvTimeoutError::Timeout) => py.check_signals()?,
             Err(RecvTimeoutError::Disconnected) => {
                 return Err(PyRuntimeError::new_err(
@@ -263,12 +267,62 @@ fn run_interruptible(
     }
 }
 
+/// The run's notes (`warning: …`) on Python's `sys.stderr`, one line each, as `pn render`
+/// prints them.
+fn write_notes(py: Python<'_>, notes: &[String]) -> PyResult<()> {
+    if notes.is_empty() {
+        return Ok(());
+    }
+    let err = py.import("sys")?.getattr("stderr")?;
+    for note in notes {
+        err.call_method1("write", (format!("{note}\n"),))?;
+    }
+    Ok(())
+}
+
 fn options(threads: Option<usize>, progress: bool) -> RenderOptions {
     RenderOptions {
         threads,
         progress,
+        rows: progress.then(row_progress_bar),
         ..Default::default()
     }
+}
+
+/// A progress bar over the image rows ("image rows"), one per image, hidden unless stderr
+/// is a terminal (what `progress=True` shows besides the solver's bar).
+fn row_progress_bar() -> ProgressCallback {
+    let bar: std::sync::Mutex<Option<indicatif::ProgressBar>> = std::sync::Mutex::new(None);
+    ProgressCallback::new(move |done, total| {
+        // A poisoned lock only loses the bar.
+        let Ok(mut bar) = bar.lock() else {
+            return;
+        };
+        if done == 0 {
+            *bar = Some(new_bar(total));
+            return;
+        }
+        if let Some(b) = bar.as_ref() {
+            b.set_position(b.position().max(done as u64));
+        }
+        if done == total {
+            if let Some(b) = bar.take() {
+                b.finish_and_clear();
+            }
+        }
+    })
+}
+
+/// An indicatif bar of `len` rows (indicatif draws it only when its target is a terminal).
+fn new_bar(len: usize) -> indicatif::ProgressBar {
+    let pb = indicatif::ProgressBar::new(len as u64);
+    if let Ok(style) = indicatif::ProgressStyle::with_template(
+        "{spinner} [{elapsed_precise}] {pos} it  {msg}  ({per_sec})",
+    ) {
+        pb.set_style(style);
+    }
+    pb.set_message("image rows");
+    pb
 }
 
 /// The run as a dictionary of numpy arrays and the report.

@@ -283,47 +283,8 @@ pub fn propagate_scheduled(
     lmax: usize,
     schedule: Schedule,
 ) -> anyhow::Result<Propagated> {
-    if let Schedule::Residuum {
-        epsilon_l,
-        max_total,
-        anisotropic,
-    } = schedule
-    {
-        ensure!(
-            epsilon_l.is_finite() && epsilon_l > 0.0 && epsilon_l < 1.0,
-            "POP: the residuum's epsilon_l must lie in (0, 1), got {epsilon_l}"
-        );
-        ensure!(
-            anisotropic <= max_total,
-            "POP: {anisotropic} anisotropic iterations exceed the cap of {max_total}"
-        );
-    }
+    check_inputs(grid, medium, source, initial_anisotropy, schedule)?;
     let n = grid.cells();
-    ensure!(
-        medium.sigma_s.len() == n && medium.sigma_a.len() == n && source.len() == n,
-        "POP: medium ({} / {}) and source ({}) do not fit the grid's {n} cells",
-        medium.sigma_s.len(),
-        medium.sigma_a.len(),
-        source.len()
-    );
-    ensure!(
-        medium.g.is_finite() && (0.0..1.0).contains(&medium.g),
-        "POP: the phase function's g must lie in [0, 1), got {}",
-        medium.g
-    );
-    ensure!(
-        (0.0..=1.0).contains(&initial_anisotropy),
-        "POP: the initial anisotropy must lie in [0, 1], got {initial_anisotropy}"
-    );
-    for (name, v) in [
-        ("sigma_s", medium.sigma_s.as_slice()),
-        ("sigma_a", medium.sigma_a.as_slice()),
-        ("source", source),
-    ] {
-        if let Some(bad) = v.iter().find(|x| !(x.is_finite() && **x >= 0.0)) {
-            anyhow::bail!("POP: {name} holds {bad}, not a finite non-negative value");
-        }
-    }
     let h = grid.h;
     let g = medium.g;
     // Per-cell halves of Eq. 2's transmittance and Eq. 4's factor (module docs).
@@ -442,6 +403,60 @@ pub fn propagate_scheduled(
         residual_anisotropy: a_cur,
         residuum,
     })
+}
+
+/// The checks of [`propagate_scheduled`]'s inputs: the schedule's settings, the medium and
+/// source on the grid's cells, g and the initial anisotropy in range, finite non-negative
+/// values.
+fn check_inputs(
+    grid: &LightGrid,
+    medium: &PopMedium,
+    source: &[f64],
+    initial_anisotropy: f64,
+    schedule: Schedule,
+) -> anyhow::Result<()> {
+    if let Schedule::Residuum {
+        epsilon_l,
+        max_total,
+        anisotropic,
+    } = schedule
+    {
+        ensure!(
+            epsilon_l.is_finite() && epsilon_l > 0.0 && epsilon_l < 1.0,
+            "POP: the residuum's epsilon_l must lie in (0, 1), got {epsilon_l}"
+        );
+        ensure!(
+            anisotropic <= max_total,
+            "POP: {anisotropic} anisotropic iterations exceed the cap of {max_total}"
+        );
+    }
+    let n = grid.cells();
+    ensure!(
+        medium.sigma_s.len() == n && medium.sigma_a.len() == n && source.len() == n,
+        "POP: medium ({} / {}) and source ({}) do not fit the grid's {n} cells",
+        medium.sigma_s.len(),
+        medium.sigma_a.len(),
+        source.len()
+    );
+    ensure!(
+        medium.g.is_finite() && (0.0..1.0).contains(&medium.g),
+        "POP: the phase function's g must lie in [0, 1), got {}",
+        medium.g
+    );
+    ensure!(
+        (0.0..=1.0).contains(&initial_anisotropy),
+        "POP: the initial anisotropy must lie in [0, 1], got {initial_anisotropy}"
+    );
+    for (name, v) in [
+        ("sigma_s", medium.sigma_s.as_slice()),
+        ("sigma_a", medium.sigma_a.as_slice()),
+        ("source", source),
+    ] {
+        if let Some(bad) = v.iter().find(|x| !(x.is_finite() && **x >= 0.0)) {
+            anyhow::bail!("POP: {name} holds {bad}, not a finite non-negative value");
+        }
+    }
+    Ok(())
 }
 
 fn sum(v: &[f64]) -> f64 {

@@ -1,26 +1,22 @@
-//! Coloured scenes (`pn_render::colour`): one grey solve and render per channel,
+//! Coloured scenes ([`crate::colour`]): one grey solve and render per channel,
 //! combined into RGB images. Radiative transfer does not couple wavelengths, so channel c of
 //! the image is exactly the grey image of [`RenderScene::channel`]`(c)`. A channel is not
 //! recomputed when an earlier channel has the same medium and lights whose strengths differ
-//! by one common factor k ([`pn_render::colour::Colours::light_scale`]): transport is linear in the sources, so
+//! by one common factor k ([`crate::colour::Colours::light_scale`]): transport is linear in the sources, so
 //! the channel is k × that channel's image (the solve's error scales with it). Equal channels
 //! (k = 1) are copies: they give the grey image exactly, at the cost of one channel. Channels
 //! with the same σ_t scale share the optical depth to the lights, which depends on nothing
 //! else, and start their solve from the earlier channels' solutions (the
 //! albedo enters the operator, so each channel is still its own system; docs/inputs.md).
 
-use super::{
-    mean, render_grey_views, rms, RenderOptions, RenderReport, RenderRun, SharedWork, SolverReport,
-    Timings,
-};
+use super::grey::render_grey_views;
+use super::report::{ChannelReport, RenderReport, Timings};
+use super::{mean, rms, RenderOptions, RenderRun, SharedWork};
+use crate::colour::CHANNELS;
+use crate::renderer::Image;
+use crate::scene::Albedo;
+use crate::RenderScene;
 use anyhow::{Context, Result};
-use pn_formats::image_io::{exposure, write_exr_rgb, write_png_tonemapped_rgb};
-use pn_render::colour::CHANNELS;
-use pn_render::renderer::Image;
-use pn_render::scene::Albedo;
-use pn_render::RenderScene;
-use serde::Serialize;
-use std::path::Path;
 
 /// The channel images of a coloured render.
 #[derive(Clone, Debug)]
@@ -32,66 +28,18 @@ pub struct RgbImages {
 }
 
 impl RgbImages {
-    /// Writes `image.exr` (linear RGB) and `image.png` (tone-mapped RGB) into `dir`, or for a
-    /// turntable `view_NNN.exr` and `view_NNN.png` with one exposure (from view 0).
-    pub fn write(&self, dir: &Path) -> Result<()> {
-        let (w, h) = (self.image[0].width, self.image[0].height);
-        if self.views.is_empty() {
-            write_exr_rgb(&dir.join("image.exr"), w, h, planes(&self.image))?;
-            return write_png_tonemapped_rgb(
-                &dir.join("image.png"),
-                w,
-                h,
-                planes(&self.image),
-                None,
-            );
-        }
-        let expo = exposure(&planes(&self.views[0]).concat());
-        for (k, im) in self.views.iter().enumerate() {
-            write_exr_rgb(&dir.join(format!("view_{k:03}.exr")), w, h, planes(im))?;
-            write_png_tonemapped_rgb(
-                &dir.join(format!("view_{k:03}.png")),
-                w,
-                h,
-                planes(im),
-                Some(expo),
-            )?;
-        }
-        Ok(())
+    /// The three channels' pixel values of the image (`view` None) or of a turntable view.
+    pub fn planes(&self, view: Option<usize>) -> [&[f32]; 3] {
+        planes(match view {
+            None => &self.image,
+            Some(k) => &self.views[k],
+        })
     }
 }
 
 /// The three channels' pixel values.
 fn planes(im: &[Image; 3]) -> [&[f32]; 3] {
     [&im[0].data, &im[1].data, &im[2].data]
-}
-
-/// One channel of a coloured render in `report.json`.
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct ChannelReport {
-    /// "R", "G" or "B".
-    pub channel: String,
-    /// σ_t scale of the channel.
-    pub sigma_t_scale: f64,
-    /// Its constant albedo (None: an albedo grid, the same in every channel).
-    pub albedo: Option<f64>,
-    /// Each light's irradiance or power in this channel.
-    pub light_strength: Vec<f64>,
-    /// The earlier channel whose images were scaled into this one (None: computed).
-    pub copied_from: Option<String>,
-    /// The factor of that copy (1 for equal channels; None: computed).
-    pub copy_scale: Option<f64>,
-    /// The earlier channel whose optical depth to the lights this channel reused (same σ_t).
-    pub light_depth_from: Option<String>,
-    /// Mean pixel value of the channel.
-    pub mean_radiance: f64,
-    /// The earlier channels (same σ_t) whose solutions started this channel's solve
-    /// iteration (their residual-minimising combination; empty: started from zero).
-    pub solve_started_from: Vec<String>,
-    /// The channel's solver statistics (None when copied or without a solve).
-    pub solver: Option<SolverReport>,
-    /// The channel's seconds per stage (None when copied).
-    pub seconds: Option<Timings>,
 }
 
 /// [`super::render_views`] of a coloured scene: each distinct channel solved and rendered as
@@ -162,6 +110,11 @@ pub(super) fn render_views_rgb(
     let mean_views: Vec<Image> = views_rgb.iter().map(mean_of).collect();
 
     let computed: Vec<&RenderRun> = runs.iter().flatten().collect();
+    // Each computed channel's notes, channel by channel.
+    let notes = computed
+        .iter()
+        .flat_map(|run| run.notes.iter().cloned())
+        .collect();
     let mut report: RenderReport = r.report.clone();
     report.seconds = sum_timings(computed.iter().map(|run| &run.report.seconds));
     report.solver = None;
@@ -220,6 +173,7 @@ pub(super) fn render_views_rgb(
         light_depth: None,
         staggered: None,
         report,
+        notes,
     })
 }
 

@@ -1,0 +1,311 @@
+//! One grey scene: the density grid, the multiple scattering of its method, the views and
+//! the report.
+
+use super::methods::{method_for, MsSolution, PreparedScene};
+use super::{
+    mean, rms, turntable_camera, RenderOptions, RenderReport, RenderRun, SharedWork, Timings,
+    ViewReport, MAX_VIEWS,
+};
+use crate::light_depth::LightDepth;
+use crate::march::{MarchSettings, Marcher};
+use crate::renderer::{Image, MsField, Renderer};
+use crate::scene::RendererKind;
+use crate::shadow::Extinction;
+use crate::{DensityGrid, RenderScene};
+use anyhow::{ensure, Result};
+use std::sync::Arc;
+use std::time::Instant;
+
+/// [`super::render_views`] of a grey scene; `shared`: what a scene with the same σ_t and
+/// light geometry computed (the optical depth to the lights, reused instead of computed;
+/// solutions to start from).
+pub(super) fn render_grey_views(
+    scene: &RenderScene,
+    options: &RenderOptions,
+    views: usize,
+    shared: SharedWork<'_>,
+) -> Result<RenderRun> {
+    ensure!(
+        scene.colours.is_none(),
+        "internal: a coloured scene must be rendered channel by channel"
+    );
+    ensure!(
+        (1..=MAX_VIEWS).contains(&views),
+        "the number of views must lie in 1..={MAX_VIEWS}, got {views}"
+    );
+    let t_all = Instant::now();
+    let t0 = Instant::now();
+    let density = scene.density_grid()?;
+    let mut timings = Timings {
+        density: t0.elapsed().as_secs_f64(),
+        ..Timings::default()
+    };
+    let method = method_for(scene, options.pde.as_ref())?;
+    let prepared = PreparedScene {
+        scene,
+        density: &density,
+        options,
+        light_depth: shared.light_depth.clone(),
+        guesses: &shared.guesses,
+    };
+    let MsSolution {
+        field: ms,
+        unknowns,
+        solver,
+        light_depth,
+        staggered,
+        pop,
+        sweeps,
+        seconds,
+        mut notes,
+    } = method.solve(&prepared)?;
+    timings.light_depth = seconds.light_depth;
+    timings.sources = seconds.sources;
+    timings.solve = seconds.solve;
+    timings.sweeps = seconds.sweeps;
+    let mut warnings: Vec<String> = pop.iter().flat_map(|p| p.warnings.clone()).collect();
+    let support = density
+        .support()
+        .filter(|_| scene.medium.sigma_t_scale > 0.0);
+    if support.is_none() {
+        warnings.push(
+            "the medium is empty (no density > 0, or sigma_t_scale = 0): the image is black"
+                .to_string(),
+        );
+    }
+    let deterministic = scene.render.renderer == RendererKind::Deterministic;
+    // The solve's optical depth to the lights (or an earlier channel's) serves the camera
+    // rays too; a render without a solve computes it here.
+    let mut light_depth = light_depth;
+    if deterministic {
+        light_depth = light_depth.or(shared.light_depth);
+        if light_depth.is_none() {
+            let t_ld = Instant::now();
+            light_depth = Some(compute_light_depth(scene, &density, options.threads)?);
+            timings.light_depth = t_ld.elapsed().as_secs_f64();
+        }
+    }
+    let views_out = render_images(
+        &ViewsInput {
+            scene,
+            density: &density,
+            ms: ms.as_ref(),
+            light_depth: light_depth.as_deref().filter(|_| deterministic),
+            options,
+            support,
+        },
+        views,
+        &mut warnings,
+    )?;
+    timings.render += views_out.seconds;
+    notes.extend(warnings.iter().map(|w| format!("warning: {w}")));
+    timings.total = t_all.elapsed().as_secs_f64();
+    let image = views_out.images[0].clone();
+    let report = RenderReport {
+        method: method.name().to_string(),
+        order: method.order(),
+        unknowns,
+        solver,
+        sweeps,
+        pop,
+        seconds: timings,
+        views: views_out.reports,
+        warnings,
+        ..grey_report(scene, &density, &image, options.threads)
+    };
+    Ok(RenderRun {
+        image,
+        views: if views > 1 {
+            views_out.images
+        } else {
+            Vec::new()
+        },
+        rgb: None,
+        solution: ms,
+        light_depth,
+        staggered,
+        report,
+        notes,
+    })
+}
+
+/// The optical depth to the lights of a render without a solve.
+fn compute_light_depth(
+    scene: &RenderScene,
+    density: &DensityGrid,
+    threads: Option<usize>,
+) -> Result<Arc<LightDepth>> {
+    let ext = Extinction {
+        grid: density,
+        scale: scene.medium.sigma_t_scale,
+    };
+    Ok(Arc::new(pn_runtime::threads::with_threads(
+        threads,
+        || LightDepth::compute(&ext, &scene.lights),
+    )?))
+}
+
+/// What the views are rendered from.
+struct ViewsInput<'a> {
+    scene: &'a RenderScene,
+    density: &'a DensityGrid,
+    ms: Option<&'a MsField>,
+    /// The optical depth to the lights for the deterministic renderer (None: Monte Carlo).
+    light_depth: Option<&'a LightDepth>,
+    options: &'a RenderOptions,
+    /// The medium's box (None: empty).
+    support: Option<([f64; 3], [f64; 3])>,
+}
+
+/// The rendered views.
+struct Views {
+    images: Vec<Image>,
+    /// Per view of a turntable (empty for one view).
+    reports: Vec<ViewReport>,
+    /// Seconds rendering, all views.
+    seconds: f64,
+}
+
+/// Renders the `views` turntable views (one: the scene's camera), warning about views that
+/// do not see the medium.
+fn render_images(
+    input: &ViewsInput<'_>,
+    views: usize,
+    warnings: &mut Vec<String>,
+) -> Result<Views> {
+    let ViewsInput {
+        scene,
+        density,
+        ms,
+        light_depth,
+        options,
+        support,
+    } = *input;
+    let r = &scene.render;
+    let threads = options.threads;
+    let rows = options.rows.as_ref();
+    let settings = MarchSettings {
+        rays: r.rays,
+        step: r.step,
+        cutoff: r.cutoff,
+        exact_transmittance: r.exact_transmittance,
+    };
+    let marcher = light_depth.map(|ld| Marcher::new(scene, density, ms, ld, settings));
+    let mut out = Views {
+        images: Vec::with_capacity(views),
+        reports: Vec::new(),
+        seconds: 0.0,
+    };
+    for k in 0..views {
+        let camera = turntable_camera(&scene.camera, k, views);
+        if let Some((lo, hi)) = support {
+            if !camera.sees_box(lo, hi) {
+                let which = if views > 1 {
+                    format!("view {k}: ")
+                } else {
+                    String::new()
+                };
+                warnings.push(format!(
+                    "{which}the medium (box {lo:?} to {hi:?}) is outside the camera's view: \
+                     the image is black"
+                ));
+            }
+        }
+        let t2 = Instant::now();
+        let image = match &marcher {
+            Some(m) => pn_runtime::threads::with_threads(threads, || m.render(&camera, rows))?,
+            None => {
+                let view_scene;
+                let sc = if k == 0 {
+                    scene
+                } else {
+                    view_scene = RenderScene {
+                        camera: camera.clone(),
+                        ..scene.clone()
+                    };
+                    &view_scene
+                };
+                let renderer = Renderer {
+                    scene: sc,
+                    density,
+                    ms,
+                };
+                pn_runtime::threads::with_threads(threads, || renderer.render(r.spp, r.seed, rows))?
+            }
+        };
+        let secs = t2.elapsed().as_secs_f64();
+        out.seconds += secs;
+        if views > 1 {
+            out.reports.push(ViewReport {
+                index: k,
+                angle_deg: 360.0 * k as f64 / views as f64,
+                position: camera.position,
+                render_seconds: secs,
+                mean_radiance: mean(&image.data),
+            });
+        }
+        out.images.push(image);
+    }
+    Ok(out)
+}
+
+/// The report's fields that describe the scene, the renderer and the image (the method's,
+/// the timings, the views and the warnings are filled by the caller).
+fn grey_report(
+    scene: &RenderScene,
+    density: &DensityGrid,
+    image: &Image,
+    threads: Option<usize>,
+) -> RenderReport {
+    let r = &scene.render;
+    let deterministic = r.renderer == RendererKind::Deterministic;
+    let hmin = density.h().iter().fold(f64::INFINITY, |m, v| m.min(*v));
+    RenderReport {
+        scene: scene.name.clone(),
+        method: String::new(),
+        order: None,
+        renderer: r.renderer.name().into(),
+        rays_per_pixel: if deterministic { r.rays } else { r.spp },
+        step: deterministic.then_some(r.step),
+        step_length: deterministic.then_some(r.step * hmin),
+        cutoff: deterministic.then_some(r.cutoff),
+        exact_transmittance: deterministic.then_some(r.exact_transmittance),
+        filter: density.filter.name().into(),
+        spp: r.spp,
+        seed: r.seed,
+        width: image.width,
+        height: image.height,
+        density_resolution: density.res,
+        tracking: tracking(deterministic, r.exact_transmittance).into(),
+        unknowns: None,
+        solver: None,
+        sweeps: 0,
+        pop: None,
+        seconds: Timings::default(),
+        mean_radiance: mean(&image.data),
+        rms_standard_error: rms(&image.std_err),
+        peak_memory_bytes: pn_runtime::memory::peak_memory_bytes(),
+        threads: pn_runtime::threads::effective_threads(threads),
+        views: Vec::new(),
+        warnings: Vec::new(),
+        overrides: Vec::new(),
+        channels: Vec::new(),
+    }
+}
+
+/// How the image was integrated (the report's `tracking`).
+fn tracking(deterministic: bool, exact_transmittance: bool) -> &'static str {
+    if deterministic {
+        if exact_transmittance {
+            "ray marching, exponential midpoint rule on the filter's lattice pieces; \
+             exact transmittance to the lights (traversal at every step)"
+        } else {
+            "ray marching, exponential midpoint rule on the filter's lattice pieces; \
+             transmittance to the lights from the optical-depth grid at the voxel \
+             centres"
+        }
+    } else {
+        "delta tracking with the global majorant; next-event estimation with exact \
+         voxel-traversal transmittance"
+    }
+}

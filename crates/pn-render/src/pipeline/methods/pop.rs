@@ -1,0 +1,58 @@
+//! POP (Principal-Ordinates Propagation, [`crate::pop`]): no linear system; the moments of
+//! the collided radiance go onto the cropped solve grid.
+
+use super::{MsSeconds, MsSolution, MultipleScattering, PreparedScene};
+use crate::pop::{pop_field, PopSettings, ResiduumSettings};
+use crate::renderer::MsField;
+use crate::solve_setup::solve_grid;
+use anyhow::Result;
+
+/// POP, handing bands up to `order` to the renderer.
+pub struct Pop {
+    /// The highest spherical-harmonic band handed to the renderer.
+    pub order: usize,
+}
+
+impl MultipleScattering for Pop {
+    fn name(&self) -> &str {
+        "pop"
+    }
+
+    fn order(&self) -> Option<usize> {
+        Some(self.order)
+    }
+
+    fn solve(&self, p: &PreparedScene<'_>) -> Result<MsSolution> {
+        let (scene, s) = (p.scene, &p.scene.solve);
+        let Some(sg) = solve_grid(p.density, s.resolution, s.padding(), true)? else {
+            return Ok(MsSolution::default());
+        };
+        let settings = PopSettings {
+            resolution: s.pop_resolution,
+            iterations: s.pop_iterations,
+            lmax: self.order,
+            residuum: s.pop_residuum.then_some(ResiduumSettings {
+                epsilon_a: s.pop_epsilon_a,
+                epsilon_l: s.pop_epsilon_l,
+            }),
+        };
+        let run = pn_runtime::threads::with_threads(p.options.threads, || {
+            pop_field(scene, p.density, &sg.grid, &settings)
+        })??;
+        let t = &run.report.seconds;
+        let seconds = MsSeconds {
+            sources: t.medium + t.initialization,
+            solve: t.propagation + t.resampling,
+            ..MsSeconds::default()
+        };
+        Ok(MsSolution {
+            field: Some(
+                MsField::new(sg.grid, run.moments, scene.phase)?
+                    .with_lookup(scene.render.ms_lookup),
+            ),
+            pop: Some(run.report),
+            seconds,
+            ..MsSolution::default()
+        })
+    }
+}

@@ -1,0 +1,517 @@
+//! The TOML representation of a render scene and its translation into a [`RenderScene`]
+//! (unknown keys refused, parse errors with line and column, `--set` overrides applied to
+//! the table first).
+
+use super::validate::{finite3, nonneg};
+use super::voxels::{albedo_voxels, read_albedo_file, read_grid_file};
+use super::*;
+use crate::camera::{norm, Camera};
+use crate::colour::{Colours, GreyOrRgb};
+use crate::lights::Light;
+use crate::medium::{check_box, DensityFilter, DensityGrid, Procedural};
+use crate::scene_override::SceneOverride;
+use anyhow::{bail, ensure, Context};
+use pn_runtime::problem::Phase;
+use pn_runtime::scene_registry::{self, SceneKind};
+use serde::Deserialize;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+// ---- TOML representation ----
+
+#[derive(Deserialize, Debug)]
+#[serde(deny_unknown_fields)]
+pub(super) struct SceneToml {
+    medium: MediumToml,
+    phase: Option<PhaseToml>,
+    #[serde(default)]
+    light: Vec<LightToml>,
+    camera: CameraToml,
+    solve: Option<SolveToml>,
+    render: Option<RenderToml>,
+}
+
+#[derive(Deserialize, Debug)]
+#[serde(deny_unknown_fields)]
+pub(super) struct MediumToml {
+    kind: String,
+    file: Option<PathBuf>,
+    grid: Option<String>,
+    seed: Option<u64>,
+    resolution: Option<[usize; 3]>,
+    bbox_min: Option<[f64; 3]>,
+    bbox_max: Option<[f64; 3]>,
+    sigma_t_scale: GreyOrRgb,
+    albedo: Option<GreyOrRgb>,
+    albedo_file: Option<PathBuf>,
+    albedo_grid: Option<String>,
+    filter: Option<String>,
+}
+
+#[derive(Deserialize, Debug)]
+#[serde(deny_unknown_fields)]
+struct PhaseToml {
+    kind: String,
+    g: Option<f64>,
+}
+
+#[derive(Deserialize, Debug)]
+#[serde(deny_unknown_fields)]
+pub(super) struct LightToml {
+    kind: String,
+    direction: Option<[f64; 3]>,
+    irradiance: Option<GreyOrRgb>,
+    position: Option<[f64; 3]>,
+    power: Option<GreyOrRgb>,
+}
+
+#[derive(Deserialize, Debug)]
+#[serde(deny_unknown_fields)]
+struct CameraToml {
+    position: [f64; 3],
+    target: [f64; 3],
+    up: [f64; 3],
+    fov: f64,
+    width: usize,
+    height: usize,
+}
+
+#[derive(Deserialize, Debug)]
+#[serde(deny_unknown_fields)]
+struct SolveToml {
+    method: Option<RenderMethod>,
+    order: Option<usize>,
+    resolution: Option<[usize; 3]>,
+    margin: Option<usize>,
+    absorbing_layer: Option<usize>,
+    absorber_width: Option<f64>,
+    absorber: Option<AbsorberPlacement>,
+    boundary: Option<SolveBoundary>,
+    tolerance: Option<f64>,
+    sigma_t_min: Option<f64>,
+    fld_solver: Option<FldSolver>,
+    pop_resolution: Option<usize>,
+    pop_iterations: Option<usize>,
+    pop_residuum: Option<bool>,
+    pop_epsilon_a: Option<f64>,
+    pop_epsilon_l: Option<f64>,
+    sweeps: Option<usize>,
+    sweep_quadrature: Option<usize>,
+}
+
+#[derive(Deserialize, Debug)]
+#[serde(deny_unknown_fields)]
+struct RenderToml {
+    renderer: Option<RendererKind>,
+    spp: Option<usize>,
+    seed: Option<u64>,
+    rays: Option<usize>,
+    step: Option<f64>,
+    cutoff: Option<f64>,
+    exact_transmittance: Option<bool>,
+    ms_lookup: Option<MsLookup>,
+}
+
+impl RenderScene {
+    /// Reads and checks a scene file (errors name the file, and the line and column for
+    /// syntax and type errors).
+    pub fn from_path(path: &Path) -> anyhow::Result<RenderScene> {
+        Self::from_path_with_overrides(path, &[])
+    }
+
+    /// [`RenderScene::from_path`] with `--set` overrides applied to the file's TOML before it
+    /// is checked ([`RenderScene::from_toml_str_with_overrides`]). The name is the file stem.
+    pub fn from_path_with_overrides(
+        path: &Path,
+        overrides: &[SceneOverride],
+    ) -> anyhow::Result<RenderScene> {
+        let text = std::fs::read_to_string(path)
+            .with_context(|| format!("cannot read scene file {}", path.display()))?;
+        let base = path.parent().unwrap_or(Path::new("."));
+        let mut scene =
+            Self::from_toml_str_with_overrides(&text, base, overrides).with_context(|| {
+                match crate::scene_kind::toml_kind(&text) {
+                    Some(SceneKind::Solve) => format!(
+                        "scene file {} ({})",
+                        path.display(),
+                        scene_registry::wrong_kind_file_hint(path, SceneKind::Solve)
+                    ),
+                    _ => format!("scene file {}", path.display()),
+                }
+            })?;
+        if let Some(stem) = path.file_stem().and_then(|s| s.to_str()) {
+            scene.name = stem.to_string();
+        }
+        Ok(scene)
+    }
+
+    /// Parses and checks a scene from TOML text; relative paths are resolved against
+    /// `base_dir`. The name is "scene" (see [`RenderScene::from_path`]).
+    pub fn from_toml_str(s: &str, base_dir: &Path) -> anyhow::Result<RenderScene> {
+        Self::from_toml_str_with_overrides(s, base_dir, &[])
+    }
+
+    /// [`RenderScene::from_toml_str`] with `--set` overrides: the text must be a valid scene
+    /// on its own (its errors keep their line and column); then each override is applied to
+    /// its TOML table in order ([`SceneOverride::apply`]) and the result is read and checked
+    /// as if it had been written in the file. An unknown key or a wrong type is refused with
+    /// the field's name and the `--set` that introduced it; a value the checks refuse gets the
+    /// overrides as context.
+    pub fn from_toml_str_with_overrides(
+        s: &str,
+        base_dir: &Path,
+        overrides: &[SceneOverride],
+    ) -> anyhow::Result<RenderScene> {
+        // toml's Display names the line and column and quotes the offending line.
+        let t: SceneToml = toml::from_str(s).map_err(|e| anyhow::anyhow!("{e}"))?;
+        if overrides.is_empty() {
+            return build(t, base_dir);
+        }
+        let pristine: toml::Table = toml::from_str(s).map_err(|e| anyhow::anyhow!("{e}"))?;
+        let all = || {
+            overrides
+                .iter()
+                .map(|o| o.text.as_str())
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        let read = |table: &toml::Table| -> Result<SceneToml, String> {
+            toml::Value::Table(table.clone())
+                .try_into::<SceneToml>()
+                .map_err(|e| e.message().trim_end().to_string())
+        };
+        let mut table = pristine.clone();
+        for o in overrides {
+            o.apply(&mut table)?;
+        }
+        let t = match read(&table) {
+            Ok(t) => t,
+            Err(e) => {
+                // Name the override that gives this very error on its own, if one does.
+                for o in overrides {
+                    let mut one = pristine.clone();
+                    o.apply(&mut one)?;
+                    if read(&one).err().as_deref() == Some(e.as_str()) {
+                        bail!("--set {o}: {e}");
+                    }
+                }
+                bail!("--set {}: {e}", all())
+            }
+        };
+        build(t, base_dir).with_context(|| format!("with --set {}", all()))
+    }
+}
+
+/// The grey value of a per-channel value: the mean of its channels (a coloured scene's grey
+/// fields hold these; it is rendered channel by channel, [`RenderScene::channel`]).
+pub(super) fn channel_mean(v: GreyOrRgb) -> f64 {
+    match v {
+        GreyOrRgb::Grey(x) => x,
+        GreyOrRgb::Rgb(c) => (c[0] + c[1] + c[2]) / 3.0,
+    }
+}
+
+/// A light and its strength (irradiance or power) as given, grey or per channel.
+pub(super) fn build_light(l: LightToml, n: usize) -> anyhow::Result<(Light, GreyOrRgb)> {
+    let ctx = || format!("light {} (kind = {:?})", n + 1, l.kind);
+    match l.kind.as_str() {
+        "directional" => {
+            ensure!(
+                l.position.is_none() && l.power.is_none(),
+                "{}: position and power apply to point lights",
+                ctx()
+            );
+            let d = l
+                .direction
+                .with_context(|| format!("{}: needs direction", ctx()))?;
+            let e = l
+                .irradiance
+                .with_context(|| format!("{}: needs irradiance", ctx()))?;
+            finite3("direction", d).with_context(ctx)?;
+            let len = norm(d);
+            ensure!(len > 0.0, "{}: direction must not be zero", ctx());
+            for v in e.channels() {
+                nonneg("irradiance", v).with_context(ctx)?;
+            }
+            let light = Light::Directional {
+                direction: d.map(|c| c / len),
+                irradiance: channel_mean(e),
+            };
+            Ok((light, e))
+        }
+        "point" => {
+            ensure!(
+                l.direction.is_none() && l.irradiance.is_none(),
+                "{}: direction and irradiance apply to directional lights",
+                ctx()
+            );
+            let p = l
+                .position
+                .with_context(|| format!("{}: needs position", ctx()))?;
+            let w = l.power.with_context(|| format!("{}: needs power", ctx()))?;
+            finite3("position", p).with_context(ctx)?;
+            for v in w.channels() {
+                nonneg("power", v).with_context(ctx)?;
+            }
+            let light = Light::Point {
+                position: p,
+                power: channel_mean(w),
+            };
+            Ok((light, w))
+        }
+        k => bail!(
+            "light {}: unknown kind {k:?} (expected directional or point)",
+            n + 1
+        ),
+    }
+}
+
+pub(super) fn build(t: SceneToml, base: &Path) -> anyhow::Result<RenderScene> {
+    let (sigma_t_scale, albedo) = (t.medium.sigma_t_scale, t.medium.albedo);
+    let medium = build_medium(t.medium, base).context("[medium]")?;
+    let phase = match t.phase {
+        None => Phase::Isotropic,
+        Some(p) => match p.kind.as_str() {
+            "isotropic" => {
+                ensure!(p.g.is_none(), "[phase]: g applies to kind = \"hg\" only");
+                Phase::Isotropic
+            }
+            "hg" => {
+                let g = p.g.context("[phase]: kind = \"hg\" needs g")?;
+                ensure!(
+                    g.is_finite() && g.abs() < 1.0,
+                    "[phase]: Henyey–Greenstein g must satisfy |g| < 1, got {g}"
+                );
+                Phase::HenyeyGreenstein(g)
+            }
+            k => bail!("[phase]: unknown kind {k:?} (expected isotropic or hg)"),
+        },
+    };
+    let (lights, strengths): (Vec<Light>, Vec<GreyOrRgb>) = t
+        .light
+        .into_iter()
+        .enumerate()
+        .map(|(n, l)| build_light(l, n))
+        .collect::<anyhow::Result<Vec<_>>>()?
+        .into_iter()
+        .unzip();
+    let coloured = sigma_t_scale.is_rgb()
+        || albedo.is_some_and(|a| a.is_rgb())
+        || strengths.iter().any(|s| s.is_rgb());
+    let colours = coloured.then(|| Colours {
+        sigma_t_scale: sigma_t_scale.channels(),
+        albedo: albedo.map(|a| a.channels()),
+        light_strength: strengths.iter().map(|s| s.channels()).collect(),
+    });
+    let c = t.camera;
+    let camera = Camera {
+        position: c.position,
+        target: c.target,
+        up: c.up,
+        fov_deg: c.fov,
+        width: c.width,
+        height: c.height,
+    };
+    camera.validate().context("[camera]")?;
+    let s = t.solve.unwrap_or(SolveToml {
+        method: None,
+        order: None,
+        resolution: None,
+        margin: None,
+        absorbing_layer: None,
+        absorber_width: None,
+        absorber: None,
+        boundary: None,
+        tolerance: None,
+        sigma_t_min: None,
+        fld_solver: None,
+        pop_resolution: None,
+        pop_iterations: None,
+        pop_residuum: None,
+        pop_epsilon_a: None,
+        pop_epsilon_l: None,
+        sweeps: None,
+        sweep_quadrature: None,
+    });
+    let solve = SolveSettings {
+        method: s.method.unwrap_or(RenderMethod::Pn),
+        order: s.order.unwrap_or(3),
+        resolution: s.resolution.unwrap_or([32; 3]),
+        margin: s.margin.unwrap_or(DEFAULT_MARGIN),
+        absorber_width: s.absorber_width.unwrap_or(DEFAULT_ABSORBER_WIDTH),
+        absorbing_layer: s.absorbing_layer,
+        absorber: s.absorber.unwrap_or_default(),
+        boundary: s.boundary.unwrap_or_default(),
+        tolerance: s.tolerance.unwrap_or(DEFAULT_RENDER_TOLERANCE),
+        sigma_t_min: s.sigma_t_min.filter(|v| *v != 0.0),
+        fld_solver: s.fld_solver.unwrap_or_default(),
+        pop_resolution: s.pop_resolution.unwrap_or(POP_DEFAULT_RESOLUTION),
+        pop_iterations: s.pop_iterations.unwrap_or(POP_DEFAULT_ITERATIONS),
+        pop_residuum: s.pop_residuum.unwrap_or(false),
+        pop_epsilon_a: s.pop_epsilon_a.unwrap_or(POP_DEFAULT_EPSILON_A),
+        pop_epsilon_l: s.pop_epsilon_l.unwrap_or(POP_DEFAULT_EPSILON_L),
+        sweeps: s.sweeps.unwrap_or(DEFAULT_SWEEPS),
+        sweep_quadrature: s.sweep_quadrature.unwrap_or(DEFAULT_SWEEP_QUADRATURE),
+    };
+    solve.validate().context("[solve]")?;
+    let r = t.render.unwrap_or(RenderToml {
+        renderer: None,
+        spp: None,
+        seed: None,
+        rays: None,
+        step: None,
+        cutoff: None,
+        exact_transmittance: None,
+        ms_lookup: None,
+    });
+    let render = RenderSettings {
+        renderer: r.renderer.unwrap_or_default(),
+        spp: r.spp.unwrap_or(64),
+        seed: r.seed.unwrap_or(1),
+        rays: r.rays.unwrap_or(DEFAULT_RAYS),
+        step: r.step.unwrap_or(DEFAULT_STEP),
+        cutoff: r.cutoff.unwrap_or(DEFAULT_CUTOFF),
+        exact_transmittance: r.exact_transmittance.unwrap_or(false),
+        ms_lookup: r.ms_lookup.unwrap_or_default(),
+    };
+    render.validate().context("[render]")?;
+    Ok(RenderScene {
+        name: "scene".into(),
+        medium,
+        phase,
+        lights,
+        colours,
+        camera,
+        solve,
+        render,
+    })
+}
+
+pub(super) fn build_medium(m: MediumToml, base: &Path) -> anyhow::Result<MediumSpec> {
+    for v in m.sigma_t_scale.channels() {
+        nonneg("medium.sigma_t_scale", v)?;
+    }
+    for (n, v) in [
+        ("medium.bbox_min", m.bbox_min),
+        ("medium.bbox_max", m.bbox_max),
+    ] {
+        if let Some(v) = v {
+            finite3(n, v)?;
+        }
+    }
+    let seed = m.seed.unwrap_or(0);
+    let mut density_vdb = None;
+    let (source, resolution, bbox_min, bbox_max) = match m.kind.as_str() {
+        "grid" => {
+            let file = m
+                .file
+                .context("medium.kind = \"grid\" needs medium.file (a .vol, .npy or .vdb file)")?;
+            ensure!(
+                m.seed.is_none(),
+                "medium.seed applies to procedural media only"
+            );
+            let path = base.join(&file);
+            let gf = read_grid_file(&path, m.grid.as_deref()).context("medium.file")?;
+            density_vdb = gf.vdb;
+            let (vg, has_box) = (gf.voxels, gf.placed);
+            if let Some(r) = m.resolution {
+                ensure!(
+                    r == vg.dims,
+                    "medium.resolution {r:?} disagrees with the grid file's {:?}; leave it out",
+                    vg.dims
+                );
+            }
+            let (dmin, dmax) = if has_box {
+                (vg.min, vg.max)
+            } else {
+                DEFAULT_BBOX
+            };
+            let bmin = m.bbox_min.unwrap_or(dmin);
+            let bmax = m.bbox_max.unwrap_or(dmax);
+            let grid = DensityGrid::from_voxel_grid(&vg, bmin, bmax)
+                .with_context(|| format!("density file {}", path.display()))?;
+            let res = grid.res;
+            (
+                MediumSource::File {
+                    path,
+                    grid: Arc::new(grid),
+                },
+                res,
+                bmin,
+                bmax,
+            )
+        }
+        other => {
+            let p = match other {
+                "sphere" => Procedural::Sphere,
+                "box" => Procedural::Box,
+                "cloud" => Procedural::Cloud,
+                "nebula" => Procedural::Nebula,
+                _ => bail!(
+                    "unknown medium.kind {other:?} (expected grid, sphere, box, cloud or nebula)"
+                ),
+            };
+            ensure!(
+                m.file.is_none() && m.grid.is_none(),
+                "medium.file and medium.grid apply to kind = \"grid\" only"
+            );
+            let res = m.resolution.unwrap_or([64; 3]);
+            ensure!(
+                res.iter().all(|&n| n > 0),
+                "medium.resolution must be positive on every axis, got {res:?}"
+            );
+            (
+                MediumSource::Procedural(p),
+                res,
+                m.bbox_min.unwrap_or(DEFAULT_BBOX.0),
+                m.bbox_max.unwrap_or(DEFAULT_BBOX.1),
+            )
+        }
+    };
+    check_box(bbox_min, bbox_max).context("medium")?;
+    let filter = match &m.filter {
+        None => DensityFilter::default(),
+        Some(f) => f.parse::<DensityFilter>().context("medium.filter")?,
+    };
+    ensure!(
+        m.albedo_grid.is_none() || m.albedo_file.is_some(),
+        "medium.albedo_grid needs medium.albedo_file (a .vdb file)"
+    );
+    let albedo = match (m.albedo, m.albedo_file) {
+        (Some(_), Some(_)) => bail!("give medium.albedo or medium.albedo_file, not both"),
+        (None, None) => bail!("medium.albedo (or medium.albedo_file) is required"),
+        (Some(a), None) => {
+            for a in a.channels() {
+                ensure!(
+                    a.is_finite() && (0.0..=1.0).contains(&a),
+                    "medium.albedo must lie in [0, 1], got {a}"
+                );
+            }
+            Albedo::Constant(channel_mean(a))
+        }
+        (None, Some(f)) => {
+            let path = base.join(&f);
+            let vg = read_albedo_file(&path, m.albedo_grid.as_deref(), density_vdb.as_ref())
+                .context("medium.albedo_file")?;
+            ensure!(
+                vg.dims == resolution,
+                "albedo file {} has resolution {:?}, the density grid {:?}",
+                path.display(),
+                vg.dims,
+                resolution
+            );
+            albedo_voxels(&vg, bbox_min, bbox_max)
+                .with_context(|| format!("albedo file {}", path.display()))?
+        }
+    };
+    Ok(MediumSpec {
+        source,
+        seed,
+        resolution,
+        bbox_min,
+        bbox_max,
+        sigma_t_scale: channel_mean(m.sigma_t_scale),
+        albedo,
+        filter,
+    })
+}

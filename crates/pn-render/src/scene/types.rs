@@ -1,0 +1,429 @@
+//! The render scene's types: the medium, the solve and render settings, the scene itself,
+//! their defaults and limits.
+
+use crate::camera::Camera;
+use crate::colour::Colours;
+use crate::lights::Light;
+use crate::medium::{DensityFilter, DensityGrid, Procedural};
+use anyhow::bail;
+use pn_runtime::problem::Phase;
+use serde::Deserialize;
+use std::path::PathBuf;
+use std::sync::Arc;
+
+/// Where the density comes from.
+#[derive(Clone, Debug, PartialEq)]
+pub enum MediumSource {
+    /// A built-in procedural medium, generated at [`MediumSpec::resolution`].
+    Procedural(Procedural),
+    /// A grid read from a `.vol`, `.npy` or `.vdb` file (already loaded and checked).
+    File {
+        /// The file (resolved against the scene's folder).
+        path: PathBuf,
+        /// Its contents on the medium box.
+        grid: Arc<DensityGrid>,
+    },
+}
+
+/// The single-scattering albedo.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Albedo {
+    /// The same everywhere.
+    Constant(f64),
+    /// One value per density voxel (same order as [`DensityGrid::data`]).
+    Voxels(Arc<Vec<f32>>),
+}
+
+/// The participating medium.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MediumSpec {
+    /// Density source.
+    pub source: MediumSource,
+    /// Seed of procedural media.
+    pub seed: u64,
+    /// Density-grid resolution.
+    pub resolution: [usize; 3],
+    /// Lower corner of the medium box.
+    pub bbox_min: [f64; 3],
+    /// Upper corner of the medium box.
+    pub bbox_max: [f64; 3],
+    /// σ_t = `sigma_t_scale` × density (1/length).
+    pub sigma_t_scale: f64,
+    /// Albedo σ_s/σ_t.
+    pub albedo: Albedo,
+    /// How the density (and an albedo grid) is read between voxel centres
+    /// (`[medium] filter`, default trilinear as Mitsuba; see [`crate::medium`]).
+    pub filter: DensityFilter,
+}
+
+impl MediumSpec {
+    /// Albedo of density voxel `index`.
+    #[inline]
+    pub fn albedo_at(&self, index: usize) -> f64 {
+        match &self.albedo {
+            Albedo::Constant(a) => *a,
+            Albedo::Voxels(v) => v[index] as f64,
+        }
+    }
+
+    /// Albedo at the point `p`, read like the density: an albedo grid with `density`'s
+    /// filter (trilinear or nearest, on the same voxels; the clamped value in the outer half
+    /// voxel, 0 outside the box), a constant albedo everywhere. `density` must be this
+    /// medium's grid ([`RenderScene::density_grid`]).
+    ///
+    /// As in Mitsuba's `heterogeneous` medium, σ_s(x) = albedo(x)·σ_t(x) with **both**
+    /// filtered: between voxel centres σ_s is the product of two trilinear fields, not the
+    /// interpolation of the per-voxel σ_s.
+    pub fn albedo_at_point(&self, density: &DensityGrid, p: [f64; 3]) -> f64 {
+        match &self.albedo {
+            Albedo::Constant(a) => *a,
+            Albedo::Voxels(v) => density.sample(v, p),
+        }
+    }
+
+    /// σ_t(p) and σ_s(p) = albedo(p)·σ_t(p), both filtered ([`Self::albedo_at_point`]).
+    pub fn coefficients_at(&self, density: &DensityGrid, p: [f64; 3]) -> (f64, f64) {
+        let st = self.sigma_t_scale * density.density_at(p);
+        if st == 0.0 {
+            return (0.0, 0.0);
+        }
+        (st, st * self.albedo_at_point(density, p))
+    }
+
+    /// Kind name as in the scene file ("grid" for files).
+    pub fn kind_name(&self) -> &'static str {
+        match &self.source {
+            MediumSource::Procedural(p) => p.name(),
+            MediumSource::File { .. } => "grid",
+        }
+    }
+}
+
+/// The multiple-scattering method.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum RenderMethod {
+    /// The P_N equations of the solve order.
+    Pn,
+    /// Classical diffusion.
+    Cda,
+    /// Flux-limited diffusion.
+    Fld,
+    /// Principal-Ordinates Propagation, directional lights (issue 20; [`crate::pop`]).
+    Pop,
+    /// Single scattering only.
+    None,
+}
+
+impl std::str::FromStr for RenderMethod {
+    type Err = anyhow::Error;
+    fn from_str(s: &str) -> anyhow::Result<Self> {
+        match s {
+            "pn" => Ok(Self::Pn),
+            "cda" => Ok(Self::Cda),
+            "fld" => Ok(Self::Fld),
+            "pop" => Ok(Self::Pop),
+            "none" => Ok(Self::None),
+            _ => bail!("unknown method {s:?} (expected pn, cda, fld, pop or none)"),
+        }
+    }
+}
+
+impl RenderMethod {
+    /// Lower-case name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Pn => "pn",
+            Self::Cda => "cda",
+            Self::Fld => "fld",
+            Self::Pop => "pop",
+            Self::None => "none",
+        }
+    }
+}
+
+/// `[solve]`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SolveSettings {
+    /// Method.
+    pub method: RenderMethod,
+    /// P_N order.
+    pub order: usize,
+    /// Solve-grid cells per axis over the medium box (before cropping).
+    pub resolution: [usize; 3],
+    /// Empty solve cells kept around the cropped medium.
+    pub margin: usize,
+    /// Width of the graded absorber's ramp as a fraction of the solve grid's cells across the
+    /// medium box ([`Self::ramp_cells`]): a width fixed in space, so that the absorber is
+    /// resolved as the grid is refined ([`DEFAULT_ABSORBER_WIDTH`]).
+    pub absorber_width: f64,
+    /// The ramp in cells, the same at every resolution, instead of [`Self::absorber_width`]
+    /// (0: no absorber; the Dirichlet boundary then sits right at the margin). Such a ramp
+    /// does not converge as h → 0 (docs/vacuum.md); kept for studies and tight crops.
+    pub absorbing_layer: Option<usize>,
+    /// Where the graded absorber starts ([`AbsorberPlacement`]).
+    pub absorber: AbsorberPlacement,
+    /// The condition on the solve grid's faces ([`SolveBoundary`]).
+    pub boundary: SolveBoundary,
+    /// Relative residual tolerance of the solver.
+    pub tolerance: f64,
+    /// σ_t threshold; `None` = automatic where vacuum is present.
+    pub sigma_t_min: Option<f64>,
+    /// Method fld: how the nonlinear system is solved.
+    pub fld_solver: FldSolver,
+    /// Method pop: cells along the longest axis of each light-aligned grid.
+    pub pop_resolution: usize,
+    /// Method pop: propagation iterations (without the residuum).
+    pub pop_iterations: usize,
+    /// Method pop: the isotropic residuum (§5.4) instead of a fixed iteration count.
+    pub pop_residuum: bool,
+    /// Method pop, residuum: ε_a, the anisotropy below which lobes count as isotropic.
+    pub pop_epsilon_a: f64,
+    /// Method pop, residuum: ε_L, the fraction of the injected power still in flight at
+    /// which the isotropic iteration stops.
+    pub pop_epsilon_l: f64,
+    /// Transport sweeps after the solve ([`crate::transport_sweep`]; methods pn, cda, fld
+    /// and text PDEs; 0: the solution as solved). [`DEFAULT_SWEEPS`].
+    pub sweeps: usize,
+    /// Gauss–Legendre nodes in μ of the sweeps' directions (`n × 2n` directions,
+    /// [`DEFAULT_SWEEP_QUADRATURE`]).
+    pub sweep_quadrature: usize,
+}
+
+/// Default number of transport sweeps after a render's solve (`[solve] sweeps`). Each is one
+/// source iteration of the transport equation started from the solution, which removes most
+/// of what P_N gets wrong at the medium's vacuum boundary: on the five scenes of issue 17's
+/// study at 24³ the P_5 bias against Mitsuba went from −4.9…−0.2 % to −0.1…+1.0 % with two
+/// sweeps (P_3: −10.0…+3.8 % to −2.3…+2.6 %), for 6–18 % of the solve's time
+/// (docs/vacuum.md, "Transport sweeps").
+pub const DEFAULT_SWEEPS: usize = 2;
+
+/// Default Gauss–Legendre nodes in μ of the sweeps' angular rule (`[solve]
+/// sweep_quadrature`): 8 × 16 = 128 directions, exact for the moments up to l = 7; on the
+/// cloud at P_3 @ 24³ the image moves by 0.08 % of its mean (0.3 % RMS) from 8 to 16 nodes.
+pub const DEFAULT_SWEEP_QUADRATURE: usize = 8;
+
+/// Most transport sweeps a scene may ask for.
+pub const MAX_SWEEPS: usize = 100;
+
+/// Default relative residual of a render's solve (`[solve] tolerance`). The image needs far
+/// less than the solver can give: on the cloud (P_7 @ 32³), the cumulus and the nebula
+/// (P_5 @ 32³), the puff (P_3 @ 16³), and the cloud with FLD and CDA, 1e-3 instead of 1e-6
+/// changes the image mean by at most 1e-5 of itself, its relative RMS by at most 6e-5 and no
+/// pixel by more than 5e-4 of the mean — three orders of magnitude below the P_N error
+/// against Mitsuba — while the P_N solves take 45–50 % fewer iterations (docs/rendering.md,
+/// "The solver tolerance of a render"). Tests and studies that need tighter solves set it.
+pub const DEFAULT_RENDER_TOLERANCE: f64 = 1e-3;
+
+/// Default POP grid resolution (the paper's typical 20³, §7).
+pub const POP_DEFAULT_RESOLUTION: usize = 20;
+/// Default POP iterations (about the grid resolution along the light, the paper's §7).
+pub const POP_DEFAULT_ITERATIONS: usize = 20;
+/// Default ε_a of POP's isotropic residuum (the paper's "around 0.1", §5.4).
+pub const POP_DEFAULT_EPSILON_A: f64 = 0.1;
+/// Default ε_L of POP's isotropic residuum (relative to the injected power).
+pub const POP_DEFAULT_EPSILON_L: f64 = 1e-3;
+/// Largest POP grid resolution.
+pub const POP_MAX_RESOLUTION: usize = 512;
+/// Most POP iterations.
+pub const POP_MAX_ITERATIONS: usize = 100_000;
+
+/// Where the solve grid's vacuum becomes a graded pure absorber (`[solve] absorber`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum AbsorberPlacement {
+    /// Outside the medium's convex hull, graded over [`SolveSettings::ramp_cells`], where light
+    /// cannot return ([`crate::hull_absorber`]); plus the outer layer of `Box`. The default.
+    #[default]
+    Hull,
+    /// Only the outermost [`SolveSettings::layer_cells`] of the solve grid, beyond the margin
+    /// ([`crate::solve_setup::add_absorbing_layer`]; the treatment before issue 17).
+    Box,
+}
+
+/// How a render solves the nonlinear FLD system (`[solve] fld_solver`; docs/fld.md).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum FldSolver {
+    /// Picard steps, each a multigrid-preconditioned CG solve of the linear diffusion
+    /// equation with D frozen (the default: 2.5–8× faster than `Gs` on the race scenes, the
+    /// same answer; docs/fld.md).
+    #[default]
+    Picard,
+    /// Red–black nonlinear Gauss–Seidel/SOR sweeps (the FLD paper's solver).
+    Gs,
+}
+
+/// The condition on the solve grid's faces (`[solve] boundary`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum SolveBoundary {
+    /// Zero moments on the faces; with the graded absorber in front of them this is where
+    /// the escaping light ends (the default).
+    #[default]
+    Dirichlet,
+    /// Marshak's vacuum condition on every face (docs/design.md §3): the half-range moments
+    /// of the incoming radiance vanish. Staggered P_N of odd order only. Meant for a grid
+    /// cropped tightly to the medium (`margin = 0`, `absorbing_layer = 0`), where the
+    /// medium touches the faces (issue 17's Marshak arm).
+    Marshak,
+}
+
+/// Which renderer draws the image.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum RendererKind {
+    /// Ray marching with a fixed pattern of camera rays: noise-free
+    /// ([`crate::march`]; the default).
+    #[default]
+    Deterministic,
+    /// Delta tracking with next-event estimation, `spp` random samples per pixel
+    /// ([`crate::renderer`]).
+    MonteCarlo,
+}
+
+impl std::str::FromStr for RendererKind {
+    type Err = anyhow::Error;
+    fn from_str(s: &str) -> anyhow::Result<Self> {
+        match s {
+            "deterministic" => Ok(Self::Deterministic),
+            "montecarlo" => Ok(Self::MonteCarlo),
+            _ => bail!("unknown renderer {s:?} (expected deterministic or montecarlo)"),
+        }
+    }
+}
+
+impl RendererKind {
+    /// Lower-case name, as in the scene file and `--renderer`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Deterministic => "deterministic",
+            Self::MonteCarlo => "montecarlo",
+        }
+    }
+}
+
+/// `[render]`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RenderSettings {
+    /// The renderer.
+    pub renderer: RendererKind,
+    /// Samples per pixel (Monte Carlo renderer).
+    pub spp: usize,
+    /// Seed of the per-pixel random streams (Monte Carlo renderer).
+    pub seed: u64,
+    /// Camera rays per pixel of the deterministic renderer: a square number k² (k×k
+    /// stratified sub-pixel positions).
+    pub rays: usize,
+    /// Step of the deterministic renderer in units of the smallest voxel side.
+    pub step: f64,
+    /// The deterministic renderer stops a ray when its transmittance falls below this.
+    pub cutoff: f64,
+    /// The deterministic renderer traces the transmittance to the lights exactly at every
+    /// step instead of interpolating the light-depth grid (slower; no grid error).
+    pub exact_transmittance: bool,
+    /// How both renderers read the multiple-scattering solution between solve-cell centres.
+    pub ms_lookup: MsLookup,
+}
+
+/// How the renderers read the un-staggered solution L_l^m between solve-cell centres
+/// (`[render] ms_lookup`; issue 17's lookup arm). Both converge to the same image as the
+/// solve grid is refined; they differ by O(h) where the solution has a boundary layer
+/// thinner than a cell (the first mean free path below the medium's surface).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum MsLookup {
+    /// Trilinear between the cell centres, clamped at the grid's outer centres (the default).
+    #[default]
+    Trilinear,
+    /// The value of the solve cell that contains the point (piecewise constant).
+    Nearest,
+}
+
+/// Default camera rays per pixel of the deterministic renderer (2×2).
+pub const DEFAULT_RAYS: usize = 4;
+/// Default step of the deterministic renderer (voxel sides).
+pub const DEFAULT_STEP: f64 = 0.5;
+/// Default transmittance cutoff of the deterministic renderer.
+pub const DEFAULT_CUTOFF: f64 = 1e-4;
+/// Most camera rays per pixel (16×16).
+pub const MAX_RAYS: usize = 256;
+/// Accepted steps (voxel sides): smaller ones cost time without visible gain, larger ones
+/// skip voxels.
+pub const STEP_RANGE: (f64, f64) = (1e-3, 4.0);
+
+/// A complete render scene.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RenderScene {
+    /// Name (file stem or built-in name).
+    pub name: String,
+    /// Medium.
+    pub medium: MediumSpec,
+    /// Phase function.
+    pub phase: Phase,
+    /// Lights.
+    pub lights: Vec<Light>,
+    /// Per-channel values of a coloured scene (`None`: grey). A coloured scene's grey fields
+    /// (`medium.sigma_t_scale`, a constant `medium.albedo`, the lights' strengths) hold the
+    /// mean of the channels; it is rendered channel by channel ([`RenderScene::channel`]).
+    pub colours: Option<Colours>,
+    /// Camera.
+    pub camera: Camera,
+    /// Solve settings.
+    pub solve: SolveSettings,
+    /// Render settings.
+    pub render: RenderSettings,
+}
+
+/// Largest samples per pixel accepted.
+pub const MAX_SPP: usize = 1 << 20;
+
+/// Default width of the absorber's ramp, as a fraction of the solve cells across the medium
+/// box ([`SolveSettings::absorber_width`]): 2 cells at 12³, 4 at 24³, 8 at 48³. A ramp fixed
+/// in cells reflects the same share of the light at every h and N, so the image stops
+/// converging (docs/vacuum.md, "The absorber must shrink in space, not in cells"); one fixed
+/// in space is resolved as h → 0 and converges, to transport as N → ∞ as well. At a given
+/// grid a wider ramp reflects less (a 2-cell ramp 0.125 of the amplitude, a 4-cell one 0.058,
+/// `scripts/absorber-reflection.py`): the former 1/12 left the cumulus' +2 % offset of
+/// issue 17, which 1/6 removes (docs/vacuum.md, "Transport sweeps"). With the empty margin
+/// gone ([`DEFAULT_MARGIN`]) the solve grid at 24³ has as many cells as with 1/12 and a
+/// 2-cell margin.
+pub const DEFAULT_ABSORBER_WIDTH: f64 = 1.0 / 6.0;
+
+/// Default empty margin around the cropped medium (`[solve] margin`), in cells. The hull
+/// absorber starts at the medium's convex hull, so the cells of a margin only lengthen the
+/// absorber's full-strength tail; they change no image (0.00 pp on five scenes,
+/// docs/vacuum.md) and cost unknowns.
+pub const DEFAULT_MARGIN: usize = 0;
+
+impl RenderScene {
+    /// The grey scene of channel `c` (0 = R, 1 = G, 2 = B): this scene with the channel's
+    /// σ_t scale, albedo and light strengths ([`Colours`]); a grey scene is its own channel.
+    pub fn channel(&self, c: usize) -> RenderScene {
+        let mut s = self.clone();
+        if let Some(col) = s.colours.take() {
+            s.medium.sigma_t_scale = col.sigma_t_scale[c];
+            if let Some(a) = col.albedo {
+                s.medium.albedo = Albedo::Constant(a[c]);
+            }
+            for (light, strength) in s.lights.iter_mut().zip(&col.light_strength) {
+                *light = light.with_strength(strength[c]);
+            }
+        }
+        s
+    }
+
+    /// The density grid of the medium (generated for procedural media), read with the
+    /// medium's [`MediumSpec::filter`].
+    pub fn density_grid(&self) -> anyhow::Result<DensityGrid> {
+        let m = &self.medium;
+        let g = match &m.source {
+            MediumSource::Procedural(p) => p.grid(m.resolution, m.bbox_min, m.bbox_max, m.seed)?,
+            MediumSource::File { grid, .. } => (**grid).clone(),
+        };
+        Ok(g.with_filter(m.filter))
+    }
+}
+
+/// The medium box when a scene gives none.
+pub(super) const DEFAULT_BBOX: ([f64; 3], [f64; 3]) = ([-1.0; 3], [1.0; 3]);
