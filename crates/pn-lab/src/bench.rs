@@ -74,6 +74,7 @@ fn run_pipeline(
     } else {
         pn_kernel(order, dim, Staggering::Staggered)?
     };
+    pn_drivers::progress::print_notes(choice.note.as_slice());
     let sopts = SolverOptions {
         tol,
         tuning: tuning.clone(),
@@ -148,6 +149,7 @@ fn roofline(
 ) -> anyhow::Result<()> {
     let scene = builtin(scene_name, opts)?;
     let k = pn_kernel(order, scene.problem.grid.dim, Staggering::Staggered)?;
+    pn_drivers::progress::print_notes(k.note.as_slice());
     crate::bench_roofline::attach(rows, &scene.problem, k.kernel.as_ref())?;
     for r in rows.iter().filter(|r| r.roofline.is_some()) {
         eprintln!("bench: roofline {}", r.csv());

@@ -26,6 +26,7 @@ fn solve(
     tuning: &SolverTuning,
 ) -> anyhow::Result<Solution> {
     let k = pn_kernel(order, problem.grid.dim, Staggering::Staggered)?;
+    pn_drivers::progress::print_notes(k.note.as_slice());
     let opts = SolverOptions {
         tol,
         tuning: tuning.clone(),

@@ -51,6 +51,7 @@ fn solve_variant(
         .collect();
     let pde = parse_pde(text, &params).map_err(|e| anyhow::anyhow!("pdes/{name}: {e}"))?;
     let choice = pn_kernels::pde_kernel(&pde, scene.problem.grid.dim)?;
+    pn_drivers::progress::print_notes(choice.note.as_slice());
     let opts = SolverOptions {
         tol,
         tuning: tuning.clone(),

@@ -162,6 +162,7 @@ fn measure(
     } else {
         pn_kernel(order, Dim::Three, Staggering::Staggered)?
     };
+    pn_drivers::progress::print_notes(kernel.note.as_slice());
     let opts = SolverOptions {
         tol,
         tuning: tuning.clone(),

@@ -169,6 +169,8 @@ pub(super) fn stencil_solve(
     notes: &mut Vec<String>,
 ) -> Result<GridSolve> {
     let tol = p.scene.solve.tolerance;
+    // What the stencil library says of its choice (an interpreted stencil, say).
+    notes.extend(kernel.note.iter().cloned());
     let opts = SolverOptions {
         tol,
         observer: p.options.observer.clone(),
