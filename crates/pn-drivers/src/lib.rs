@@ -62,3 +62,9 @@ pub mod scene_setup;
 pub mod solve;
 pub mod stencil;
 pub mod vacuum_extras;
+
+/// The README's code blocks, compiled and run as doc tests (its Rust example uses the crates
+/// as a user would).
+#[cfg(doctest)]
+#[doc = include_str!("../../../README.md")]
+struct ReadmeDoctests;
