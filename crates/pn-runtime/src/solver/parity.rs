@@ -325,6 +325,131 @@ impl ParityCg {
         }
         let t0 = Instant::now();
         let mut notes = Vec::new();
+        let SplitSetup {
+            op,
+            pre,
+            precond_used,
+            method,
+            asymmetry,
+            probes,
+            seconds,
+        } = self.setup_split(sp, opts, t_split, t0, &mut notes)?;
+        let tuning = &opts.tuning;
+        let seconds_setup = seconds.setup;
+
+        let t1 = Instant::now();
+        let bnorm = norm(b);
+        let (b_e, b_o) = sp.gather(b);
+        let f = op.rhs(&b_e, &b_o);
+        // Every application of S, by the Krylov method and inside the multigrid cycle.
+        let s_apps = Counted::new(&op);
+        let even_guesses: Vec<Vec<f64>> = guesses.iter().map(|g| sp.gather(g).0).collect();
+        let (mut x, guess_used) = if bnorm > 0.0 {
+            start_from(&s_apps, &f, &even_guesses)
+        } else {
+            (vec![0.0; op.len()], false)
+        };
+        let scale = if bnorm > 0.0 { bnorm } else { 1.0 };
+        let mut ctl = Control::for_options(&opts.stopping(), bnorm);
+        let prec = pre.with_fine(&s_apps);
+        let mut full_applications = 0usize;
+        let (u, status, rel, abs) = loop {
+            let outcome = if bnorm == 0.0 {
+                Outcome::Reached
+            } else {
+                method.run(&s_apps, &prec, &f, &mut x, &mut ctl)
+            };
+            let u_o = op.recover_odd(&x, &b_o);
+            let abs = sp.residual_norm(&x, &u_o, &b_e, &b_o);
+            full_applications += 1;
+            let u = sp.merge(&x, &u_o);
+            let rel = abs / scale;
+            let status = match outcome {
+                _ if rel <= opts.tol => SolveStatus::Converged,
+                Outcome::Diverged => SolveStatus::Diverged,
+                Outcome::MaxIterations => SolveStatus::MaxIterations,
+                Outcome::Reached | Outcome::Stagnated
+                    if ctl.iterations < opts.max_iter && ctl.may_restart() =>
+                {
+                    // Rounding drift (or a BiCGSTAB breakdown): continue from the true
+                    // residual with a reduced target tightened by the observed gap.
+                    if outcome == Outcome::Reached {
+                        ctl.target *= 0.5 * opts.tol / rel;
+                    }
+                    continue;
+                }
+                Outcome::Reached | Outcome::Stagnated => SolveStatus::Stagnated,
+            };
+            break (u, status, rel, abs);
+        };
+        ctl.finish();
+        if tuning.profile {
+            let it = t1.elapsed().as_secs_f64();
+            if let precond::Built::Multigrid(mg) = &pre {
+                notes.push(format!("profile mg: {}", mg.describe()));
+            }
+            let profile = ProfileParity {
+                op: &op,
+                precond: precond_used.name(),
+                method,
+                asymmetry,
+                seconds,
+                iterate: it,
+                iterations: ctl.iterations,
+                s_applications: s_apps.count() + pre.single_applications(),
+            };
+            notes.push(profile.note());
+        }
+        let stats = SolveStats {
+            solver: if precond_used == Precond::Multigrid {
+                "parity-mg"
+            } else {
+                "parity-cg"
+            }
+            .into(),
+            status,
+            iterations: ctl.iterations,
+            relative_residual: rel,
+            absolute_residual: abs,
+            rhs_norm: bnorm,
+            tolerance: opts.tol,
+            history: ctl.history,
+            operator_applications: 0,
+            notes,
+        };
+        let mut report = ParityReport {
+            stats,
+            method,
+            precond: precond_used.name(),
+            asymmetry,
+            formed: op.is_formed(),
+            even_unknowns: sp.even.len(),
+            odd_unknowns: sp.odd.len(),
+            reduced_applications: s_apps.count()
+                + 2 * probes
+                + pre.setup_applications()
+                + pre.single_applications(),
+            full_applications,
+            seconds_setup,
+            seconds_iterate: t1.elapsed().as_secs_f64(),
+            warm_start: guess_used,
+        };
+        report.stats.operator_applications = report.a_equivalent_applications();
+        Ok((u, report))
+    }
+
+    /// The setup of [`ParityCg::solve_split_timed`] (started at `t0`, after `t_split`
+    /// seconds of splitting): the reduced operator, the preconditioner (with the multigrid
+    /// setup's profile note in `notes` when [`SolverOptions::tuning`] asks for it), the
+    /// symmetry measurement and the Krylov method it decides.
+    fn setup_split<'s>(
+        &self,
+        sp: &'s split::Split,
+        opts: &SolverOptions,
+        t_split: f64,
+        t0: Instant,
+        notes: &mut Vec<String>,
+    ) -> Result<SplitSetup<'s>, ParityError> {
         let nnz_a = sp.nnz_a;
         let mut precond_used = self.resolve_precond(nnz_a);
         let mode = match self.mode {
@@ -396,110 +521,83 @@ impl ParityCg {
             } else {
                 KrylovMethod::BiCgStab
             });
-        let seconds_setup = t_split + t0.elapsed().as_secs_f64();
-
-        let t1 = Instant::now();
-        let bnorm = norm(b);
-        let (b_e, b_o) = sp.gather(b);
-        let f = op.rhs(&b_e, &b_o);
-        // Every application of S, by the Krylov method and inside the multigrid cycle.
-        let s_apps = Counted::new(&op);
-        let even_guesses: Vec<Vec<f64>> = guesses.iter().map(|g| sp.gather(g).0).collect();
-        let (mut x, guess_used) = if bnorm > 0.0 {
-            start_from(&s_apps, &f, &even_guesses)
-        } else {
-            (vec![0.0; op.len()], false)
+        let seconds = SetupSeconds {
+            split: t_split,
+            form: t_form,
+            precond: t_pre,
+            setup: t_split + t0.elapsed().as_secs_f64(),
         };
-        let scale = if bnorm > 0.0 { bnorm } else { 1.0 };
-        let mut ctl = Control::for_options(&opts.stopping(), bnorm);
-        let prec = pre.with_fine(&s_apps);
-        let mut full_applications = 0usize;
-        let (u, status, rel, abs) = loop {
-            let outcome = if bnorm == 0.0 {
-                Outcome::Reached
-            } else {
-                method.run(&s_apps, &prec, &f, &mut x, &mut ctl)
-            };
-            let u_o = op.recover_odd(&x, &b_o);
-            let abs = sp.residual_norm(&x, &u_o, &b_e, &b_o);
-            full_applications += 1;
-            let u = sp.merge(&x, &u_o);
-            let rel = abs / scale;
-            let status = match outcome {
-                _ if rel <= opts.tol => SolveStatus::Converged,
-                Outcome::Diverged => SolveStatus::Diverged,
-                Outcome::MaxIterations => SolveStatus::MaxIterations,
-                Outcome::Reached | Outcome::Stagnated
-                    if ctl.iterations < opts.max_iter && ctl.may_restart() =>
-                {
-                    // Rounding drift (or a BiCGSTAB breakdown): continue from the true
-                    // residual with a reduced target tightened by the observed gap.
-                    if outcome == Outcome::Reached {
-                        ctl.target *= 0.5 * opts.tol / rel;
-                    }
-                    continue;
-                }
-                Outcome::Reached | Outcome::Stagnated => SolveStatus::Stagnated,
-            };
-            break (u, status, rel, abs);
-        };
-        ctl.finish();
-        if tuning.profile {
-            let it = t1.elapsed().as_secs_f64();
-            if let precond::Built::Multigrid(mg) = &pre {
-                notes.push(format!("profile mg: {}", mg.describe()));
-            }
-            notes.push(format!(
-                "profile parity: split {t_split:.3} s, form S {:.3} s (nnz {:?}, stencil {}), precond {} {:.3} s, \
-                 probes {:.3} s, iterate {it:.3} s ({} it, {} S-apps, {:.4} s/it), asymmetry {asymmetry:.2e}, {}",
-                t_form - t_split,
-                op.formed_nnz(),
-                op.is_stencil(),
-                precond_used.name(),
-                t_pre - t_form,
-                seconds_setup - t_pre,
-                ctl.iterations,
-                s_apps.count() + pre.single_applications(),
-                it / ctl.iterations.max(1) as f64,
-                method.name(),
-            ));
-        }
-        let stats = SolveStats {
-            solver: if precond_used == Precond::Multigrid {
-                "parity-mg"
-            } else {
-                "parity-cg"
-            }
-            .into(),
-            status,
-            iterations: ctl.iterations,
-            relative_residual: rel,
-            absolute_residual: abs,
-            rhs_norm: bnorm,
-            tolerance: opts.tol,
-            history: ctl.history,
-            operator_applications: 0,
-            notes,
-        };
-        let mut report = ParityReport {
-            stats,
+        Ok(SplitSetup {
+            op,
+            pre,
+            precond_used,
             method,
-            precond: precond_used.name(),
             asymmetry,
-            formed: op.is_formed(),
-            even_unknowns: sp.even.len(),
-            odd_unknowns: sp.odd.len(),
-            reduced_applications: s_apps.count()
-                + 2 * probes
-                + pre.setup_applications()
-                + pre.single_applications(),
-            full_applications,
-            seconds_setup,
-            seconds_iterate: t1.elapsed().as_secs_f64(),
-            warm_start: guess_used,
-        };
-        report.stats.operator_applications = report.a_equivalent_applications();
-        Ok((u, report))
+            probes,
+            seconds,
+        })
+    }
+}
+
+/// What [`ParityCg::solve_split_timed`] iterates with ([`ParityCg::setup_split`]).
+struct SplitSetup<'s> {
+    /// The reduced operator `S`.
+    op: reduced::ReducedOperator<'s>,
+    pre: precond::Built,
+    /// The preconditioner built (Jacobi where `Auto`'s ILU(0) met a zero pivot).
+    precond_used: Precond,
+    method: KrylovMethod,
+    /// The measured asymmetry of `S`, and the probe pairs that measured it (0 when the
+    /// multigrid's first coarse operator did).
+    asymmetry: f64,
+    probes: usize,
+    seconds: SetupSeconds,
+}
+
+/// Seconds from the start of a split solve (the split included) to the end of each setup
+/// phase: the split, the reduced operator, the preconditioner, the whole setup (probes and
+/// method choice).
+#[derive(Clone, Copy)]
+struct SetupSeconds {
+    split: f64,
+    form: f64,
+    precond: f64,
+    setup: f64,
+}
+
+/// What the parity solve's profile note reports ([`SolverOptions::tuning`]).
+struct ProfileParity<'a> {
+    op: &'a reduced::ReducedOperator<'a>,
+    precond: &'static str,
+    method: KrylovMethod,
+    asymmetry: f64,
+    seconds: SetupSeconds,
+    /// Seconds iterating, iterations, and applications of `S` in them (the single-precision
+    /// finest level's included).
+    iterate: f64,
+    iterations: usize,
+    s_applications: usize,
+}
+
+impl ProfileParity<'_> {
+    /// The note: the time of each phase, the iterations and the method.
+    fn note(&self) -> String {
+        let (it, asymmetry, t) = (self.iterate, self.asymmetry, self.seconds);
+        let t_split = t.split;
+        format!(
+            "profile parity: split {t_split:.3} s, form S {:.3} s (nnz {:?}, stencil {}), precond {} {:.3} s, \
+             probes {:.3} s, iterate {it:.3} s ({} it, {} S-apps, {:.4} s/it), asymmetry {asymmetry:.2e}, {}",
+            t.form - t_split,
+            self.op.formed_nnz(),
+            self.op.is_stencil(),
+            self.precond,
+            t.precond - t.form,
+            t.setup - t.precond,
+            self.iterations,
+            self.s_applications,
+            it / self.iterations.max(1) as f64,
+            self.method.name(),
+        )
     }
 }
 

@@ -23,12 +23,14 @@
 
 pub mod aggregate;
 pub mod galerkin;
+pub mod options;
 pub mod smoother;
 pub mod solve;
 pub mod stencil_level;
 pub mod vcycle;
 
 pub use aggregate::Geometry;
+pub use options::{FineCycle, MgOptions, SINGLE_FINE_MIN_TOL};
 
 use aggregate::{aggregate, Aggregation};
 use pn_krylov::linalg::{spmv, CompactCsr};
@@ -82,199 +84,6 @@ pub enum MgError {
         /// Unknowns.
         unknowns: usize,
     },
-}
-
-/// Tuning of the hierarchy and the cycle.
-#[derive(Clone, Debug, PartialEq)]
-pub struct MgOptions {
-    /// Chebyshev degree on the finest level (each costs one application of `S`, twice per
-    /// cycle: before and after the coarse correction).
-    pub fine_degree: usize,
-    /// The finest level's degree instead of `fine_degree` where
-    /// [`FineCycle::AdditiveIfSymmetric`] finds the operator nonsymmetric, which the parity
-    /// solver then solves with GMRES: a GMRES iteration costs more than a CG iteration (its
-    /// own `f64` product and an orthogonalisation against the growing basis), so a
-    /// stronger smoother that saves iterations pays there. Measured (`pn solve … --tol 1e-6`
-    /// except the checkerboard's 1e-10, GMRES iterations and solve seconds, degree 2 → 3, two
-    /// runs each, 2026-12-06): 71² checkerboard P_5 53 → 44 it (0.19–0.28 → 0.18–0.19 s),
-    /// 40³ point source P_5 14 → 11 it (0.95–1.04 → 0.91–0.92 s), P_3 11 → 10 it (0.29 →
-    /// 0.28–0.30 s), 80³ P_5 19 → 15 it (solve 10.6 → 10.3–10.4 s); degree 4 at 80³ P_5: 15 it,
-    /// 11.2 s. Under CG the cheaper iteration favours degree 2 at low orders (32³ cloud
-    /// P_4 / P_5 render solves 0.65 / 0.88 s at degree 2 against 0.74 / 0.94 s at 3; P_7
-    /// equal, P_9 6.1 → 5.7 s).
-    pub fine_degree_nonsymmetric: usize,
-    /// Chebyshev degree on the coarse levels (they are cheap).
-    pub coarse_degree: usize,
-    /// Chebyshev degree on the coarse levels where aggregation coarsens by at most 4 per
-    /// level (2D grids), where the coarse levels are relatively larger. Degree 3 saves 3
-    /// iterations on the 71² checkerboard P_5 (GMRES to 1e-10: 50 vs 53) but costs more
-    /// time than they save: the whole `pn solve checkerboard`, 10 alternating runs on the
-    /// x86-64-v3 build (2026-12-05), median 0.256 s with 3 against 0.244 s with 2 (P_3:
-    /// 0.165 / 0.163 s, 99 iterations either way). So the default is 2, as in 3D.
-    pub coarse_degree_2d: usize,
-    /// The smoother damps `[λ_max/ratio, λ_max]` of `D⁻¹A` (degree ≥ 2).
-    pub ratio: f64,
-    /// The same for the finest level's smoother (degree ≥ 2). On the even-parity
-    /// systems 15 saves about one iteration against 10 (5 applications of `S`; GMRES
-    /// iterations 15 vs 10 vs 20): 40³ P_3 point source 11 / 12 / 11, 32³ P_5 12 / 13 / 13,
-    /// 71² checkerboard P_5 53 / 54 / 53, P_3 42 / 42 / 42. [`Multigrid::for_matrix`] uses
-    /// `ratio` instead.
-    pub fine_ratio: f64,
-    /// Lanczos steps for the estimate of `λ_max` ([`smoother::estimate_lambda_max`]; the
-    /// variable keeps its older name, `PN_MG_POWER_STEPS`).
-    pub power_steps: usize,
-    /// Stop coarsening at this many unknowns.
-    pub coarse_max: usize,
-    /// Largest coarsest level solved by dense LU.
-    pub dense_max: usize,
-    /// At most this many levels.
-    pub max_levels: usize,
-    /// The coarse correction is added as `x += scale · P x_c` (over-correction makes up
-    /// for the energy that piecewise-constant interpolation loses; 1 = plain). `None`:
-    /// 1 on the parity systems ([`Multigrid::build`]), [`SCALAR_CORRECTION_SCALE`] on
-    /// scalar ones ([`Multigrid::for_matrix`]).
-    pub correction_scale: Option<f64>,
-    /// How the finest level enters the preconditioner.
-    pub fine_cycle: FineCycle,
-    /// Keep the coarse levels' operators in double precision instead of the compact
-    /// single-precision storage ([`LevelOp`]; for comparisons).
-    pub double_coarse: bool,
-    /// Store the structured coarse levels as per-class stencils with per-row weights
-    /// ([`StencilLevel`]) instead of the compact CSR; `PN_MG_COARSE_CSR` (set) turns it off.
-    pub stencil_coarse: bool,
-    /// Coarse entries `|a_ij| < drop · sqrt(|a_ii a_jj|)` are dropped and their magnitude
-    /// added to the diagonal ([`sparsify`]); 0 keeps the Galerkin operators whole.
-    pub drop: f64,
-    /// Run the finest level of the cycle in single precision where the finest operator has
-    /// an `f32` form ([`Multigrid::with_single_fine`]): `None` decides by the solve's
-    /// tolerance ([`SINGLE_FINE_MIN_TOL`]); `PN_MG_SINGLE=0|1` forces it.
-    pub single_fine: Option<bool>,
-}
-
-/// The tightest relative tolerance for which the parity solves run the finest
-/// level of the cycle in single precision by default: rounding `f32` perturbs the
-/// preconditioner by about 1e-7 relative, far below what a solve to 1e-6 or looser needs.
-pub const SINGLE_FINE_MIN_TOL: f64 = 1e-6;
-
-/// How the finest level enters the preconditioner.
-///
-/// Measured (`pn solve pointsource --tol 1e-6`, CG iterations / applications of `S` in the
-/// iteration, the multiplicative setup's 8 power steps not included): 40³ P_1
-/// multiplicative 9 / 46, additive 19 / 20; 80³ P_1 12 / 61 vs 22 / 23 (iterate 0.46 s vs
-/// 0.26 s); 40³ P_3 Dirichlet 12 / 61 vs 39 / 40 (iterate 0.56–0.65 s vs 0.53–0.58 s,
-/// three runs each). Under GMRES (the slightly nonsymmetric Neumann `S` from P_3 on) the
-/// additive form also needs fewer applications, but its many more iterations cost more
-/// orthogonalisation than they save: 80³ P_5 19 / 101 vs 64 / 69, iterate 26 s vs 36 s;
-/// 71² checkerboard P_5 54 vs 178 iterations, 0.49 s vs 1.12 s. (CG instead of GMRES
-/// diverged on the checkerboard.) Hence the default [`FineCycle::AdditiveIfSymmetric`].
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum FineCycle {
-    /// Chebyshev smoothing before and after the coarse correction (V-cycle): `2·degree`
-    /// applications of the finest operator per cycle.
-    Multiplicative,
-    /// `M⁻¹ = ω D⁻¹ + P M_c⁻¹ Pᵀ` with `M_c⁻¹` the V-cycle of the coarse levels: no
-    /// application of the finest operator in the cycle and no `λ_max` estimate. Symmetric;
-    /// the Krylov method needs more iterations (one application each).
-    Additive {
-        /// Weight of the fine-level Jacobi term relative to the coarse correction (the
-        /// iteration counts hardly depend on it: 0.5, 1 and 2 gave 39, 39 and 40
-        /// iterations on the 40³ P_3 point source).
-        omega: f64,
-    },
-    /// Additive (`ω = 1`) where the finest operator is symmetric (so that CG, with its
-    /// short recurrence, runs), multiplicative elsewhere. Symmetry is read off the first
-    /// Galerkin operator `PᵀAP` (no application of `A`). [`Multigrid::for_matrix`] (scalar
-    /// systems such as CDA) takes it as multiplicative.
-    AdditiveIfSymmetric,
-}
-
-impl FineCycle {
-    /// `AdditiveIfSymmetric` resolved for an operator that is (or is not) symmetric.
-    pub fn resolve(self, symmetric: bool) -> Self {
-        match self {
-            FineCycle::AdditiveIfSymmetric if symmetric => FineCycle::Additive { omega: 1.0 },
-            FineCycle::AdditiveIfSymmetric => FineCycle::Multiplicative,
-            other => other,
-        }
-    }
-}
-
-impl Default for MgOptions {
-    fn default() -> Self {
-        Self {
-            fine_degree: 2,
-            fine_degree_nonsymmetric: 3,
-            coarse_degree: 2,
-            coarse_degree_2d: 2,
-            ratio: 10.0,
-            fine_ratio: 15.0,
-            power_steps: 8,
-            coarse_max: 300,
-            dense_max: 6000,
-            max_levels: 25,
-            correction_scale: None,
-            fine_cycle: FineCycle::AdditiveIfSymmetric,
-            double_coarse: false,
-            stencil_coarse: true,
-            drop: 0.0,
-            single_fine: None,
-        }
-    }
-}
-
-impl MgOptions {
-    /// The defaults with overrides from named variables (`get("PN_MG_RATIO")` etc.):
-    /// `PN_MG_FINE_DEGREE` (both finest degrees unless `PN_MG_FINE_DEGREE_NONSYMMETRIC` sets
-    /// the second), `PN_MG_COARSE_DEGREE`, `PN_MG_COARSE_DEGREE_2D`, `PN_MG_RATIO`,
-    /// `PN_MG_FINE_RATIO`, `PN_MG_POWER_STEPS`, `PN_MG_COARSE_MAX`, `PN_MG_SCALE`;
-    /// `PN_MG_ADDITIVE=ω` (ω > 0) forces [`FineCycle::Additive`], `PN_MG_ADDITIVE=0`
-    /// [`FineCycle::Multiplicative`]; `PN_MG_DOUBLE_COARSE` (set) keeps the coarse levels in
-    /// `f64`. Unset or unparsable values leave the default. The
-    /// command line passes the environment ([`crate::solver::SolverTuning::from_vars`]).
-    pub fn from_vars(get: &dyn Fn(&str) -> Option<String>) -> Self {
-        fn parse<T: std::str::FromStr>(
-            get: &dyn Fn(&str) -> Option<String>,
-            name: &str,
-        ) -> Option<T> {
-            get(name).and_then(|v| v.parse().ok())
-        }
-        let d = Self::default();
-        Self {
-            fine_degree: parse(get, "PN_MG_FINE_DEGREE").unwrap_or(d.fine_degree),
-            fine_degree_nonsymmetric: parse(get, "PN_MG_FINE_DEGREE_NONSYMMETRIC")
-                .or(parse(get, "PN_MG_FINE_DEGREE"))
-                .unwrap_or(d.fine_degree_nonsymmetric),
-            coarse_degree: parse(get, "PN_MG_COARSE_DEGREE").unwrap_or(d.coarse_degree),
-            coarse_degree_2d: parse(get, "PN_MG_COARSE_DEGREE_2D").unwrap_or(d.coarse_degree_2d),
-            ratio: parse(get, "PN_MG_RATIO").unwrap_or(d.ratio),
-            fine_ratio: parse(get, "PN_MG_FINE_RATIO").unwrap_or(d.fine_ratio),
-            power_steps: parse(get, "PN_MG_POWER_STEPS").unwrap_or(d.power_steps),
-            coarse_max: parse(get, "PN_MG_COARSE_MAX").unwrap_or(d.coarse_max),
-            correction_scale: parse(get, "PN_MG_SCALE").or(d.correction_scale),
-            fine_cycle: match parse(get, "PN_MG_ADDITIVE").unwrap_or(f64::NAN) {
-                w if w > 0.0 && w.is_finite() => FineCycle::Additive { omega: w },
-                w if w.is_nan() || w < 0.0 || w.is_infinite() => d.fine_cycle,
-                _ => FineCycle::Multiplicative,
-            },
-            double_coarse: get("PN_MG_DOUBLE_COARSE").is_some(),
-            stencil_coarse: get("PN_MG_COARSE_CSR").is_none(),
-            drop: parse(get, "PN_MG_DROP").unwrap_or(d.drop),
-            single_fine: parse::<u8>(get, "PN_MG_SINGLE")
-                .map(|v| v != 0)
-                .or(d.single_fine),
-            ..d
-        }
-    }
-
-    /// The damped interval's ratio for a given degree: degree 1 (damped Jacobi) uses
-    /// `[λ_max/2, λ_max]`, i.e. `ω = 4/(3λ_max)`, the classical smoothing weight.
-    fn ratio_for(&self, degree: usize) -> f64 {
-        if degree <= 1 {
-            2.0
-        } else {
-            self.ratio
-        }
-    }
 }
 
 /// Fewest vector entries per parallel task in the cycle's vector kernels: the coarse levels
@@ -579,6 +388,160 @@ fn csr_diagonal(a: &CsMat<f64>) -> Vec<f64> {
     d
 }
 
+/// The finest level's cycle ([`MgOptions::fine_cycle`] resolved) and the relative asymmetry
+/// of the first Galerkin operator `a` (`first_asymmetry`: as measured when it was built as
+/// a stencil), for [`Multigrid::build`].
+///
+/// `PᵀAP` is symmetric (to rounding) when `A` is; an asymmetric `A` could pass only if its
+/// asymmetry cancelled within every aggregate pair. No application of `A`. Only the
+/// additive-if-symmetric cycle needs it here; otherwise it is left unchecked (0, as for a
+/// symmetric operator) and the caller measures the symmetry with a few products instead (a
+/// symmetric 8.7 M-entry first level, the 32³ P_7 cloud, took 0.43 s to check in full).
+fn fine_cycle_of(a: &Building, first_asymmetry: Option<f64>, opts: &MgOptions) -> (FineCycle, f64) {
+    match opts.fine_cycle {
+        FineCycle::AdditiveIfSymmetric => {
+            let asym = match a {
+                Building::Csr(c) => csr_asymmetry(c, COARSE_SYMMETRY_TOL),
+                Building::Stencil(_) => first_asymmetry.unwrap_or(f64::INFINITY),
+            };
+            (opts.fine_cycle.resolve(asym <= COARSE_SYMMETRY_TOL), asym)
+        }
+        c => (c, 0.0),
+    }
+}
+
+/// The finest level's smoother for [`Multigrid::build`] from its inverse diagonal `inv`,
+/// with its `λ_max` estimated with the finest operator `single` in `f32` where there is
+/// one (else `fine_apply`); and that inverse diagonal in `f32` when `single` estimated it
+/// (the finest level then runs in single precision).
+fn fine_smoother(
+    fine_apply: &dyn Fn(&[f64], &mut [f64]),
+    single: Option<&SingleApply>,
+    inv: Vec<f64>,
+    fine_cycle: FineCycle,
+    fine_degree: usize,
+    opts: &MgOptions,
+) -> (Chebyshev, Option<Vec<f32>>) {
+    // The inverse diagonal in f32, where the finest level runs in single precision.
+    let mut inv32: Option<Vec<f32>> = None;
+    let smoother = match fine_cycle {
+        // The additive term ω D⁻¹ needs no spectrum: no `λ_max` estimate.
+        FineCycle::Additive { omega } => Chebyshev {
+            inv_diag: inv,
+            lambda_max: 1.0 / omega,
+            lambda_min: 1.0 / omega,
+            degree: 1,
+        },
+        _ => {
+            let ratio = if fine_degree <= 1 {
+                opts.ratio_for(1)
+            } else {
+                opts.fine_ratio
+            };
+            match single {
+                // With the operator the cycle will apply, in f32: half the bytes.
+                Some(single) => {
+                    let inv_single = inv32.insert(inv.par_iter().map(|&v| v as f32).collect());
+                    let lambda_max =
+                        smoother::estimate_lambda_max_with(single, inv_single, opts.power_steps);
+                    Chebyshev::from_estimate(inv, lambda_max, fine_degree, ratio)
+                }
+                None => Chebyshev::new(fine_apply, inv, fine_degree, ratio, opts.power_steps),
+            }
+        }
+    };
+    (smoother, inv32)
+}
+
+/// The levels below `finest` for [`Multigrid::build`]: each aggregated from the one above,
+/// with its operator the Galerkin operator of the one above (`a`, the first) and its own
+/// smoother of degree `coarse_degree`, until [`MgOptions::coarse_max`] unknowns,
+/// [`MgOptions::max_levels`] levels, or aggregation stops reducing. Returns the levels above
+/// the coarsest, each coarse operator's stored entries, and the coarsest operator.
+fn coarse_levels(
+    finest: Level,
+    mut a: Building,
+    coarse_degree: usize,
+    opts: &MgOptions,
+) -> Result<(Vec<Level>, Vec<usize>, Building), MgError> {
+    let mut g = finest.agg.coarse.clone();
+    let mut levels = vec![finest];
+    let mut coarse_nnz = vec![a.nonzeros()];
+    while a.rows() > opts.coarse_max && levels.len() + 1 < opts.max_levels {
+        let agg = aggregate(&g);
+        if agg.coarse_len() as f64 > 0.9 * a.rows() as f64 {
+            break;
+        }
+        let inv = inverse_diagonal(levels.len(), &a.diagonal())?;
+        let next = a.galerkin(&agg, opts);
+        let op = a.into_op(&g, opts);
+        // λ_max of the operator the cycle applies, whose stored f32 form reads fewer bytes
+        // than the f64 CSR (80³ P_5 point source, coarser levels 1.1 → 0.78 s).
+        let smoother = Chebyshev::new(
+            &|x: &[f64], y: &mut [f64]| op.apply(x, y),
+            inv,
+            coarse_degree,
+            opts.ratio_for(coarse_degree),
+            opts.power_steps.max(10),
+        );
+        g = agg.coarse.clone();
+        coarse_nnz.push(next.nonzeros());
+        levels.push(Level {
+            op: Some(op),
+            smoother,
+            agg,
+        });
+        a = next;
+    }
+    Ok((levels, coarse_nnz, a))
+}
+
+/// The dense LU factors of the coarsest operator `a` and its size (at most
+/// [`MgOptions::dense_max`]).
+fn coarsest_lu(
+    a: CsMat<f64>,
+    opts: &MgOptions,
+) -> Result<(nalgebra::LU<f64, nalgebra::Dyn, nalgebra::Dyn>, usize), MgError> {
+    let n = a.rows();
+    if n > opts.dense_max {
+        return Err(MgError::CoarsestTooLarge {
+            unknowns: n,
+            limit: opts.dense_max,
+        });
+    }
+    let mut dense = nalgebra::DMatrix::<f64>::zeros(n, n);
+    for (i, row) in a.outer_iterator().enumerate() {
+        for (j, &v) in row.iter() {
+            dense[(i, j)] += v;
+        }
+    }
+    let lu = dense.lu();
+    if !lu.is_invertible() {
+        return Err(MgError::SingularCoarsest { unknowns: n });
+    }
+    Ok((lu, n))
+}
+
+/// The work vectors of the levels above the coarsest.
+fn work_vectors(levels: &[Level]) -> Vec<Work> {
+    levels
+        .iter()
+        .enumerate()
+        .map(|(l, lev)| {
+            let n_l = lev.agg.agg.len();
+            let n_next = lev.agg.coarse_len();
+            debug_assert!(l + 1 >= levels.len() || levels[l + 1].agg.agg.len() == n_next);
+            Work {
+                r: vec![0.0; n_l],
+                d: vec![0.0; n_l],
+                t: vec![0.0; n_l],
+                b_next: vec![0.0; n_next],
+                x_next: vec![0.0; n_next],
+            }
+        })
+        .collect()
+}
+
 impl Multigrid {
     /// Builds the hierarchy for a finest operator given by `fine_apply` with the diagonal
     /// `fine_diag()` and unknowns `geom`; `first_coarse` computes `Pᵀ A P` for the first
@@ -606,64 +569,26 @@ impl Multigrid {
         }
         let inv = inverse_diagonal(0, &fine_diag)?;
         let t_agg = t0.elapsed().as_secs_f64();
-        let (mut a, first_asymmetry) = match first_coarse(&agg) {
+        let (a, first_asymmetry) = match first_coarse(&agg) {
             FirstCoarse::Csr(c) => (Building::Csr(sparsify(c, opts.drop)), None),
             FirstCoarse::Stencil(s, asym) => (Building::Stencil(s), Some(asym)),
         };
         let t_first = t0.elapsed().as_secs_f64();
-        // `PᵀAP` is symmetric (to rounding) when `A` is; an asymmetric `A` could pass only
-        // if its asymmetry cancelled within every aggregate pair. No application of `A`.
-        // Only the additive-if-symmetric cycle needs it here; otherwise it is left
-        // unchecked (0, as for a symmetric operator) and the caller measures the symmetry
-        // with a few products instead (a symmetric 8.7 M-entry first level, the 32³ P_7
-        // cloud, took 0.43 s to check in full).
-        let (fine_cycle, first_coarse_asymmetry) = match opts.fine_cycle {
-            FineCycle::AdditiveIfSymmetric => {
-                let asym = match &a {
-                    Building::Csr(c) => csr_asymmetry(c, COARSE_SYMMETRY_TOL),
-                    Building::Stencil(_) => first_asymmetry.unwrap_or(f64::INFINITY),
-                };
-                (opts.fine_cycle.resolve(asym <= COARSE_SYMMETRY_TOL), asym)
-            }
-            c => (c, 0.0),
-        };
+        let (fine_cycle, first_coarse_asymmetry) = fine_cycle_of(&a, first_asymmetry, opts);
         let fine_degree = if first_coarse_asymmetry > COARSE_SYMMETRY_TOL {
             opts.fine_degree_nonsymmetric
         } else {
             opts.fine_degree
         };
         let t_sym = t0.elapsed().as_secs_f64();
-        // The inverse diagonal in f32, where the finest level runs in single precision.
-        let mut inv32: Option<Vec<f32>> = None;
-        let smoother = match fine_cycle {
-            // The additive term ω D⁻¹ needs no spectrum: no `λ_max` estimate.
-            FineCycle::Additive { omega } => Chebyshev {
-                inv_diag: inv,
-                lambda_max: 1.0 / omega,
-                lambda_min: 1.0 / omega,
-                degree: 1,
-            },
-            _ => {
-                let ratio = if fine_degree <= 1 {
-                    opts.ratio_for(1)
-                } else {
-                    opts.fine_ratio
-                };
-                match &single {
-                    // With the operator the cycle will apply, in f32: half the bytes.
-                    Some(single) => {
-                        let inv_single = inv32.insert(inv.par_iter().map(|&v| v as f32).collect());
-                        let lambda_max = smoother::estimate_lambda_max_with(
-                            single,
-                            inv_single,
-                            opts.power_steps,
-                        );
-                        Chebyshev::from_estimate(inv, lambda_max, fine_degree, ratio)
-                    }
-                    None => Chebyshev::new(fine_apply, inv, fine_degree, ratio, opts.power_steps),
-                }
-            }
-        };
+        let (smoother, inv32) = fine_smoother(
+            fine_apply,
+            single.as_ref(),
+            inv,
+            fine_cycle,
+            fine_degree,
+            opts,
+        );
         let additive = matches!(fine_cycle, FineCycle::Additive { .. });
         let t_power = t0.elapsed().as_secs_f64();
         // 2D-like coarsening (at most 4 fine unknowns per aggregate on average).
@@ -672,39 +597,12 @@ impl Multigrid {
         } else {
             opts.coarse_degree
         };
-        let mut g = agg.coarse.clone();
-        let mut levels = vec![Level {
+        let finest = Level {
             op: None,
             smoother,
             agg,
-        }];
-        let mut coarse_nnz = vec![a.nonzeros()];
-        while a.rows() > opts.coarse_max && levels.len() + 1 < opts.max_levels {
-            let agg = aggregate(&g);
-            if agg.coarse_len() as f64 > 0.9 * a.rows() as f64 {
-                break;
-            }
-            let inv = inverse_diagonal(levels.len(), &a.diagonal())?;
-            let next = a.galerkin(&agg, opts);
-            let op = a.into_op(&g, opts);
-            // λ_max of the operator the cycle applies, whose stored f32 form reads fewer bytes
-            // than the f64 CSR (80³ P_5 point source, coarser levels 1.1 → 0.78 s).
-            let smoother = Chebyshev::new(
-                &|x: &[f64], y: &mut [f64]| op.apply(x, y),
-                inv,
-                coarse_degree,
-                opts.ratio_for(coarse_degree),
-                opts.power_steps.max(10),
-            );
-            g = agg.coarse.clone();
-            coarse_nnz.push(next.nonzeros());
-            levels.push(Level {
-                op: Some(op),
-                smoother,
-                agg,
-            });
-            a = next;
-        }
+        };
+        let (levels, coarse_nnz, a) = coarse_levels(finest, a, coarse_degree, opts)?;
         let setup_seconds = [
             t_agg,
             t_first - t_agg,
@@ -712,40 +610,8 @@ impl Multigrid {
             t_power - t_sym,
             t0.elapsed().as_secs_f64() - t_power,
         ];
-        let a = a.into_csr();
-        let n = a.rows();
-        if n > opts.dense_max {
-            return Err(MgError::CoarsestTooLarge {
-                unknowns: n,
-                limit: opts.dense_max,
-            });
-        }
-        let mut dense = nalgebra::DMatrix::<f64>::zeros(n, n);
-        for (i, row) in a.outer_iterator().enumerate() {
-            for (j, &v) in row.iter() {
-                dense[(i, j)] += v;
-            }
-        }
-        let lu = dense.lu();
-        if !lu.is_invertible() {
-            return Err(MgError::SingularCoarsest { unknowns: n });
-        }
-        let work = levels
-            .iter()
-            .enumerate()
-            .map(|(l, lev)| {
-                let n_l = lev.agg.agg.len();
-                let n_next = lev.agg.coarse_len();
-                debug_assert!(l + 1 >= levels.len() || levels[l + 1].agg.agg.len() == n_next);
-                Work {
-                    r: vec![0.0; n_l],
-                    d: vec![0.0; n_l],
-                    t: vec![0.0; n_l],
-                    b_next: vec![0.0; n_next],
-                    x_next: vec![0.0; n_next],
-                }
-            })
-            .collect();
+        let (lu, n) = coarsest_lu(a.into_csr(), opts)?;
+        let work = work_vectors(&levels);
         let mg = Self {
             levels,
             coarsest: lu,
