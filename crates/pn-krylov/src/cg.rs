@@ -6,9 +6,9 @@
 //! tolerance. No parameters beyond the controller's.
 //!
 //! ```
-//! use pn_runtime::operator::Identity;
-//! use pn_runtime::solver::cg::cg;
-//! use pn_runtime::solver::control::{Control, Outcome};
+//! use pn_krylov::operator::Identity;
+//! use pn_krylov::cg::cg;
+//! use pn_krylov::control::{Control, Outcome};
 //!
 //! // A = [[4, 1], [1, 3]] (symmetric positive definite), f = A [1, 2].
 //! let a = sprs::CsMat::new((2, 2), vec![0, 2, 4], vec![0, 1, 0, 1], vec![4.0, 1.0, 1.0, 3.0]);

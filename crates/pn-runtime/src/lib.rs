@@ -43,7 +43,7 @@
 //! let opts = BuiltinOptions { res: Some(vec![21]), ..Default::default() };
 //! let scene = builtin("checkerboard", &opts).unwrap();
 //! let p1 = pn_kernel(1, Dim::Two, Staggering::Staggered).unwrap();
-//! let solver_opts = SolverOptions { tol: 1e-10, progress: false, ..Default::default() };
+//! let solver_opts = SolverOptions { tol: 1e-10, ..Default::default() };
 //! let sol = solve_problem(&scene.problem, p1.kernel.as_ref(), SolverKind::ParityCg, &solver_opts)
 //!     .unwrap();
 //! assert!(sol.stats.converged() && sol.stats.relative_residual <= 1e-10);
