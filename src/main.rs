@@ -86,7 +86,7 @@ fn is_broken_pipe(err: &anyhow::Error) -> bool {
 const BROKEN_PIPE_STATUS: i32 = 141;
 
 fn main() {
-    if let Some(message) = pn_runtime::cpu::missing_features() {
+    if let Some(message) = pn_runtime::missing_features() {
         eprintln!("error: {message}");
         std::process::exit(1);
     }
@@ -94,8 +94,8 @@ fn main() {
     let env = cli::Env::from_process();
     let mut stdout = std::io::stdout();
     // The whole command runs on a worker of the global thread pool (`with_threads` says why).
-    let result = pn_runtime::threads::with_threads(None, || run(&args.command, &env, &mut stdout))
-        .and_then(|r| r);
+    let result =
+        pn_runtime::with_threads(None, || run(&args.command, &env, &mut stdout)).and_then(|r| r);
     if let Err(err) = result {
         if is_broken_pipe(&err) {
             std::process::exit(BROKEN_PIPE_STATUS);

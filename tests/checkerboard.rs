@@ -5,7 +5,7 @@
 
 mod support;
 
-use pn_formats::npy::read_npy;
+use pn_formats::read_npy;
 use std::path::PathBuf;
 use std::process::Command;
 use support::{rel_diff, starmap_reference};

@@ -6,7 +6,7 @@
 //! multiples of 7/(16n) and never on an interface.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
-use pn_formats::npy::read_npy;
+use pn_formats::read_npy;
 use pn_runtime::convergence::restrict;
 use std::path::PathBuf;
 use std::process::Output;

@@ -3,7 +3,7 @@
 //! given as voxel data, and the errors of bad FLD input.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
-use pn_formats::npy::{encode_npy, read_npy};
+use pn_formats::{encode_npy, read_npy};
 use std::path::{Path, PathBuf};
 
 mod support;

@@ -1,7 +1,7 @@
 //! `pn export-mitsuba` and `pn compare` from the command line (no Mitsuba needed).
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
-use pn_formats::image_io::write_exr_gray;
+use pn_formats::write_exr_gray;
 use std::path::{Path, PathBuf};
 
 mod support;

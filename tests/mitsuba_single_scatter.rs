@@ -39,8 +39,8 @@
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
 use pn_render::mitsuba::{self, ExportOptions, RunOptions};
-use pn_render::renderer::Renderer;
 use pn_render::scene::Albedo;
+use pn_render::Renderer;
 use pn_render::{compare, DensityFilter, RenderScene, SceneOverride};
 use std::path::Path;
 
@@ -377,7 +377,7 @@ fn mitsuba_reads_voxels_as_documented() {
     .unwrap();
     std::fs::write(
         dir.join("four.vol"),
-        pn_formats::vol::encode_vol(&grid.to_voxel_grid()),
+        pn_formats::encode_vol(&grid.to_voxel_grid()),
     )
     .unwrap();
     // pn's lookup is the convention verified below, for both filters.

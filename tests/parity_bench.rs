@@ -9,14 +9,14 @@ mod support;
 
 use pn_kernels::{pn_kernel, Dim, Staggering};
 use pn_runtime::assemble::{assemble, System};
-use pn_runtime::layout::Layout;
 use pn_runtime::problem::Problem;
 use pn_runtime::scenes::{builtin, BuiltinOptions};
 use pn_runtime::solver::cgnr::Cgnr;
 use pn_runtime::solver::parity::{KrylovMethod, ParityCg, ParityReport, Precond, ReducedMode};
 use pn_runtime::solver::pn_layout::{cell_blocks, even_mask};
 use pn_runtime::solver::{LinearSolver, SolveStats, SolverOptions};
-use pn_runtime::unstagger::unstagger;
+use pn_runtime::unstagger;
+use pn_runtime::Layout;
 use std::time::Instant;
 use support::rel_diff;
 

@@ -259,7 +259,7 @@ fn pn_stencil_prints_a_pde_file() {
 /// `--method pn --order 1`'s bit for bit — with the isotropic source alone it was 37 % darker.
 #[test]
 fn a_text_pde_renders_with_the_anisotropic_first_scatter_source() {
-    use pn_formats::image_io::read_exr_rgb;
+    use pn_formats::read_exr_rgb;
     let d = work_dir("pde_render_bands");
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let scene = root.join("scenes/cumulus.toml");

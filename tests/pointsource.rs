@@ -12,7 +12,7 @@
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
 use pn_drivers::pointsource_extras::{exact_modes, profile, Ray};
-use pn_formats::plot::profile::PROFILE_CSV_HEADER;
+use pn_formats::plot::PROFILE_CSV_HEADER;
 use pn_kernels::{cda_kernel, pn_kernel, Dim, Staggering};
 use pn_runtime::pipeline::{solve_problem, Solution};
 use pn_runtime::problem::Boundary;

@@ -3,7 +3,7 @@
 //! bookkeeping and times; bad settings are one clear error.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
-use pn_formats::image_io::read_exr_gray;
+use pn_formats::read_exr_gray;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 

@@ -6,7 +6,7 @@
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
 use pn_drivers::render::{render_scene, RenderOptions};
-use pn_formats::image_io::read_exr_gray;
+use pn_formats::read_exr_gray;
 use pn_render::scene::RenderMethod;
 use pn_render::RenderScene;
 use std::path::{Path, PathBuf};

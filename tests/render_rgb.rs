@@ -10,7 +10,7 @@
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
 use pn_drivers::render::{render_scene, write_run, RenderOptions};
-use pn_formats::image_io::read_exr_rgb;
+use pn_formats::read_exr_rgb;
 use pn_render::RenderScene;
 use std::path::Path;
 

@@ -3,8 +3,8 @@
 
 mod support;
 
-use pn_formats::npy::{encode_npy, read_npy};
-use pn_formats::vol::encode_vol;
+use pn_formats::encode_vol;
+use pn_formats::{encode_npy, read_npy};
 use pn_runtime::field::VoxelGrid;
 use std::path::PathBuf;
 use std::process::Command;

@@ -2,7 +2,7 @@
 //! σ_t threshold, and a clear error (never a panic) for every bad flag value.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
-use pn_formats::npy::encode_npy;
+use pn_formats::encode_npy;
 use std::path::PathBuf;
 use std::process::{Command, Output};
 use std::time::{Duration, Instant};

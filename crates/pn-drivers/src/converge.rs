@@ -10,7 +10,7 @@
 use crate::error_estimate::solve_at;
 use crate::scene_setup::{Method, SolveRequest};
 use anyhow::{ensure, Context, Result};
-use pn_formats::plot::convergence::write_convergence_png;
+use pn_formats::plot::write_convergence_png;
 use pn_runtime::convergence::{analyse, check_nesting, Level};
 use std::io::Write;
 use std::path::PathBuf;
@@ -120,7 +120,7 @@ pub fn run(req: &SolveRequest, stdout: &mut dyn Write) -> Result<()> {
         scene: name.clone(),
         table: &table,
     };
-    pn_formats::json::write_atomic(&out.join("convergence.json"), &report)?;
+    pn_formats::write_atomic(&out.join("convergence.json"), &report)?;
     let title = format!("{name} {what}, sampling {sampling}: self-convergence");
     write_convergence_png(
         &out.join("convergence.png"),

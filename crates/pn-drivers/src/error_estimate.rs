@@ -13,9 +13,9 @@ use crate::scene_setup::{
     check_memory_and_set_sigma_t_min, kernel_for, sampled_problem, scene_from_request, SolveRequest,
 };
 use anyhow::{ensure, Result};
-use pn_formats::output::cell_shape;
-use pn_formats::output::report::ErrorEstimate;
-use pn_formats::png::{write_png, Slice};
+use pn_formats::cell_shape;
+use pn_formats::ErrorEstimate;
+use pn_formats::{write_png, Slice};
 use pn_runtime::convergence::{l2_diff, observed_order, rel_l2_diff, restrict, richardson};
 use pn_runtime::field::Sampling;
 use pn_runtime::pipeline::{solve_problem, Solution};
@@ -53,7 +53,7 @@ pub fn solve_at(req: &SolveRequest, res: Vec<usize>) -> Result<LevelSolve> {
     let opts = a.solver_options();
     let t0 = Instant::now();
     let kernel = choice.kernel.as_ref();
-    let sol = pn_runtime::threads::with_threads(a.threads, || {
+    let sol = pn_runtime::with_threads(a.threads, || {
         solve_problem(&problem, kernel, a.solver, &opts)
     })??;
     crate::progress::print_notes(&sol.stats.notes);
@@ -220,7 +220,7 @@ fn estimate(req: &SolveRequest, problem: &Problem, sol: &Solution) -> Result<Est
 /// `error.npy` (signed estimate per coarse cell) and `error.png` (|estimate|, log scale;
 /// 3D: the middle z slice).
 fn write_error_files(out: &Path, grid: &Grid, per_cell: &[f64], title: &str) -> Result<()> {
-    pn_formats::npy::write_npy(&out.join("error.npy"), &cell_shape(grid), per_cell)?;
+    pn_formats::write_npy(&out.join("error.npy"), &cell_shape(grid), per_cell)?;
     let [nx, ny, nz] = grid.res;
     let k = nz / 2;
     let vals: Vec<f64> = (0..nx)

@@ -27,13 +27,13 @@
 mod plot;
 
 use anyhow::{bail, ensure, Context, Result};
-use pn_formats::output::report::{FldSection, Report, RunInfo, SolveReport};
-use pn_formats::output::write_outputs;
+use pn_formats::write_outputs;
+use pn_formats::{FldSection, Report, RunInfo, SolveReport};
 use pn_kernels::{diffusion_kernel, Dim};
-use pn_runtime::layout::Layout;
 use pn_runtime::pipeline::Solution;
 use pn_runtime::solver::{SolveStats, SolveStatus, SolverKind};
-use pn_runtime::unstagger::CellMoments;
+use pn_runtime::CellMoments;
+use pn_runtime::Layout;
 use pn_stencil::MomentPlacement;
 use std::io::Write;
 
@@ -116,7 +116,7 @@ pub fn run(a: &SolveRequest, stdout: &mut dyn Write) -> Result<()> {
         "--error-estimate is not available for --method fld"
     );
     // --sampling average: cell averages of analytic fields (FLD samples at cell centres).
-    let sampled = pn_runtime::context::apply_sampling(&scene.problem, a.sampling);
+    let sampled = pn_runtime::apply_sampling(&scene.problem, a.sampling);
     let problem = &sampled;
     let fp = fld_problem(problem)?;
     let settings = settings_from_request(a, &fp.grid)?;
@@ -141,9 +141,8 @@ pub fn run(a: &SolveRequest, stdout: &mut dyn Write) -> Result<()> {
     if let Some(note) = &kernel.note {
         eprintln!("{note}");
     }
-    let run = pn_runtime::threads::with_threads(a.threads, || {
-        solve_fld_route(&fp, &settings, &kernel, None)
-    })??;
+    let run =
+        pn_runtime::with_threads(a.threads, || solve_fld_route(&fp, &settings, &kernel, None))??;
     crate::progress::print_notes(&run.notes);
 
     let sol = as_solution(&problem.grid, &run, a.tol)?;
@@ -153,7 +152,7 @@ pub fn run(a: &SolveRequest, stdout: &mut dyn Write) -> Result<()> {
         order: 0,
         layout: "staggered".into(),
         stencil_compiled: kernel.compiled,
-        threads: pn_runtime::threads::effective_threads(a.threads),
+        threads: pn_runtime::effective_threads(a.threads),
     };
     let stencil_name = match run.route {
         Route::Picard => kernel.kernel.name().to_string(),

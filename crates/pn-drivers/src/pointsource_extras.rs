@@ -15,7 +15,7 @@
 //! ([`grosjean_gaussian`]), since its `e^{−τ}/τ²` term is not a Yukawa mode.
 
 use anyhow::{ensure, Context, Result};
-use pn_formats::plot::profile::{write_profile_csv, write_profile_png_titled};
+use pn_formats::plot::{write_profile_csv, write_profile_png_titled};
 use pn_kernels::Dim;
 use pn_runtime::pipeline::Solution;
 use pn_runtime::problem::Grid;

@@ -9,18 +9,18 @@
 //! and the one report through `pn_formats`.
 
 use anyhow::{bail, ensure, Context, Result};
-use pn_formats::image_io::{
+use pn_formats::{
     exposure, write_exr_gray, write_exr_rgb, write_png_tonemapped, write_png_tonemapped_rgb,
 };
 use pn_render::pde_kernel::PdeKernel;
-use pn_render::pipeline::ProgressCallback;
 use pn_render::scene::{RenderMethod, RendererKind};
+use pn_render::ProgressCallback;
 use pn_render::{DensityFilter, RenderScene, RgbImages, SceneOverride};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 
-pub use pn_render::pipeline::{
+pub use pn_render::{
     turntable_camera, ChannelReport, RenderOptions, RenderReport, RenderRun, SolverReport, Timings,
     UnknownStats, ViewReport, MAX_VIEWS,
 };
@@ -347,7 +347,7 @@ pub fn run(a: &RenderRequest, stdout: &mut dyn Write) -> Result<()> {
     if let Some(ms) = save {
         let m = &ms.moments;
         let path = out.join("moments.npy");
-        pn_formats::npy::write_npy(&path, &[m.res[0], m.res[1], m.res[2], m.per_cell], &m.data)?;
+        pn_formats::write_npy(&path, &[m.res[0], m.res[1], m.res[2], m.per_cell], &m.data)?;
     }
     write_summary(stdout, &run.report, &out, a.stats)
 }

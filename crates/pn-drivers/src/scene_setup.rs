@@ -5,8 +5,8 @@
 
 use anyhow::{bail, ensure, Result};
 use pn_kernels::{cda_kernel, pn_kernel, KernelChoice, Staggering};
-use pn_render::scene_file::load_scene;
-use pn_runtime::context::apply_sampling;
+use pn_render::load_scene;
+use pn_runtime::apply_sampling;
 use pn_runtime::field::Sampling;
 use pn_runtime::fld::Limiter;
 use pn_runtime::problem::{Boundary, Problem};

@@ -4,8 +4,8 @@
 //! (extrapolation) boundary, relative residual 1e-10.
 
 use anyhow::{bail, Context};
-use pn_formats::output::report::{Report, RunInfo, SolveReport, VacuumMeasurements};
-use pn_formats::output::write_outputs;
+use pn_formats::write_outputs;
+use pn_formats::{Report, RunInfo, SolveReport, VacuumMeasurements};
 use pn_kernels::KernelChoice;
 use pn_runtime::pipeline::{solve_problem, Solution};
 use pn_runtime::problem::Problem;
@@ -55,7 +55,7 @@ pub fn run(req: &SolveRequest, stdout: &mut dyn Write) -> anyhow::Result<()> {
     let sampled = sampled_problem(&scene.problem, a.sampling);
     let problem = &sampled;
     let kernel = choice.kernel.as_ref();
-    let sol = pn_runtime::threads::with_threads(a.threads, || {
+    let sol = pn_runtime::with_threads(a.threads, || {
         solve_problem(problem, kernel, a.solver, &opts)
     })??;
     crate::progress::print_notes(&sol.stats.notes);
@@ -75,7 +75,7 @@ pub fn run(req: &SolveRequest, stdout: &mut dyn Write) -> anyhow::Result<()> {
         }
         .into(),
         stencil_compiled: choice.compiled,
-        threads: pn_runtime::threads::effective_threads(a.threads),
+        threads: pn_runtime::effective_threads(a.threads),
     };
     let report = SolveReport::new(Report::new(&info, problem, kernel.name(), &sol));
     let out = a.out_dir(&scene.name);

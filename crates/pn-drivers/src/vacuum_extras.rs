@@ -6,19 +6,19 @@
 //! * `slab`: `reflection` and `transmission`, the collided outgoing flux per unit incident
 //!   flux through x = 0 and x = τ ([`slab_fluxes`]; for a text PDE that closes the faces
 //!   with its own `boundary marshak` conditions, the flux of its L_0^0 equation through the
-//!   faces, [`pn_runtime::robin::RobinFaces::face_outflow`]); `reference_reflection` and
+//!   faces, [`pn_runtime::RobinFaces::face_outflow`]); `reference_reflection` and
 //!   `reference_transmission` (P_N–Marshak, exact in 1D) for odd N and albedo < 1, when the
 //!   boundary is Marshak on both x faces.
 //! * `milne`: `extrapolation_length` ([`milne_extrapolation_length`]) and
 //!   `reference_extrapolation_length` (P_N–Marshak) for odd N with a Marshak face at x = 0.
 
 use anyhow::Result;
-use pn_formats::output::report::VacuumMeasurements;
+use pn_formats::VacuumMeasurements;
 use pn_runtime::pipeline::Solution;
 use pn_runtime::problem::{BoundaryKind, Problem};
 use pn_runtime::reference::{pn_marshak_milne, pn_marshak_slab};
-use pn_runtime::robin::RobinFaces;
 use pn_runtime::scenes::vacuum::{milne_extrapolation_length, slab_fluxes, SLAB_ALBEDO};
+use pn_runtime::RobinFaces;
 use pn_stencil::StencilKernel;
 use std::io::Write;
 

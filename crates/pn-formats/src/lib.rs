@@ -2,24 +2,49 @@
 //!
 //! The libraries below it (`pn-runtime`, `pn-render`) return values; the commands
 //! (`pn-drivers`, `pn-lab`) and the Python package turn them into files through this crate.
+//! Its modules are private; what a caller needs is re-exported here:
 //!
-//! * Arrays and volumes: [`npy`] (NumPy `.npy`), [`vol`] (Mitsuba's `.vol`, reader and
-//!   writer), [`vdb`] (OpenVDB float grids, reader).
-//! * Images: [`image_io`] (EXR written and read back, tone-mapped PNG), [`png`] (a slice of a
-//!   solution as a colour-mapped PNG).
-//! * Results: [`output`] (the files of a solve: `fluence.npy`, `moments.npy`, `fluence.png`,
-//!   `report.json`, written atomically), [`json`] (every JSON report written atomically: a
-//!   file appears only when complete), [`table`] (one table type for every CSV and Markdown
-//!   table), [`plot`] (plot frames, the fonts registered once, the convergence and profile
-//!   plots).
+//! * NumPy `.npy`: [`write_npy`], [`read_npy`] (an [`NpyArray`]), [`encode_npy`],
+//!   [`decode_npy`].
+//! * Mitsuba's `.vol`: [`read_vol`], [`decode_vol`], [`encode_vol`], [`encode_vol_scaled`]
+//!   (one channel per factor).
+//! * OpenVDB float grids: [`read_vdb`] returns a [`VdbGrid`] (its [`IndexBox`] and
+//!   [`IndexToWorld`]).
+//! * Images: [`write_exr_gray`], [`write_exr_rgb`], [`read_exr_gray`], [`read_exr_rgb`];
+//!   tone-mapped PNG ([`write_png_tonemapped`], [`write_png_tonemapped_rgb`], [`exposure`],
+//!   [`srgb8`], [`channel_mean`]); [`write_png`]: a [`Slice`] of a solution as a
+//!   colour-mapped PNG.
+//! * The files of a solve: [`write_outputs`] (the [`OUTPUT_FILES`], written atomically;
+//!   [`cell_shape`]) and its report types ([`Report`], [`RunInfo`], [`SolveReport`],
+//!   [`ErrorEstimate`], [`VacuumMeasurements`], [`FldSection`]).
+//! * [`write_atomic`]: every JSON report, written atomically (a file appears only when
+//!   complete).
+//! * [`Table`]: one table type for every CSV and Markdown table ([`Align`], [`num`]).
+//! * [`plot`] (a public module): plot frames, the fonts registered once, the convergence and
+//!   profile plots.
 #![warn(missing_docs)]
 
-pub mod image_io;
-pub mod json;
-pub mod npy;
-pub mod output;
+mod image_io;
+mod json;
+mod npy;
+mod output;
 pub mod plot;
-pub mod png;
-pub mod table;
-pub mod vdb;
-pub mod vol;
+mod png;
+mod table;
+mod vdb;
+mod vol;
+
+pub use image_io::{
+    channel_mean, exposure, read_exr_gray, read_exr_rgb, srgb8, write_exr_gray, write_exr_rgb,
+    write_png_tonemapped, write_png_tonemapped_rgb,
+};
+pub use json::write_atomic;
+pub use npy::{decode_npy, encode_npy, read_npy, write_npy, NpyArray};
+pub use output::report::{
+    ErrorEstimate, FldSection, Report, RunInfo, SolveReport, VacuumMeasurements,
+};
+pub use output::{cell_shape, write_outputs, OUTPUT_FILES};
+pub use png::{write_png, Slice};
+pub use table::{num, Align, Table};
+pub use vdb::{read_vdb, IndexBox, IndexToWorld, VdbGrid};
+pub use vol::{decode_vol, encode_vol, encode_vol_scaled, read_vol};

@@ -8,7 +8,7 @@
 //! # Example
 //!
 //! ```
-//! use pn_formats::table::{num, Align, Table};
+//! use pn_formats::{num, Align, Table};
 //!
 //! let mut t = Table::new(&["method", "seconds"]);
 //! t.push(&[("method", "p3".into()), ("seconds", num(Some(1.23456)))])?;

@@ -1,7 +1,7 @@
 //! `profile.csv` / `profile.png` writers of the point-source scene.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
-use pn_formats::plot::profile::{write_profile_csv, write_profile_png, PROFILE_CSV_HEADER};
+use pn_formats::plot::{write_profile_csv, write_profile_png, PROFILE_CSV_HEADER};
 use pn_runtime::reference::{cda_point_source, grosjean, pn_point_source, ProfileRow};
 use std::path::PathBuf;
 

@@ -8,8 +8,8 @@
 //! precision, as we do; the JSON holds them to full precision).
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
-use pn_formats::npy::read_npy;
-use pn_formats::vdb::{read_vdb, IndexBox};
+use pn_formats::read_npy;
+use pn_formats::{read_vdb, IndexBox};
 use std::path::{Path, PathBuf};
 
 fn fixture(name: &str) -> PathBuf {

@@ -1,7 +1,7 @@
 //! CGLS: conjugate gradients on the normal equations `AᵀA u = Aᵀb` without forming `AᵀA`
 //! (Hestenes & Stiefel 1952; docs/design.md §5), on any [`LinearOperator`]: the assembled CSR
 //! matrix (`--solver cgnr`, [`super::cgnr::Cgnr`]) or the matrix-free operator
-//! (`--solver cgnr-mf`, `pn_runtime::matfree`).
+//! (`--solver cgnr-mf`, `pn_runtime::MatFreeOperator`).
 //!
 //! Per iteration one product with `A` and one with `Aᵀ`. CGLS minimises `‖b − Au‖₂` over
 //! the Krylov space, so the recurrence residual decreases monotonically; when it meets the

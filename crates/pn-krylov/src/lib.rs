@@ -11,8 +11,10 @@
 //! * Square systems, one file each: [`cg`], [`bicgstab`], [`gmres`]; [`krylov`] picks one by
 //!   name ([`KrylovMethod`]).
 //! * Least squares on an operator with a transpose: [`cgls`], [`lsqr`], [`lsmr`].
-//! * [`control`]: the one stopping controller of every method; [`stats`]: what a solve
-//!   reports.
+//! * [`control`]: the one stopping controller of every method.
+//! * Re-exported here: [`LinearOperator`], [`Preconditioner`], [`KrylovMethod`], the stopping
+//!   rules [`Stopping`] (with their [`IterationObserver`]), and what a solve reports
+//!   ([`SolveStats`], [`SolveStatus`]; from the private `stats` module).
 //!
 //! **Tolerance.** Every method stops on the *relative* residual `‖b − A x‖₂ / ‖b‖₂ ≤ tol`;
 //! the final residual in [`SolveStats`] is recomputed from the returned solution.
@@ -52,7 +54,7 @@ pub mod linalg;
 pub mod lsmr;
 pub mod lsqr;
 pub mod operator;
-pub mod stats;
+mod stats;
 
 pub use krylov::KrylovMethod;
 pub use operator::{LinearOperator, Preconditioner};

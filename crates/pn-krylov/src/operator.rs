@@ -3,7 +3,7 @@
 //! (`z = M⁻¹ r`).
 //!
 //! Operators: the assembled CSR matrix ([`AssembledOperator`], and plain `CsMat` for one-off
-//! use), the matrix-free operator of `pn_runtime::matfree`, the reduced parity operator
+//! use), the matrix-free operator of `pn_runtime::MatFreeOperator`, the reduced parity operator
 //! (`pn_runtime::solver::parity::reduced::ReducedOperator`) and [`Counted`], which counts the
 //! products taken with any of them. Preconditioners: [`Identity`], [`Jacobi`], and in
 //! `pn_runtime::solver::parity::precond` ILU(0), block-Jacobi and the multigrid cycle

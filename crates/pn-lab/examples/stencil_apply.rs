@@ -5,8 +5,8 @@
 use pn_kernels::{pn_kernel, Dim, Staggering};
 use pn_runtime::assemble_split::assemble_split_stencil;
 use pn_runtime::bandwidth::median_seconds;
-use pn_runtime::layout::Layout;
 use pn_runtime::scenes::{builtin, BuiltinOptions};
+use pn_runtime::Layout;
 
 fn main() -> anyhow::Result<()> {
     let args: Vec<usize> = std::env::args()

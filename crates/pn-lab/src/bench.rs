@@ -14,7 +14,7 @@ use crate::bench_rows::{
 use anyhow::Context;
 use pn_drivers::fld_setup::{solve_fld_route, FldSettings};
 use pn_drivers::scene_setup::Route;
-use pn_formats::table::Table;
+use pn_formats::Table;
 use pn_kernels::{cda_kernel, diffusion_kernel, pn_kernel, Dim, Staggering};
 use pn_runtime::fld::{FldParams, Limiter};
 use pn_runtime::pipeline::{solve_problem, Solution};

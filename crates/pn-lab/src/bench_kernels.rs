@@ -17,13 +17,13 @@
 
 use anyhow::Context;
 use pn_codegen::discretize::{pn_ir_for_order, pn_name};
-use pn_formats::table::Table;
+use pn_formats::Table;
 use pn_kernels::{compiled, Dim, Staggering};
 use pn_runtime::assemble::assemble;
-use pn_runtime::context::RowContext;
-use pn_runtime::layout::Layout;
 use pn_runtime::problem::Problem;
 use pn_runtime::scenes::{builtin, BuiltinOptions};
+use pn_runtime::Layout;
+use pn_runtime::RowContext;
 use pn_stencil::{InterpretedKernel, StencilKernel, TreeWalk};
 use std::time::Instant;
 

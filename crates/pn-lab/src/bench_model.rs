@@ -11,7 +11,7 @@
 //!   numbers show that the count does not depend on the phase function.
 
 use crate::bench_rows::{reset_peak_memory, row_from, Row};
-use pn_formats::table::Table;
+use pn_formats::Table;
 use pn_kernels::{pn_kernel, Dim, Staggering};
 use pn_runtime::pipeline::{solve_problem, Solution};
 use pn_runtime::problem::{Phase, Problem};

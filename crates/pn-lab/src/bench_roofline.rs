@@ -25,12 +25,12 @@ use pn_krylov::operator::{AssembledOperator, LinearOperator};
 use pn_runtime::assemble::assemble;
 use pn_runtime::assemble_split::{assemble_split, has_parity_structure};
 use pn_runtime::bandwidth::median_seconds;
-use pn_runtime::layout::Layout;
-use pn_runtime::matfree::MatFreeOperator;
 use pn_runtime::problem::Problem;
 use pn_runtime::solver::multigrid::Geometry;
 use pn_runtime::solver::parity::reduced::ReducedOperator;
 use pn_runtime::solver::parity::{Precond, ReducedMode};
+use pn_runtime::Layout;
+use pn_runtime::MatFreeOperator;
 use pn_stencil::StencilKernel;
 
 /// Timed applications at least.

@@ -127,7 +127,7 @@ pub(crate) fn reset_peak_memory() -> bool {
 
 /// The peak resident memory of the process (0 where unknown).
 pub(crate) fn peak_memory() -> u64 {
-    pn_runtime::memory::peak_memory_bytes().unwrap_or(0)
+    pn_runtime::peak_memory_bytes().unwrap_or(0)
 }
 
 /// Largest relative deviation of `values(k)` (normalised fluence at k cells along +x from

@@ -15,8 +15,8 @@
 use anyhow::{ensure, Context, Result};
 use plotters::prelude::*;
 use pn_drivers::render::{render_scene, write_run, RenderOptions, RenderRun};
-use pn_formats::image_io::{exposure, read_exr_gray, srgb8};
-use pn_formats::table::Table;
+use pn_formats::Table;
+use pn_formats::{exposure, read_exr_gray, srgb8};
 use pn_render::compare::{metrics, write_difference_png, GrayImage, Metrics};
 use pn_render::scene::{RenderMethod, RendererKind};
 use pn_render::{DensityFilter, RenderScene, SceneOverride};

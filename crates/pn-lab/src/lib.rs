@@ -15,7 +15,7 @@
 //! Every experiment takes a `…Request` struct with public fields (the `pn` binary fills it
 //! from its command line and environment; nothing here reads or sets an environment
 //! variable) and a `std::io::Write` for what the command prints; progress goes to stderr.
-//! Tables are [`pn_formats::table::Table`]s, written as CSV and Markdown.
+//! Tables are [`pn_formats::Table`]s, written as CSV and Markdown.
 //!
 //! Dependencies run one way: lab → `pn-drivers` (the shared setup: `scene_setup`,
 //! `fld_setup`, `render`) → the libraries (`pn-runtime`, `pn-kernels`, `pn-codegen`,

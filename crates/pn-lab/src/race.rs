@@ -52,7 +52,7 @@ pub use turntable::turntable_cameras;
 
 use anyhow::{ensure, Context, Result};
 use mitsuba_side::Mitsuba;
-use pn_formats::table::Table;
+use pn_formats::Table;
 use request::Plan;
 use std::io::Write;
 use std::path::PathBuf;

@@ -18,7 +18,7 @@ use crate::bench_rows::{fld_point_source, profile_error};
 use anyhow::Context;
 use plotters::prelude::*;
 use pn_formats::plot::{draw_error, finish_chart, framed_chart, white_canvas};
-use pn_formats::table::Table;
+use pn_formats::Table;
 use pn_kernels::{cda_kernel, pn_kernel, Dim, Staggering};
 use pn_runtime::fld::{solve_fld, FldParams, Limiter};
 use pn_runtime::pipeline::solve_problem;

@@ -55,9 +55,9 @@ pub struct Metrics {
 }
 
 /// Reads an EXR as grey (the mean of its colour channels; ours and Mitsuba's are equal),
-/// with [`pn_formats::image_io::read_exr_gray`].
+/// with [`pn_formats::read_exr_gray`].
 pub fn read_gray(path: &Path) -> anyhow::Result<GrayImage> {
-    let (width, height, data) = pn_formats::image_io::read_exr_gray(path)?;
+    let (width, height, data) = pn_formats::read_exr_gray(path)?;
     Ok(GrayImage {
         width,
         height,
@@ -261,12 +261,12 @@ pub fn compare_files(
     b: &Path,
     out: Option<&Path>,
 ) -> anyhow::Result<(Metrics, Option<Vec<ChannelMetrics>>)> {
-    let (wa, ha, ca) = pn_formats::image_io::read_exr_rgb(a)?;
-    let (wb, hb, cb) = pn_formats::image_io::read_exr_rgb(b)?;
+    let (wa, ha, ca) = pn_formats::read_exr_rgb(a)?;
+    let (wb, hb, cb) = pn_formats::read_exr_rgb(b)?;
     let grey = |width, height, c: &[Vec<f32>; 3]| GrayImage {
         width,
         height,
-        data: pn_formats::image_io::channel_mean(c)
+        data: pn_formats::channel_mean(c)
             .into_iter()
             .map(f64::from)
             .collect(),

@@ -34,8 +34,9 @@ use super::light_depth::LightDepth;
 use super::lights::Light;
 use super::medium::DensityGrid;
 use super::scene::{AbsorberPlacement, RenderScene, SolveBoundary};
-pub use super::shadow::density_as_grid;
-use super::shadow::{cell_centre, DeepShadowMaps, Extinction};
+use super::shadow::{cell_centre, Extinction};
+#[cfg(test)]
+use super::shadow::{density_as_grid, DeepShadowMaps};
 use super::solve_setup::{add_absorbing_layer, resample};
 use super::source_quadrature::cell_scattering_weights;
 use pn_runtime::field::{Field, VoxelGrid};
@@ -46,8 +47,10 @@ use std::sync::Arc;
 /// The source moments `Q_l^m`, l ≤ `max_band`, at the cell centres of `grid`
 /// (x slowest), for cell-averaged `sigma_s` and the transmittance at the cell centres
 /// (`shadows`). Bands whose phase factor λ_l p_l vanishes (all l > 0 for isotropic
-/// scattering) are left out. Returns `(l, m, values)`.
-pub fn source_moments(
+/// scattering) are left out. Returns `(l, m, values)`. The tests' reference for
+/// [`source_moments_weighted`].
+#[cfg(test)]
+pub(crate) fn source_moments(
     grid: &Grid,
     sigma_s: &[f64],
     phase: Phase,
@@ -141,8 +144,10 @@ pub struct FirstScatterProblem {
 /// depth to the lights ([`LightDepth::compute`]). `density` is the scene's
 /// [`RenderScene::density_grid`] (it carries the filter). So a coarse solve grid still
 /// receives the total first-scatter power ∫ σ_s T E dx of the medium, instead of sampling T
-/// at a coarse cell centre that may lie several mean free paths deep.
-pub fn first_scatter_problem(
+/// at a coarse cell centre that may lie several mean free paths deep. (The pipeline calls
+/// [`first_scatter_problem_with_depth`]; this is the tests' shorthand.)
+#[cfg(test)]
+pub(crate) fn first_scatter_problem(
     scene: &RenderScene,
     density: &DensityGrid,
     grid: &Grid,

@@ -22,70 +22,80 @@
 //! # Ok::<(), anyhow::Error>(())
 //! ```
 //!
-//! The modules:
+//! Public modules, for what has many parts of its own:
 //!
 //! * [`scene`]: the render scene, its TOML format, voxel files, validation and the built-in
-//!   scenes; [`scene_override`]: `--set SECTION.KEY=VALUE` on its TOML;
-//! * [`pipeline`]: [`render_views`], its options, run and report, and the methods
-//!   ([`pipeline::methods`]);
-//! * [`medium`]: the density grid, its filter (trilinear as Mitsuba, or nearest) and the
-//!   procedural media; [`colour`]: per-channel (RGB) media and lights;
-//! * [`lights`], [`camera`]: lights, phase function values and the pinhole camera;
-//! * [`shadow`], [`light_depth`]: exact optical depth (traversal of the filter's lattice),
-//!   the optical depth to the lights;
-//! * [`solve_setup`], [`first_scatter`], [`hull_absorber`], [`source_quadrature`]: the
-//!   cropped solve grid, resampled coefficients, the absorber and the first-scatter source
-//!   moments (a [`pn_runtime::problem::Problem`]);
-//! * [`fld_problem`], [`pde_kernel`]: the FLD problem and its solve, text PDEs' stencils
-//!   (shared with `pn solve`);
-//! * [`transport_sweep`]: source iterations of the transport equation started from the
-//!   solution, which the renderer reads instead of it;
-//! * [`march`], [`renderer`]: the deterministic ray marcher; delta tracking, next-event
-//!   estimation and the solution lookup;
+//!   scenes (its enums: [`scene::RenderMethod`], [`scene::RendererKind`], …);
+//! * [`fld_problem`]: the FLD problem of a scene and its solve (the route `pn render` and
+//!   `pn solve` share); [`pde_kernel`]: text PDEs' stencils (shared with `pn solve`);
 //! * [`pop`]: Principal-Ordinates Propagation for directional lights;
-//! * [`mitsuba`], [`compare`]: the Mitsuba 3 export and image comparison;
-//! * [`scene_file`], [`scene_kind`]: the TOML solve scenes of `pn solve` (with voxel files).
+//! * [`mitsuba`]: the Mitsuba 3 export and run; [`compare`]: image comparison (metrics,
+//!   difference images).
+//!
+//! Re-exported here, from private modules:
+//!
+//! * the pipeline: [`render_views`], [`render_scene`], [`RenderOptions`],
+//!   [`ProgressCallback`], [`RenderRun`], [`RgbImages`], [`turntable_camera`], [`MAX_VIEWS`],
+//!   and the report ([`RenderReport`], [`ViewReport`], [`ChannelReport`], [`SolverReport`],
+//!   [`Timings`], [`UnknownStats`]);
+//! * the methods: [`MultipleScattering`], [`method_for`], [`PreparedScene`], [`MsSolution`];
+//! * the scene's main types: [`RenderScene`], [`MediumSpec`], [`RenderSettings`],
+//!   [`SolveSettings`], [`SolveBoundary`], [`AbsorberPlacement`], [`MsLookup`],
+//!   [`RenderMethod`], and [`SceneOverride`] (`--set SECTION.KEY=VALUE` on its TOML);
+//! * media and lights: [`DensityGrid`], [`DensityFilter`] (trilinear as Mitsuba, or
+//!   nearest), [`Procedural`], [`Light`], [`phase_value`], [`Camera`], [`CHANNELS`] (the
+//!   RGB channels of a coloured scene);
+//! * the Monte Carlo renderer: [`Renderer`] (delta tracking, next-event estimation),
+//!   [`Rng`], [`Image`];
+//! * [`solve_grid`]: the cropped solve grid of a scene;
+//! * [`load_scene`]: the TOML solve scenes of `pn solve` (with voxel files).
+//!
+//! The rest is private: the first-scatter source, exact optical depth, the absorber, the
+//! transport sweeps and the deterministic ray marcher.
 #![warn(missing_docs)]
 
-pub mod camera;
-pub mod colour;
+mod camera;
+mod colour;
 pub mod compare;
-pub mod first_scatter;
+mod first_scatter;
 pub mod fld_problem;
-pub mod hull_absorber;
-pub mod light_depth;
-pub mod lights;
-pub mod march;
-pub mod medium;
+mod hull_absorber;
+mod light_depth;
+mod lights;
+mod march;
+mod medium;
 pub mod mitsuba;
 pub mod pde_kernel;
-pub mod pipeline;
+mod pipeline;
 pub mod pop;
 mod progress;
-pub mod renderer;
+mod renderer;
 pub mod scene;
-pub mod scene_file;
-pub mod scene_kind;
-pub mod scene_override;
-pub mod shadow;
-pub mod solve_setup;
-pub mod source_quadrature;
-pub mod transport_sweep;
+mod scene_file;
+mod scene_kind;
+mod scene_override;
+mod shadow;
+mod solve_setup;
+mod source_quadrature;
+mod transport_sweep;
 
 pub use camera::Camera;
-pub use lights::Light;
+pub use colour::CHANNELS;
+pub use lights::{phase_value, Light};
 pub use medium::{DensityFilter, DensityGrid, Procedural};
 pub use pipeline::methods::{method_for, MsSolution, MultipleScattering, PreparedScene};
 pub use pipeline::{
-    render_scene, render_views, turntable_camera, ProgressCallback, RenderOptions, RenderReport,
-    RenderRun, RgbImages,
+    render_scene, render_views, turntable_camera, ChannelReport, ProgressCallback, RenderOptions,
+    RenderReport, RenderRun, RgbImages, SolverReport, Timings, UnknownStats, ViewReport, MAX_VIEWS,
 };
-pub use renderer::Image;
+pub use renderer::{Image, Renderer, Rng};
 pub use scene::{
     AbsorberPlacement, MediumSpec, MsLookup, RenderMethod, RenderScene, RenderSettings,
     SolveBoundary, SolveSettings,
 };
+pub use scene_file::load_scene;
 pub use scene_override::SceneOverride;
+pub use solve_setup::solve_grid;
 
 /// The 3D grid of `res` cells over the box [−1, 1]³ that the render modules' tests share.
 #[cfg(test)]

@@ -212,8 +212,8 @@ pub struct LightDepth {
     h: [f64; 3],
     /// Nodes per axis (the density resolution).
     res: [usize; 3],
-    /// `tau[light][(i·ny + j)·nz + k]` (x slowest, the order of
-    /// [`super::shadow::DeepShadowMaps`]).
+    /// `tau[light][(i·ny + j)·nz + k]` (x slowest, the order of the
+    /// solve grid's cells).
     tau: Vec<Vec<f64>>,
     /// Light-frame planes per light (directional lights; `None`: the voxel-centre grid).
     planes: Vec<Option<PlaneDepth>>,

@@ -276,23 +276,20 @@ impl<'a> Marcher<'a> {
     }
 
     /// Traces the first `voxels` voxel sides of every light ray exactly (default
-    /// [`NEAR_VOXELS`]; 0: the grid alone).
-    pub fn with_near_voxels(mut self, voxels: f64) -> Self {
+    /// [`NEAR_VOXELS`]; 0: the grid alone). For the tests.
+    #[cfg(test)]
+    pub(crate) fn with_near_voxels(mut self, voxels: f64) -> Self {
         self.near = voxels.max(0.0) * self.density.h().iter().fold(0.0f64, |m, v| m.max(*v));
         self
     }
 
     /// Uses the exact optical depth to the lights (a voxel traversal per step and light,
     /// [`Extinction::optical_depth`]) instead of the interpolated grid: slower, and free of
-    /// the grid's interpolation error (for measuring it).
-    pub fn with_exact_transmittance(mut self) -> Self {
+    /// the grid's interpolation error (for measuring it in the tests).
+    #[cfg(test)]
+    pub(crate) fn with_exact_transmittance(mut self) -> Self {
         self.exact = true;
         self
-    }
-
-    /// The step length Δ in world units.
-    pub fn delta(&self) -> f64 {
-        self.delta
     }
 
     /// The radiance arriving at `origin` along the unit direction `dir` (from the medium
@@ -463,7 +460,7 @@ mod tests {
     use super::*;
     use crate::renderer::{Renderer, Rng};
     use pn_runtime::problem::Phase;
-    use pn_runtime::unstagger::CellMoments;
+    use pn_runtime::CellMoments;
     use std::path::Path;
 
     /// A scene around [−1, 1]³ (the medium itself is passed separately as a grid).

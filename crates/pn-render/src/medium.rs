@@ -332,7 +332,7 @@ impl DensityGrid {
         any.then_some((lo, hi))
     }
 
-    /// The same data as a [`VoxelGrid`] (x slowest, f64), e.g. for [`pn_formats::vol::encode_vol`].
+    /// The same data as a [`VoxelGrid`] (x slowest, f64), e.g. for [`pn_formats::encode_vol`].
     pub fn to_voxel_grid(&self) -> VoxelGrid {
         let [nx, ny, nz] = self.res;
         let mut data = vec![0.0; nx * ny * nz];

@@ -133,9 +133,9 @@ pub fn export(scene: &RenderScene, dir: &Path, opts: &ExportOptions) -> anyhow::
     })
 }
 
-/// Writes `grid` as a `.vol` file with one channel per factor ([`pn_formats::vol::encode_vol_scaled`]).
+/// Writes `grid` as a `.vol` file with one channel per factor ([`pn_formats::encode_vol_scaled`]).
 fn write_vol(path: &Path, grid: &DensityGrid, factors: &[f64]) -> anyhow::Result<()> {
-    let bytes = pn_formats::vol::encode_vol_scaled(&grid.to_voxel_grid(), factors);
+    let bytes = pn_formats::encode_vol_scaled(&grid.to_voxel_grid(), factors);
     std::fs::write(path, bytes).with_context(|| format!("cannot write {}", path.display()))
 }
 
@@ -468,7 +468,7 @@ mod tests {
         let s = scene();
         let dir = std::env::temp_dir().join(format!("pn-mitsuba-export-{}", std::process::id()));
         let e = export(&s, &dir, &ExportOptions::from_scene(&s)).unwrap();
-        let back = pn_formats::vol::read_vol(&e.density).unwrap();
+        let back = pn_formats::read_vol(&e.density).unwrap();
         let g = s.density_grid().unwrap();
         assert_eq!(back.dims, g.res);
         let [i, j, k] = [3, 17, 25];

@@ -68,7 +68,7 @@ impl PdeKernel {
     }
 
     /// Sets the auxiliary unknowns of `moments` to zero.
-    pub fn zero_auxiliary(&self, moments: &mut pn_runtime::unstagger::CellMoments) {
+    pub fn zero_auxiliary(&self, moments: &mut pn_runtime::CellMoments) {
         let per = moments.per_cell;
         for cell in moments.data.chunks_mut(per) {
             for &s in &self.auxiliary_slots {

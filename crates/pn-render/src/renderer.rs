@@ -32,7 +32,7 @@ use super::shadow::Extinction;
 use crate::progress::{ProgressCallback, RowCounter};
 use pn_runtime::field::trilinear_corners;
 use pn_runtime::problem::{Grid, Phase};
-use pn_runtime::unstagger::CellMoments;
+use pn_runtime::CellMoments;
 use pn_stencil::quadrature::real_sh;
 use rayon::prelude::*;
 

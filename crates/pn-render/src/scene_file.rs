@@ -28,8 +28,8 @@
 //! are relative to the scene file.
 
 use anyhow::{bail, ensure, Context};
-use pn_formats::npy::read_npy;
-use pn_formats::vol::read_vol;
+use pn_formats::read_npy;
+use pn_formats::read_vol;
 use pn_runtime::field::{Field, VoxelGrid};
 use pn_runtime::problem::{Boundary, Grid, Phase, Problem, Scattering, SourceTerm};
 use pn_runtime::scene_registry::{self, SceneKind};

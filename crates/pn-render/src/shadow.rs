@@ -26,6 +26,7 @@ use super::lights::Light;
 use super::medium::floor_fast;
 use super::medium::{DensityFilter, DensityGrid};
 use pn_runtime::problem::Grid;
+#[cfg(test)]
 use rayon::prelude::*;
 
 /// The extinction field σ_t = `scale` × density, with exact ray integrals.
@@ -316,20 +317,23 @@ pub(crate) fn walk_lattice(
 
 /// Transmittance from every cell centre of `grid` to each light: `maps[light][cell]` with
 /// cells in the solve grid's order (x slowest, `(i·ny + j)·nz + k`).
+/// Only the tests use them now (the pipeline reads the [`crate::light_depth::LightDepth`] grid).
+#[cfg(test)]
 #[derive(Clone, Debug, PartialEq)]
-pub struct DeepShadowMaps {
+pub(crate) struct DeepShadowMaps {
     /// One map per light.
-    pub maps: Vec<Vec<f64>>,
+    pub(crate) maps: Vec<Vec<f64>>,
 }
 
+#[cfg(test)]
 impl DeepShadowMaps {
     /// Computes the maps in parallel (one ray per cell centre and light).
-    pub fn compute(ext: &Extinction, grid: &Grid, lights: &[Light]) -> Self {
+    pub(crate) fn compute(ext: &Extinction, grid: &Grid, lights: &[Light]) -> Self {
         Self::compute_where(ext, grid, lights, |_| true)
     }
 
     /// [`Self::compute`] at the cells `(i, j, k)` where `wanted` holds; the others hold 0.
-    pub fn compute_where(
+    pub(crate) fn compute_where(
         ext: &Extinction,
         grid: &Grid,
         lights: &[Light],
@@ -356,8 +360,9 @@ impl DeepShadowMaps {
     }
 }
 
-/// The density grid's voxels as a [`Grid`] (cell centres = voxel centres).
-pub fn density_as_grid(density: &DensityGrid) -> Grid {
+/// The density grid's voxels as a [`Grid`] (cell centres = voxel centres); for the tests.
+#[cfg(test)]
+pub(crate) fn density_as_grid(density: &DensityGrid) -> Grid {
     Grid {
         dim: pn_stencil::Dim::Three,
         min: density.bbox_min,

@@ -41,7 +41,7 @@
 use anyhow::{anyhow, ensure, Result};
 use pn_runtime::field::Field;
 use pn_runtime::problem::{Grid, Problem, Scattering};
-use pn_runtime::unstagger::CellMoments;
+use pn_runtime::CellMoments;
 use pn_stencil::quadrature::{real_sh, SphereQuadrature};
 use rayon::prelude::*;
 

@@ -11,7 +11,7 @@ use pn_render::pop::propagate::{
 use pn_render::pop::{
     pop_field, residuum_switch_iteration, solve_light, PopSeconds, PopSettings, ResiduumSettings,
 };
-use pn_render::solve_setup::solve_grid;
+use pn_render::solve_grid;
 use pn_render::RenderScene;
 use std::path::Path;
 

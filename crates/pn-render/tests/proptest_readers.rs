@@ -7,9 +7,9 @@
 //! values besides arbitrary text.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
-use pn_formats::npy::{decode_npy, encode_npy};
-use pn_formats::vol::{decode_vol, encode_vol};
-use pn_render::scene_file::load_scene;
+use pn_formats::{decode_npy, encode_npy};
+use pn_formats::{decode_vol, encode_vol};
+use pn_render::load_scene;
 use pn_runtime::field::VoxelGrid;
 use proptest::prelude::*;
 use std::path::PathBuf;

@@ -12,9 +12,9 @@
 //! the outcome is deterministic).
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
-use pn_render::lights::phase_value;
-use pn_render::renderer::{Renderer, Rng};
+use pn_render::phase_value;
 use pn_render::{Light, RenderScene};
+use pn_render::{Renderer, Rng};
 use pn_stencil::quadrature::gauss_legendre;
 use std::path::Path;
 

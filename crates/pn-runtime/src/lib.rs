@@ -4,23 +4,33 @@
 //! interpreted) comes in as a `&dyn StencilKernel`; neither the computer-algebra system nor
 //! the generator is a dependency.
 //!
+//! Public modules:
+//!
 //! * Problem description: [`field`], [`problem`] (including [`problem::sigma_tr`]),
-//!   [`scenes`] (built-in; [`scenes::vacuum`]: `slab` and `milne`); [`scene_registry`] lists every built-in scene of `pn solve` and `pn render`.
-//! * Discrete system: [`layout`] (unknowns and boundary closure), [`marshak`] (the Marshak
-//!   vacuum faces' rows), [`robin`] (a PDE's own boundary conditions on those faces, by
-//!   ghost elimination), [`context`] (fields at
-//!   staggered positions), [`assemble`] (sprs CSR), [`assemble_split`] (straight into the
-//!   parity blocks), [`matfree`] (the matrix-free operator).
-//! * Solving: [`operator`] (operator and preconditioner traits), [`linalg`], [`solver`] (one
-//!   file per Krylov method, one stopping controller, the parity solvers and multigrid),
+//!   [`scenes`] (built-in; [`scenes::vacuum`]: `slab` and `milne`); [`scene_registry`] lists
+//!   every built-in scene of `pn solve` and `pn render`.
+//! * Discrete system: [`marshak`] (the Marshak vacuum faces' rows), [`assemble`] (sprs CSR),
+//!   [`assemble_split`] (straight into the parity blocks).
+//! * Solving: [`solver`] (the solver kinds and options, the parity solvers and multigrid, on
+//!   the Krylov methods of `pn-krylov`),
 //!   [`pipeline`] (the whole chain, [`pipeline::solve_problem`]), [`fld`] (flux-limited
-//!   diffusion),
-//!   [`convergence`] (resolution studies).
-//! * Results: [`unstagger`], [`energy`], [`memory`], [`bandwidth`] (the
-//!   machine's measured memory bandwidth, for the roofline of `pn bench`) and
-//!   [`memory_estimate`]; [`threads`] for `--threads`.
+//!   diffusion), [`convergence`] (resolution studies).
+//! * Results and resources: [`memory_estimate`]; [`bandwidth`] (the machine's measured
+//!   memory bandwidth, for the roofline of `pn bench`).
 //! * [`reference`]: analytic and semi-analytic reference solutions (point source, the 1D
 //!   P_N–Marshak slab and Milne problems, StaRMAP files).
+//!
+//! Re-exported here, from private modules:
+//!
+//! * [`Layout`]: the unknowns and their boundary closure; [`RowContext`]: fields at staggered
+//!   positions, and [`apply_sampling`]; [`RobinFaces`]: a PDE's own boundary conditions on
+//!   the vacuum faces, by ghost elimination; [`MatFreeOperator`]: the matrix-free operator.
+//! * [`unstagger`] into [`CellMoments`]; [`energy_balance`] ([`EnergyBalance`]);
+//!   [`peak_memory_bytes`].
+//! * [`with_threads`] and [`effective_threads`] for `--threads`; [`missing_features`]: the
+//!   CPU features the build assumes and this machine lacks.
+//! * The main entry points again, for short paths: [`Problem`], [`solve_problem`],
+//!   [`Solution`].
 //!
 //! Solving the checkerboard at P_1 on a coarse grid (the stencil comes from `pn-kernels`):
 //!
@@ -43,27 +53,38 @@
 //! ```
 #![warn(missing_docs)]
 
-pub mod fld;
-pub mod reference;
-
 pub mod assemble;
 pub mod assemble_split;
 pub mod bandwidth;
-pub mod context;
+mod context;
 pub mod convergence;
-pub mod cpu;
-pub mod energy;
+mod cpu;
+mod energy;
 pub mod field;
-pub mod layout;
+pub mod fld;
+mod layout;
 pub mod marshak;
-pub mod matfree;
-pub mod memory;
+mod matfree;
+mod memory;
 pub mod memory_estimate;
 pub mod pipeline;
 pub mod problem;
-pub mod robin;
+pub mod reference;
+mod robin;
 pub mod scene_registry;
 pub mod scenes;
 pub mod solver;
-pub mod threads;
-pub mod unstagger;
+mod threads;
+mod unstagger;
+
+pub use context::{apply_sampling, RowContext};
+pub use cpu::missing_features;
+pub use energy::{energy_balance, EnergyBalance};
+pub use layout::Layout;
+pub use matfree::MatFreeOperator;
+pub use memory::peak_memory_bytes;
+pub use pipeline::{solve_problem, Solution};
+pub use problem::Problem;
+pub use robin::RobinFaces;
+pub use threads::{effective_threads, with_threads};
+pub use unstagger::{unstagger, CellMoments};

@@ -8,11 +8,11 @@ use common::{builtin_problem, opts, rel_diff, QuadKernel};
 use pn_runtime::assemble::assemble;
 use pn_runtime::assemble_split::{assemble_split, assemble_split_retaining, has_parity_structure};
 use pn_runtime::field::Field;
-use pn_runtime::layout::Layout;
 use pn_runtime::problem::{Boundary, Problem};
 use pn_runtime::solver::parity::split::split;
 use pn_runtime::solver::parity::{ParityCg, Precond};
 use pn_runtime::solver::pn_layout::{even_mask, retained_mask, Retained};
+use pn_runtime::Layout;
 use pn_stencil::{Dim, StencilKernel};
 
 fn scene(name: &str, dim: Dim, res: usize, boundary: Boundary) -> Problem {

@@ -6,11 +6,11 @@
 
 use pn_kernels::{pn_kernel, KernelChoice, Staggering};
 use pn_runtime::assemble::assemble;
-use pn_runtime::layout::Layout;
 use pn_runtime::pipeline::solve_problem;
 use pn_runtime::problem::{Boundary, Problem};
 use pn_runtime::scenes::{builtin, BuiltinOptions};
 use pn_runtime::solver::{SolverKind, SolverOptions};
+use pn_runtime::Layout;
 use pn_stencil::Dim;
 
 mod common;

@@ -343,11 +343,11 @@ fn unsupported_combinations_are_refused() {
 #[test]
 fn marshak_faces_make_the_reduced_system_nonsymmetric() {
     use pn_runtime::assemble::assemble;
-    use pn_runtime::layout::Layout;
     use pn_runtime::solver::parity::reduced::{ReducedMode, ReducedOperator};
     use pn_runtime::solver::parity::split::split;
     use pn_runtime::solver::parity::SYMMETRY_TOL;
     use pn_runtime::solver::pn_layout::even_mask;
+    use pn_runtime::Layout;
     let k = pn_kernel(1, Dim::Two, Staggering::Staggered).unwrap();
     let mut p = builtin(
         "checkerboard",

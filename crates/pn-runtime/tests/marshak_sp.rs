@@ -1,5 +1,5 @@
 //! Marshak faces closed by a text PDE's own `boundary marshak` conditions
-//! (`pn_runtime::robin`, docs/pde-text.md "Boundary conditions"): SP_3 (pdes/sp3.pde)
+//! (`pn_runtime::RobinFaces`, docs/pde-text.md "Boundary conditions"): SP_3 (pdes/sp3.pde)
 //! against P_3 with Marshak faces in the slab and Milne problems, where the two are the same
 //! equations (the slab P_3 system with its odd moments eliminated, conditions included), and
 //! against the 1D P_3–Marshak reference with convergence in h; SP_1 and CDA (pdes/sp1.pde,
@@ -13,10 +13,10 @@ use pn_runtime::field::{Field, Point};
 use pn_runtime::pipeline::{solve_problem, Solution};
 use pn_runtime::problem::{Boundary, Problem};
 use pn_runtime::reference::{pn_marshak_milne, pn_marshak_slab};
-use pn_runtime::robin::RobinFaces;
 use pn_runtime::scenes::vacuum::{milne_extrapolation_length, slab_fluxes};
 use pn_runtime::scenes::{builtin, BuiltinOptions};
 use pn_runtime::solver::SolverKind;
+use pn_runtime::RobinFaces;
 use pn_stencil::Dim;
 
 mod common;

@@ -9,7 +9,6 @@ mod common;
 use common::{builtin_problem, opts, rel_diff, system};
 use pn_krylov::linalg::{dot, norm};
 use pn_runtime::assemble::System;
-use pn_runtime::layout::Layout;
 use pn_runtime::problem::{Boundary, Problem};
 use pn_runtime::solver::multigrid::smoother::pseudo_random;
 use pn_runtime::solver::multigrid::solve::mg_krylov;
@@ -20,6 +19,7 @@ use pn_runtime::solver::parity::split::split;
 use pn_runtime::solver::parity::{ParityCg, ParityReport, Precond, SYMMETRY_TOL};
 use pn_runtime::solver::pn_layout::even_mask;
 use pn_runtime::solver::SolverKind;
+use pn_runtime::Layout;
 use pn_stencil::Dim;
 use sprs::{CsMat, TriMat};
 

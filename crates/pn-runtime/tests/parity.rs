@@ -7,7 +7,6 @@ mod common;
 
 use common::{builtin_problem, opts, rel_diff, system};
 use pn_runtime::assemble::System;
-use pn_runtime::layout::Layout;
 use pn_runtime::problem::{Boundary, Problem};
 use pn_runtime::scenes::{builtin, BuiltinOptions, PointSourceParams};
 use pn_runtime::solver::cgnr::Cgnr;
@@ -16,6 +15,7 @@ use pn_runtime::solver::parity::split::split;
 use pn_runtime::solver::parity::{KrylovMethod, ParityCg, ParityReport, Precond, SYMMETRY_TOL};
 use pn_runtime::solver::pn_layout::{cell_blocks, even_mask};
 use pn_runtime::solver::{LinearSolver, SolveStats, SolverOptions};
+use pn_runtime::Layout;
 use pn_stencil::Dim;
 
 fn checkerboard(res: usize) -> Problem {

@@ -7,13 +7,13 @@ mod common;
 use common::{builtin_problem, opts, rel_diff, QuadKernel};
 use pn_krylov::operator::LinearOperator;
 use pn_runtime::assemble_split::assemble_split;
-use pn_runtime::layout::Layout;
 use pn_runtime::problem::{Boundary, Problem};
 use pn_runtime::solver::multigrid::Geometry;
 use pn_runtime::solver::parity::reduced::ReducedOperator;
 use pn_runtime::solver::parity::stencil_s::StencilReduced;
 use pn_runtime::solver::parity::{ParityCg, Precond, ReducedMode};
 use pn_runtime::solver::LinearSolver;
+use pn_runtime::Layout;
 use pn_stencil::{Dim, StencilKernel};
 
 fn scene(name: &str, dim: Dim, res: usize, boundary: Boundary) -> Problem {

@@ -11,7 +11,7 @@
 //! with `j` over any unknowns centred along the face normal and `k` over the targets. The
 //! coefficients are [`Weight`]s whose fields are read at the face point (offset 0 from
 //! it). SP_N's Marshak conditions (`pdes/sp3.pde`) and the Robin condition of diffusion
-//! (`pdes/cda.pde`, `pdes/sp1.pde`) have this form. The runtime (`pn_runtime::robin`)
+//! (`pdes/cda.pde`, `pdes/sp1.pde`) have this form. The runtime (`pn_runtime::RobinFaces`)
 //! closes a stencil with them by eliminating the ghost values its rows reach for across the
 //! face; a kernel carries them through [`StencilKernel::boundary_conditions`], so every
 //! assembly path sees them. [`WithBoundary`] attaches them to any kernel.

@@ -478,7 +478,7 @@ fn builtin_scenes<'py>(py: Python<'py>) -> PyResult<Bound<'py, PyList>> {
 /// The module `pnsolver._pnsolver`.
 #[pymodule]
 fn _pnsolver(m: &Bound<'_, PyModule>) -> PyResult<()> {
-    if let Some(message) = pn_runtime::cpu::missing_features() {
+    if let Some(message) = pn_runtime::missing_features() {
         return Err(PyImportError::new_err(message));
     }
     m.add_class::<Scene>()?;

@@ -5,10 +5,10 @@
 //! measurements, the FLD entries). A command builds it in memory and [`super::write_outputs`]
 //! writes it once, atomically ([`crate::json::write_atomic`]).
 
-use pn_runtime::energy::EnergyBalance;
 use pn_runtime::pipeline::Solution;
 use pn_runtime::problem::Problem;
 use pn_runtime::solver::SolveStatus;
+use pn_runtime::EnergyBalance;
 use pn_stencil::Dim;
 
 /// Descriptive facts the runtime cannot know by itself (chosen by the caller).
@@ -145,7 +145,7 @@ impl Report {
             tolerance: st.tolerance,
             seconds_assembly: sol.seconds_assembly,
             seconds_solve: sol.seconds_solve,
-            peak_memory_bytes: pn_runtime::memory::peak_memory_bytes(),
+            peak_memory_bytes: pn_runtime::peak_memory_bytes(),
             threads: info.threads,
             energy_balance: sol.energy.clone(),
             residual_history: history,

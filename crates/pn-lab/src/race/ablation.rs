@@ -16,7 +16,7 @@ use super::pn_side::pn_settings;
 use super::pn_side::{PnPoint, PnRunner};
 use super::{Ctx, WORK};
 use anyhow::{anyhow, bail, ensure, Context, Result};
-use pn_formats::table::{num, Table};
+use pn_formats::{num, Table};
 use pn_render::compare::{read_gray, GrayImage};
 use pn_render::{RenderScene, SceneOverride};
 use serde::Deserialize;

@@ -2,7 +2,7 @@
 //! alone (the same code serves the run and the Markdown writer).
 
 use super::metrics::{excess, spp_for_error, time_to_reach};
-use pn_formats::table::{num, Table};
+use pn_formats::{num, Table};
 use std::collections::BTreeMap;
 
 /// Family name of plain Mitsuba in the CSV.

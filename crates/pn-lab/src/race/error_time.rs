@@ -3,7 +3,7 @@
 
 use super::{analysis, plot};
 use anyhow::Result;
-use pn_formats::table::Table;
+use pn_formats::Table;
 use std::io::Write;
 use std::path::Path;
 

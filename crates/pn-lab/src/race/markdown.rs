@@ -5,7 +5,7 @@
 use super::ablation;
 use super::analysis::{crossings, family_name, points};
 use anyhow::{Context, Result};
-use pn_formats::table::Table;
+use pn_formats::Table;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};

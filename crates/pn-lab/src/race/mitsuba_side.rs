@@ -4,7 +4,7 @@
 use super::metrics::{two_halves, TwoHalves};
 use super::proc::{run_timed, Timed};
 use anyhow::{Context, Result};
-use pn_formats::image_io::write_exr_gray;
+use pn_formats::write_exr_gray;
 use pn_render::compare::{read_gray, GrayImage};
 use pn_render::mitsuba;
 use pn_render::RenderScene;

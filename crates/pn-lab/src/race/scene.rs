@@ -8,7 +8,7 @@ use super::mitsuba_side::{self, MitsubaJob};
 use super::pn_side::{pn_settings, Family, PnPoint, PnResult, PnRunner};
 use super::{ablation, error_time, single_scatter, turntable, Ctx, WORK};
 use anyhow::{Context, Result};
-use pn_formats::table::{num, Table};
+use pn_formats::{num, Table};
 use pn_render::compare::{read_gray, GrayImage};
 use pn_render::RenderScene;
 use std::io::Write;

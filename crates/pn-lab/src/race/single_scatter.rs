@@ -7,7 +7,7 @@ use super::mitsuba_side;
 use super::pn_side::{pn_settings, PnPoint, PnRunner};
 use super::{Ctx, WORK};
 use anyhow::Result;
-use pn_formats::table::{num, Table};
+use pn_formats::{num, Table};
 use pn_render::compare::read_gray;
 use std::io::Write;
 use std::path::Path;

@@ -10,7 +10,7 @@ use super::pn_side::{pn_settings, PnPoint, PnRunner};
 use super::proc;
 use super::{Ctx, WORK};
 use anyhow::{ensure, Result};
-use pn_formats::table::{num, Table};
+use pn_formats::{num, Table};
 use pn_render::compare::read_gray;
 use pn_render::RenderScene;
 use std::io::Write;

@@ -139,10 +139,9 @@ fn compute_light_depth(
         grid: density,
         scale: scene.medium.sigma_t_scale,
     };
-    Ok(Arc::new(pn_runtime::threads::with_threads(
-        threads,
-        || LightDepth::compute(&ext, &scene.lights),
-    )?))
+    Ok(Arc::new(pn_runtime::with_threads(threads, || {
+        LightDepth::compute(&ext, &scene.lights)
+    })?))
 }
 
 /// What the views are rendered from.
@@ -213,7 +212,7 @@ fn render_images(
         }
         let t2 = Instant::now();
         let image = match &marcher {
-            Some(m) => pn_runtime::threads::with_threads(threads, || m.render(&camera, rows))?,
+            Some(m) => pn_runtime::with_threads(threads, || m.render(&camera, rows))?,
             None => {
                 let view_scene;
                 let sc = if k == 0 {
@@ -230,7 +229,7 @@ fn render_images(
                     density,
                     ms,
                 };
-                pn_runtime::threads::with_threads(threads, || renderer.render(r.spp, r.seed, rows))?
+                pn_runtime::with_threads(threads, || renderer.render(r.spp, r.seed, rows))?
             }
         };
         let secs = t2.elapsed().as_secs_f64();
@@ -284,8 +283,8 @@ fn grey_report(
         seconds: Timings::default(),
         mean_radiance: mean(&image.data),
         rms_standard_error: rms(&image.std_err),
-        peak_memory_bytes: pn_runtime::memory::peak_memory_bytes(),
-        threads: pn_runtime::threads::effective_threads(threads),
+        peak_memory_bytes: pn_runtime::peak_memory_bytes(),
+        threads: pn_runtime::effective_threads(threads),
         views: Vec::new(),
         warnings: Vec::new(),
         overrides: Vec::new(),

@@ -120,7 +120,7 @@ pub(super) fn render_views_rgb(
     report.solver = None;
     report.mean_radiance = mean(&mean_image.data);
     report.rms_standard_error = rms(&mean_image.std_err);
-    report.peak_memory_bytes = pn_runtime::memory::peak_memory_bytes();
+    report.peak_memory_bytes = pn_runtime::peak_memory_bytes();
     for (k, v) in report.views.iter_mut().enumerate() {
         v.mean_radiance = mean(&mean_views[k].data);
         v.render_seconds = computed

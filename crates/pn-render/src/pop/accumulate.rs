@@ -21,7 +21,7 @@
 use super::propagate::LightGrid;
 use crate::shadow::cell_centre;
 use pn_runtime::problem::Grid;
-use pn_runtime::unstagger::CellMoments;
+use pn_runtime::CellMoments;
 use pn_stencil::quadrature::real_sh;
 use rayon::prelude::*;
 

@@ -49,7 +49,7 @@ use crate::scene::{
 use crate::shadow::Extinction;
 use anyhow::{bail, ensure};
 use pn_runtime::problem::{Grid, Phase};
-use pn_runtime::unstagger::CellMoments;
+use pn_runtime::CellMoments;
 use propagate::{IterationEnergy, LightGrid, PopMedium, ResiduumInfo, Schedule};
 use rayon::prelude::*;
 use serde::Serialize;

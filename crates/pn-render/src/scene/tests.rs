@@ -276,7 +276,7 @@ fn vol_files_are_read_and_bad_ones_refused() {
     let dir = std::env::temp_dir().join(format!("pn-render-scene-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let g = DensityGrid::new([2, 1, 1], [0.0; 3], [2.0, 1.0, 1.0], vec![0.25, 1.0]).unwrap();
-    let bytes = pn_formats::vol::encode_vol(&g.to_voxel_grid());
+    let bytes = pn_formats::encode_vol(&g.to_voxel_grid());
     std::fs::write(dir.join("d.vol"), &bytes).unwrap();
     std::fs::write(dir.join("bad.vol"), &bytes[..bytes.len() - 2]).unwrap();
     let text = MINIMAL
@@ -290,11 +290,11 @@ fn vol_files_are_read_and_bad_ones_refused() {
     );
     assert!(e.contains("bytes of data"), "{e}");
     // A per-voxel albedo from .npy (shape (nx, ny, nz), x first) on the same grid.
-    pn_formats::npy::write_npy(&dir.join("a.npy"), &[2, 1, 1], &[0.5, 0.25]).unwrap();
+    pn_formats::write_npy(&dir.join("a.npy"), &[2, 1, 1], &[0.5, 0.25]).unwrap();
     let with_albedo = text.replace("albedo = 0.5", "albedo_file = \"a.npy\"");
     let s = RenderScene::from_toml_str(&with_albedo, &dir).unwrap();
     assert_eq!((s.medium.albedo_at(0), s.medium.albedo_at(1)), (0.5, 0.25));
-    pn_formats::npy::write_npy(&dir.join("b.npy"), &[2, 1, 1], &[0.5, 1.5]).unwrap();
+    pn_formats::write_npy(&dir.join("b.npy"), &[2, 1, 1], &[0.5, 1.5]).unwrap();
     let e = format!(
         "{:#}",
         RenderScene::from_toml_str(&with_albedo.replace("a.npy", "b.npy"), &dir).unwrap_err()
@@ -323,11 +323,11 @@ fn vdb_files_are_read_with_their_placement_and_grid_names() {
     // The same voxels through a .vol file give the same medium.
     let dir = std::env::temp_dir().join(format!("pn-render-vdb-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    let vg = pn_formats::vdb::read_vdb(&data.join("offset12.vdb"), None)
+    let vg = pn_formats::read_vdb(&data.join("offset12.vdb"), None)
         .unwrap()
         .dense_active()
         .unwrap();
-    std::fs::write(dir.join("same.vol"), pn_formats::vol::encode_vol(&vg)).unwrap();
+    std::fs::write(dir.join("same.vol"), pn_formats::encode_vol(&vg)).unwrap();
     let vol = RenderScene::from_toml_str(&text.replace("offset12.vdb", "same.vol"), &dir).unwrap();
     assert_eq!(vol.density_grid().unwrap(), g);
     std::fs::remove_dir_all(&dir).unwrap();

@@ -4,9 +4,9 @@
 use super::*;
 use crate::medium::DensityGrid;
 use anyhow::{bail, ensure, Context};
-use pn_formats::npy::read_npy;
-use pn_formats::vdb::{read_vdb, IndexBox, VdbGrid};
-use pn_formats::vol::read_vol;
+use pn_formats::read_npy;
+use pn_formats::read_vol;
+use pn_formats::{read_vdb, IndexBox, VdbGrid};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 

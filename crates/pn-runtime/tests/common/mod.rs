@@ -264,9 +264,9 @@ pub fn reference_dir() -> std::path::PathBuf {
 pub fn system(
     problem: &pn_runtime::problem::Problem,
     order: i32,
-) -> (pn_runtime::layout::Layout, pn_runtime::assemble::System) {
+) -> (pn_runtime::Layout, pn_runtime::assemble::System) {
     let kernel = QuadKernel::new(order, problem.grid.dim, true);
-    let layout = pn_runtime::layout::Layout::new(&problem.grid, kernel.moments()).unwrap();
+    let layout = pn_runtime::Layout::new(&problem.grid, kernel.moments()).unwrap();
     let sys = pn_runtime::assemble::assemble(problem, &kernel, &layout).unwrap();
     (layout, sys)
 }

@@ -12,7 +12,7 @@ use pn_kernels::{diffusion_kernel, Dim};
 use pn_runtime::fld::{FldParams, Limiter};
 use pn_runtime::problem::Problem;
 use pn_runtime::solver::SolverKind;
-use pn_runtime::unstagger::CellMoments;
+use pn_runtime::CellMoments;
 
 /// Flux-limited diffusion.
 pub struct Fld;

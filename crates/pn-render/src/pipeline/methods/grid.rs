@@ -16,7 +16,7 @@ use pn_runtime::pipeline::solve_problem_from;
 use pn_runtime::problem::{Grid, Problem};
 use pn_runtime::solver::multigrid::FineCycle;
 use pn_runtime::solver::{SolverKind, SolverOptions, SolverTuning};
-use pn_runtime::unstagger::CellMoments;
+use pn_runtime::CellMoments;
 use std::time::Instant;
 
 /// A grid method's description for [`solve_on_grid`].
@@ -65,7 +65,7 @@ pub(super) fn solve_on_grid(
                 .unwrap_or_else(memory_estimate::default_limit_bytes),
         )?;
     }
-    let fs = pn_runtime::threads::with_threads(threads, || {
+    let fs = pn_runtime::with_threads(threads, || {
         first_scatter_problem_with_depth(scene, density, &grid, m.max_band, p.light_depth.clone())
     })??;
     let mut seconds = MsSeconds {
@@ -75,13 +75,13 @@ pub(super) fn solve_on_grid(
     };
     let mut notes = Vec::new();
     let t1 = Instant::now();
-    let run = pn_runtime::threads::with_threads(threads, || solve(&fs.problem, &mut notes))??;
+    let run = pn_runtime::with_threads(threads, || solve(&fs.problem, &mut notes))??;
     seconds.solve = t1.elapsed().as_secs_f64();
     let mut moments = run.moments;
     let mut sweeps = 0;
     if s.sweeps > 0 {
         let t2 = Instant::now();
-        moments = pn_runtime::threads::with_threads(threads, || {
+        moments = pn_runtime::with_threads(threads, || {
             transport_sweeps(
                 &fs.problem,
                 &moments,

@@ -36,7 +36,7 @@ impl MultipleScattering for Pop {
                 epsilon_l: s.pop_epsilon_l,
             }),
         };
-        let run = pn_runtime::threads::with_threads(p.options.threads, || {
+        let run = pn_runtime::with_threads(p.options.threads, || {
             pop_field(scene, p.density, &sg.grid, &settings)
         })??;
         let t = &run.report.seconds;
