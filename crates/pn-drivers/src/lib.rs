@@ -54,6 +54,7 @@ pub mod error_estimate;
 pub mod export_mitsuba;
 pub mod fld_method;
 pub mod fld_setup;
+pub mod mitsuba;
 pub mod pde_text;
 pub mod pointsource_extras;
 pub mod progress;

@@ -14,6 +14,7 @@
 //!   plots).
 #![warn(missing_docs)]
 
+pub mod files;
 pub mod image_io;
 pub mod json;
 pub mod npy;

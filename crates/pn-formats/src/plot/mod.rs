@@ -2,6 +2,7 @@
 //! profiles): the white canvas, the chart frame, the legend box and the error text.
 
 pub mod convergence;
+pub mod difference;
 pub mod profile;
 
 use std::path::Path;
