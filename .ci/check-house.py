@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """House rules of the workspace's Rust sources (issue 48); exit 1 on any violation.
 
-Usage: .ci/check-house.py              the three checks below
+Usage: .ci/check-house.py              the checks below
        .ci/check-house.py --report     the checks, and the 20 longest functions and files
                                        (printed even when everything passes)
        .ci/check-house.py --self-test  the checker on a small temporary crate tree with known
@@ -31,6 +31,20 @@ first `{`, or its `;`), a function carrying `#[test]`, and a whole file declared
     `env::set_var`, `env::remove_var`, `env::temp_dir` (it reads TMPDIR) and the same
     names imported by `use std::env::{…}`. Allowed: `env!(…)` and `option_env!(…)` (read
     at compile time) and `env::current_dir()`.
+
+(a') Library crates do not write files or start processes
+    Writing: crates in LIBRARY_CRATES except those in WRITING_CRATES (pn-formats, the one
+    crate that writes files, for the commands that call it). Flagged outside test code:
+    `fs::write`, `fs::rename`, `fs::copy`, `fs::hard_link`, `fs::remove_file`,
+    `fs::remove_dir`, `fs::remove_dir_all`, `fs::create_dir`, `fs::create_dir_all` (with
+    or without `std::`, and the same names imported by `use std::fs::{…}`), `File::create`,
+    `File::create_new`, `OpenOptions`, `DirBuilder` and `BitMapBackend::new` (plotters
+    drawing into a file). Reading is allowed (`fs::read*`, `File::open`: a library reads
+    the input files the user names).
+    Processes: every crate in LIBRARY_CRATES, pn-formats included. Flagged outside test
+    code: `process::Command` (a path or a `use`, with or without `std::`; also inside
+    `use std::process::{…}`) and `Command::new`.
+    Build scripts (`build.rs`, outside `src/`) may write into OUT_DIR and are not read.
 
 (b) No file over MAX_FILE_LINES (900) lines
     Counted: the file's lines (as `wc -l` counts them, plus a last line without a newline)
@@ -65,6 +79,8 @@ LIBRARY_CRATES = [
     "pn-render",
     "pnsolver-py",
 ]
+# The library crates that may write files (check (a') still forbids them processes).
+WRITING_CRATES = ["pn-formats"]
 MAX_FILE_LINES = 900
 MAX_FN_LINES = 150
 
@@ -305,6 +321,19 @@ STDIO = re.compile(r"\bio\s*::\s*(stdout|stderr)\b|(?<![A-Za-z0-9_.:])(stdout|st
 ENV_NAMES = r"(var|var_os|vars|vars_os|args|args_os|set_var|remove_var|temp_dir)"
 ENV = re.compile(r"\benv\s*::\s*" + ENV_NAMES + r"\b")
 ENV_USE = re.compile(r"\benv\s*::\s*\{([^}]*)\}")
+FS_NAMES = (r"(write|rename|copy|hard_link|remove_file|remove_dir|remove_dir_all|create_dir"
+            r"|create_dir_all)")
+WRITE = re.compile(r"\bfs\s*::\s*" + FS_NAMES + r"\b"
+                   r"|\b(File\s*::\s*create(?:_new)?|OpenOptions|DirBuilder"
+                   r"|BitMapBackend\s*::\s*new)\b")
+FS_USE = re.compile(r"\bfs\s*::\s*\{([^}]*)\}")
+PROCESS = re.compile(r"\b(process\s*::\s*Command)\b(?:\s*::\s*new\b)?|\b(Command\s*::\s*new)\b")
+PROCESS_USE = re.compile(r"\bprocess\s*::\s*\{([^}]*)\}")
+
+
+def spelled(s):
+    """`fs :: write` -> `fs::write` (a match as a message)."""
+    return re.sub(r"\s+", "", s)
 
 
 def rust_files(src_dir):
@@ -327,7 +356,7 @@ def scanned_dirs(root):
     return dirs
 
 
-def check(root, libraries=LIBRARY_CRATES, note=print):
+def check(root, libraries=LIBRARY_CRATES, note=print, writers=WRITING_CRATES):
     """Returns (violations, functions, files): violations are (check, rel, line, message)."""
     root = Path(root)
     violations, functions, files = [], [], []
@@ -361,6 +390,23 @@ def check(root, libraries=LIBRARY_CRATES, note=print):
                 for used in re.findall(r"\b" + ENV_NAMES + r"\b", m.group(1)):
                     violations.append(("env", rel(s.path), line_of(s.text, m.start()),
                                        f"`use std::env::{{{used}}}` in library crate {name}"))
+            # (a') writing files (except in `writers`) and starting processes
+            hits = []
+            if name not in writers:
+                for m in WRITE.finditer(s.text):
+                    hits.append(("write", m.start(), spelled(m.group(0))))
+                for m in FS_USE.finditer(s.text):
+                    for used in re.findall(r"\b" + FS_NAMES + r"\b", m.group(1)):
+                        hits.append(("write", m.start(), f"use std::fs::{{{used}}}"))
+            for m in PROCESS.finditer(s.text):
+                hits.append(("process", m.start(), spelled(m.group(1) or m.group(2))))
+            for m in PROCESS_USE.finditer(s.text):
+                if re.search(r"\bCommand\b", m.group(1)):
+                    hits.append(("process", m.start(), "use std::process::{Command}"))
+            for kind, pos, what in hits:
+                if not s.in_test(pos):
+                    violations.append((kind, rel(s.path), line_of(s.text, pos),
+                                       f"`{what}` in library crate {name}"))
 
     # (b) file length and (c) function length, every crate and the binary
     for src_dir in scanned_dirs(root):
@@ -453,6 +499,21 @@ def self_test():
     big_bad = "".join(f"pub const C{k}: u32 = {k};\n" for k in range(901))
     test_only = "pub fn noisy() { println!(\"only in tests\"); }\n"
     cmd = "fn main() {\n    println!(\"a command may print\");\n}\n"
+    # Writing files and starting processes: flagged in libx; in fmtz (a writing crate, as
+    # pn-formats) the writes are allowed and the process is not.
+    io = (
+        "use std::fs::{self, read_to_string, remove_file};\n"                # 1
+        "use std::process::{Command, Stdio};\n"                             # 2
+        "pub fn save(p: &std::path::Path) -> std::io::Result<()> {\n"       # 3
+        "    let _t = read_to_string(p)?; let _f = std::fs::File::open(p)?;\n"  # 4
+        "    std::fs::write(p, \"std::fs::write in a string\")?;\n"         # 5
+        "    fs::create_dir_all(p)?; let _o = std::fs::File::create(p)?;\n"  # 6
+        "    let _c = Command::new(\"ls\").stdout(Stdio::null()).status();\n"  # 7
+        "    Ok(())\n"                                                      # 8
+        "}\n"                                                               # 9
+        "#[cfg(test)]\n"                                                    # 10
+        "fn t() { std::fs::write(\"x\", \"\").ok(); std::process::Command::new(\"ls\"); }\n"  # 11
+    )
     gen = "// @generated by a tool; do not edit.\n" + "".join(
         f"pub const G{k}: u32 = {k};\n" for k in range(1000))
     with tempfile.TemporaryDirectory() as tmp:
@@ -463,6 +524,8 @@ def self_test():
             "crates/libx/src/big_ok.rs": big_ok,
             "crates/libx/src/big_bad.rs": big_bad,
             "crates/libx/src/gen.rs": gen,
+            "crates/libx/src/io.rs": io,
+            "crates/fmtz/src/lib.rs": io,
             "crates/libx/build.rs": "fn main() { println!(\"cargo:rerun-if-changed=x\"); }\n",
             "crates/libx/tests/t.rs": "fn t() { println!(\"x\"); }\n",
             "crates/cmdy/src/main.rs": cmd,
@@ -473,15 +536,27 @@ def self_test():
             p.parent.mkdir(parents=True, exist_ok=True)
             p.write_text(text, encoding="utf-8")
         notes = []
-        got, functions, files = check(root, ["libx", "missing"], note=notes.append)
+        got, functions, files = check(root, ["libx", "fmtz", "missing"], note=notes.append,
+                                      writers=["fmtz"])
     lib_rs = "crates/libx/src/lib.rs"
+    io_rs = "crates/libx/src/io.rs"
+    fmt_rs = "crates/fmtz/src/lib.rs"
     want = [
         ("print", lib_rs, 6, "`println!` in library crate libx"),
         ("env", lib_rs, 7, "`env::var` in library crate libx"),
         ("env", lib_rs, 10, "`env::temp_dir` in library crate libx"),
         ("print", lib_rs, 11, "`stderr` in library crate libx"),
         ("print", lib_rs, 21, "`dbg!` in library crate libx"),
+        ("process", lib_rs, 16, "`process::Command` in library crate libx"),
         ("env", lib_rs, 23, "`use std::env::{args}` in library crate libx"),
+        ("write", io_rs, 1, "`use std::fs::{remove_file}` in library crate libx"),
+        ("process", io_rs, 2, "`use std::process::{Command}` in library crate libx"),
+        ("write", io_rs, 5, "`fs::write` in library crate libx"),
+        ("write", io_rs, 6, "`fs::create_dir_all` in library crate libx"),
+        ("write", io_rs, 6, "`File::create` in library crate libx"),
+        ("process", io_rs, 7, "`Command::new` in library crate libx"),
+        ("process", fmt_rs, 2, "`use std::process::{Command}` in library crate fmtz"),
+        ("process", fmt_rs, 7, "`Command::new` in library crate fmtz"),
         ("fn", lib_rs, from_line, "fn S::from is 151 lines (limit 150)"),
         ("fn", lib_rs, const_line, "fn const_152 is 152 lines (limit 150)"),
         ("file", "crates/libx/src/big_bad.rs", 1, "901 lines (limit 900, tests excluded)"),
@@ -535,6 +610,8 @@ def main(argv):
     what = {
         "print": "library code prints",
         "env": "library code reads the environment",
+        "write": "library code writes files",
+        "process": "library code starts a process",
         "file": f"file over {MAX_FILE_LINES} lines",
         "fn": f"function over {MAX_FN_LINES} lines",
     }

@@ -17,8 +17,9 @@
 //! Skips with a message when no Mitsuba is found, unless `PN_REQUIRE_MITSUBA=1` (CI).
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
+use pn_drivers::mitsuba::{self, RunOptions};
 use pn_render::compare::{self, Metrics};
-use pn_render::mitsuba::{self, ExportOptions, RunOptions};
+use pn_render::mitsuba::ExportOptions;
 use pn_render::RenderScene;
 use std::path::Path;
 use std::process::Command;

@@ -15,8 +15,9 @@
 //! Skips with a message when no Mitsuba is found, unless `PN_REQUIRE_MITSUBA=1` (CI).
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
+use pn_drivers::mitsuba::{self, RunOptions};
 use pn_formats::read_exr_rgb;
-use pn_render::mitsuba::{self, ExportOptions, RunOptions};
+use pn_render::mitsuba::ExportOptions;
 use pn_render::Renderer;
 use pn_render::CHANNELS;
 use pn_render::{RenderScene, SceneOverride};

@@ -38,7 +38,8 @@
 //! `PN_REQUIRE_MITSUBA=1` (CI), where that is a failure.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // test code
 
-use pn_render::mitsuba::{self, ExportOptions, RunOptions};
+use pn_drivers::mitsuba::{self, RunOptions};
+use pn_render::mitsuba::ExportOptions;
 use pn_render::scene::Albedo;
 use pn_render::Renderer;
 use pn_render::{compare, DensityFilter, RenderScene, SceneOverride};
@@ -177,7 +178,13 @@ fn single_scattering_agrees(mut scene: RenderScene, filter: DensityFilter, label
     let (m, var_m, mitsuba_seconds) = mitsuba_mean(&dir, &python, MITSUBA_SPP, 2, 1);
 
     let metrics = compare::metrics(&o, &m).unwrap();
-    compare::write_difference_png(&dir.join("difference.png"), &o, &m, "ours − Mitsuba").unwrap();
+    pn_drivers::compare::write_difference_png(
+        &dir.join("difference.png"),
+        &o,
+        &m,
+        "ours − Mitsuba",
+    )
+    .unwrap();
     let num: f64 = o
         .data
         .iter()

@@ -1,7 +1,8 @@
 //! Generates the compiled stencils into `OUT_DIR/stencils.rs` with
 //! [`pn_codegen::codegen::Builder`] for the P_N orders in `PN_ORDERS` (default `1,2,3,4,5`)
 //! and the PDE text files in `PN_PDES` (default: every `*.pde` in the workspace's `pdes/`).
-//! The environment is read here, not in the library: the builder takes plain values.
+//! The environment is read and the file written here, not in the library: the builder takes
+//! plain values and returns the source.
 use std::path::PathBuf;
 
 fn main() {
@@ -26,10 +27,12 @@ fn generate() -> Result<(), String> {
     let output = pn_codegen::codegen::Builder::compile_for_build_script(
         orders.as_deref(),
         pdes.as_deref(),
-        &PathBuf::from(out),
         &pde_dir,
     )
     .map_err(|e| e.to_string())?;
+    let stencils = PathBuf::from(out).join("stencils.rs");
+    std::fs::write(&stencils, output.source)
+        .map_err(|e| format!("writing {}: {e}", stencils.display()))?;
     for path in &output.rerun_if_changed {
         println!("cargo:rerun-if-changed={}", path.display());
     }

@@ -3,7 +3,7 @@
 //! validation tests bound.
 #![allow(dead_code)]
 
-use pn_render::mitsuba;
+use pn_drivers::mitsuba;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -11,7 +11,7 @@ use std::process::{Command, Output};
 /// PN_REQUIRE_MITSUBA is not 1.
 pub fn mitsuba_python() -> Option<PathBuf> {
     let required = std::env::var("PN_REQUIRE_MITSUBA").is_ok_and(|v| v == "1");
-    let chosen = std::env::var_os(mitsuba::PYTHON_ENV)
+    let chosen = std::env::var_os(pn_render::mitsuba::PYTHON_ENV)
         .filter(|p| !p.is_empty())
         .map(PathBuf::from);
     let found = mitsuba::find_python(chosen.as_deref()).and_then(|p| {

@@ -571,23 +571,21 @@ impl Builder {
         Ok(irs)
     }
 
-    /// Generates the source and writes it to `path`.
-    pub fn write(&self, path: &Path) -> Result<(), StencilError> {
-        let src = generate_source(&self.irs()?)?;
-        std::fs::write(path, src)
-            .map_err(|e| StencilError::Codegen(format!("writing {}: {e}", path.display())))
+    /// The generated Rust source of every stencil of the builder ([`generate_source`] of
+    /// [`Builder::irs`]); the caller writes it (a build script into `OUT_DIR`).
+    pub fn source(&self) -> Result<String, StencilError> {
+        generate_source(&self.irs()?)
     }
 
-    /// For build scripts, which read the environment themselves: writes
-    /// `out_dir/stencils.rs` for the P_N orders in `orders` (the value of `PN_ORDERS`; `None`:
-    /// unset, orders 1–5) and the PDE text files in `pdes` (the value of `PN_PDES`; `None`:
-    /// every `*.pde` in `pde_dir`). Returns the file written and the paths the build script
-    /// declares with `cargo:rerun-if-changed` (`pde_dir` and every PDE file). Cargo re-runs
-    /// the build script by itself when this crate or `cas` (its build dependencies) change.
+    /// For build scripts, which read the environment and write the file themselves: the
+    /// source of `stencils.rs` for the P_N orders in `orders` (the value of `PN_ORDERS`;
+    /// `None`: unset, orders 1–5) and the PDE text files in `pdes` (the value of `PN_PDES`;
+    /// `None`: every `*.pde` in `pde_dir`), and the paths the build script declares with
+    /// `cargo:rerun-if-changed` (`pde_dir` and every PDE file). Cargo re-runs the build
+    /// script by itself when this crate or `cas` (its build dependencies) change.
     pub fn compile_for_build_script(
         orders: Option<&str>,
         pdes: Option<&str>,
-        out_dir: &Path,
         pde_dir: &Path,
     ) -> Result<BuildScriptOutput, StencilError> {
         let builder = Builder::new()
@@ -595,20 +593,18 @@ impl Builder {
             .pde_files_from(pdes, pde_dir);
         let mut rerun_if_changed = vec![pde_dir.to_path_buf()];
         rerun_if_changed.extend(builder.pdes.iter().cloned());
-        let stencils = out_dir.join("stencils.rs");
-        builder.write(&stencils)?;
         Ok(BuildScriptOutput {
-            stencils,
+            source: builder.source()?,
             rerun_if_changed,
         })
     }
 }
 
-/// What [`Builder::compile_for_build_script`] did.
+/// What [`Builder::compile_for_build_script`] returns.
 #[derive(Clone, Debug)]
 pub struct BuildScriptOutput {
-    /// The generated file, `OUT_DIR/stencils.rs`.
-    pub stencils: PathBuf,
+    /// The generated source, for `OUT_DIR/stencils.rs`.
+    pub source: String,
     /// The paths the build script declares with `cargo:rerun-if-changed`.
     pub rerun_if_changed: Vec<PathBuf>,
 }

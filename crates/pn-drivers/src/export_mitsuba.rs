@@ -1,8 +1,9 @@
 //! `pn export-mitsuba`: writes a render scene for Mitsuba 3 (`density.vol` and
-//! `render_mitsuba.py`, see `pn_render::mitsuba`) and, with `--run`, renders it.
+//! `render_mitsuba.py`, computed by `pn_render::mitsuba`, written by [`crate::mitsuba`]) and, with `--run`, renders it.
 
+use crate::mitsuba::{self, RunOptions};
 use anyhow::Context;
-use pn_render::mitsuba::{self, ExportOptions, RunOptions};
+use pn_render::mitsuba::ExportOptions;
 use pn_render::{DensityFilter, RenderScene};
 use std::io::Write;
 use std::path::PathBuf;

@@ -2,7 +2,8 @@
 //! tests call: solve a scene ([`solve`], with [`fld_method`], [`pointsource_extras`] and
 //! [`vacuum_extras`]), render ([`render`]), converge ([`converge`]), the error estimate
 //! ([`error_estimate`]), compare two images ([`compare`]), the Mitsuba export
-//! ([`export_mitsuba`]), the derivation printers ([`derive_cmds`], [`stencil`]) and the
+//! ([`export_mitsuba`], with [`mitsuba`]: writing an export and running Mitsuba, also for the
+//! lab and the tests), the derivation printers ([`derive_cmds`], [`stencil`]) and the
 //! text-PDE files ([`pde_text`]).
 //!
 //! The experiments (`pn race`, `pn bench`, `pn tradeoff`, `pn figure`) are in `pn-lab`,
@@ -54,6 +55,7 @@ pub mod error_estimate;
 pub mod export_mitsuba;
 pub mod fld_method;
 pub mod fld_setup;
+pub mod mitsuba;
 pub mod pde_text;
 pub mod pointsource_extras;
 pub mod progress;

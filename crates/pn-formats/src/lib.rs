@@ -17,6 +17,7 @@
 //! * The files of a solve: [`write_outputs`] (the [`OUTPUT_FILES`], written atomically;
 //!   [`cell_shape`]) and its report types ([`Report`], [`RunInfo`], [`SolveReport`],
 //!   [`ErrorEstimate`], [`VacuumMeasurements`], [`FldSection`]).
+//! * [`files`]: plain writes of bytes and folders (the Mitsuba export's files).
 //! * [`write_atomic`]: every JSON report, written atomically (a file appears only when
 //!   complete).
 //! * [`Table`]: one table type for every CSV and Markdown table ([`Align`], [`num`]).
@@ -24,6 +25,7 @@
 //!   profile plots.
 #![warn(missing_docs)]
 
+pub mod files;
 mod image_io;
 mod json;
 mod npy;

@@ -14,10 +14,11 @@
 
 use anyhow::{ensure, Context, Result};
 use plotters::prelude::*;
+use pn_drivers::compare::write_difference_png;
 use pn_drivers::render::{render_scene, write_run, RenderOptions, RenderRun};
 use pn_formats::Table;
 use pn_formats::{exposure, read_exr_gray, srgb8};
-use pn_render::compare::{metrics, write_difference_png, GrayImage, Metrics};
+use pn_render::compare::{metrics, GrayImage, Metrics};
 use pn_render::scene::{RenderMethod, RendererKind};
 use pn_render::{DensityFilter, RenderScene, SceneOverride};
 use pn_runtime::solver::SolverTuning;
@@ -211,11 +212,12 @@ pub fn run(a: &FigureRequest, stdout: &mut dyn std::io::Write) -> Result<()> {
 
 /// Exports the scene and renders `<out>/mitsuba.exr` with Mitsuba (full transport).
 fn render_reference(scene: &RenderScene, out: &Path, a: &FigureRequest) -> Result<()> {
-    use pn_render::mitsuba;
+    use pn_drivers::mitsuba;
+    use pn_render::mitsuba::ExportOptions;
     let dir = out.join("mitsuba");
-    let opts = mitsuba::ExportOptions {
+    let opts = ExportOptions {
         spp: a.mitsuba_spp,
-        ..mitsuba::ExportOptions::from_scene(scene)
+        ..ExportOptions::from_scene(scene)
     };
     mitsuba::export(scene, &dir, &opts)?;
     let python = mitsuba::find_python(a.python.as_deref())?;

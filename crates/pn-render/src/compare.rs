@@ -11,12 +11,12 @@
 //!   (a signed, noise-averaging check of the overall level)
 //! * `max_abs` = max |a−b|
 //!
-//! The difference image maps `a − b` with a diverging blue–white–red scale, symmetric about
-//! zero up to the 99th percentile of |a−b| (so that a few firefly pixels do not wash the map
-//! out; pixels beyond it are drawn at full saturation), with a colour bar.
+//! Pure computation: the metrics, the per-channel metrics of colour images and the signed
+//! difference `a − b` ([`difference`]) that `pn_formats::plot::difference` draws; reading
+//! the files, writing `metrics.json` and `difference.png` are the drivers'
+//! (`pn_drivers::compare`).
 
-use anyhow::{ensure, Context};
-use plotters::prelude::*;
+use anyhow::ensure;
 use serde::Serialize;
 use std::path::Path;
 
@@ -63,6 +63,19 @@ pub fn read_gray(path: &Path) -> anyhow::Result<GrayImage> {
         height,
         data: data.into_iter().map(f64::from).collect(),
     })
+}
+
+/// The grey image of three colour channels of `width × height` pixels: their mean
+/// ([`pn_formats::channel_mean`]), as `f64`.
+pub fn gray_of_channels(width: usize, height: usize, channels: &[Vec<f32>; 3]) -> GrayImage {
+    GrayImage {
+        width,
+        height,
+        data: pn_formats::channel_mean(channels)
+            .into_iter()
+            .map(f64::from)
+            .collect(),
+    }
 }
 
 /// Checks that `a` and `b` are non-empty, of the same size and with finite pixels; `names`
@@ -146,153 +159,14 @@ impl std::fmt::Display for Metrics {
     }
 }
 
-/// Blue (−1) – white (0) – red (+1).
-fn diverging(t: f64) -> RGBColor {
-    let t = t.clamp(-1.0, 1.0);
-    let (lo, hi) = ((33.0, 102.0, 172.0), (178.0, 24.0, 43.0));
-    let (c, s) = if t < 0.0 { (lo, -t) } else { (hi, t) };
-    let mix = |x: f64| (255.0 + s * (x - 255.0)).round() as u8;
-    RGBColor(mix(c.0), mix(c.1), mix(c.2))
+/// The signed difference `a − b`, pixel by pixel (row-major as the images), after the
+/// checks of [`metrics`] (same size, non-empty, finite).
+pub fn difference(a: &GrayImage, b: &GrayImage) -> anyhow::Result<Vec<f64>> {
+    check_pair(a, b, ["first", "second"])?;
+    Ok(a.data.iter().zip(&b.data).map(|(x, y)| x - y).collect())
 }
 
-/// The symmetric colour range: the 99th percentile of |a−b| (the maximum for tiny images),
-/// or 1 when the images are equal.
-fn colour_range(diff: &[f64]) -> f64 {
-    let mut abs: Vec<f64> = diff.iter().map(|d| d.abs()).collect();
-    abs.sort_by(f64::total_cmp);
-    let k = ((abs.len() as f64 * 0.99).ceil() as usize).clamp(1, abs.len()) - 1;
-    let r = abs.get(k).copied().unwrap_or(0.0);
-    if r > 0.0 {
-        r
-    } else {
-        abs.last().copied().filter(|m| *m > 0.0).unwrap_or(1.0)
-    }
-}
-
-/// Writes the false-colour map of `a − b` with a colour bar to `path` (PNG).
-pub fn write_difference_png(
-    path: &Path,
-    a: &GrayImage,
-    b: &GrayImage,
-    title: &str,
-) -> anyhow::Result<()> {
-    metrics(a, b)?;
-    let diff: Vec<f64> = a.data.iter().zip(&b.data).map(|(x, y)| x - y).collect();
-    let range = colour_range(&diff);
-    let labels = pn_formats::plot::register_plot_fonts().is_ok();
-    match draw(path, a.width, a.height, &diff, range, title, labels) {
-        Ok(()) => Ok(()),
-        Err(_) => draw(path, a.width, a.height, &diff, range, title, false),
-    }
-}
-
-fn draw(
-    path: &Path,
-    w: usize,
-    h: usize,
-    diff: &[f64],
-    range: f64,
-    title: &str,
-    labels: bool,
-) -> anyhow::Result<()> {
-    let err = |e: &dyn std::fmt::Display| pn_formats::plot::draw_error(path, e);
-    // Integer upscaling so that small images stay readable; at most ~800 px wide.
-    let scale = (800 / w.max(1)).clamp(1, 8) as u32;
-    let (iw, ih) = (w as u32 * scale, h as u32 * scale);
-    let top = if labels { 40 } else { 10 };
-    let bar_w = 150;
-    let root =
-        BitMapBackend::new(path, (iw + 20 + bar_w, (ih + top + 20).max(260))).into_drawing_area();
-    root.fill(&WHITE).map_err(|e| err(&e))?;
-    if labels {
-        root.draw_text(title, &("sans-serif", 18).into_text_style(&root), (10, 10))
-            .map_err(|e| err(&e))?;
-    }
-    let img = root.margin(top, 10, 10, 10 + bar_w);
-    for y in 0..h {
-        for x in 0..w {
-            let c = diverging(diff[y * w + x] / range);
-            let (x0, y0) = ((x as u32 * scale) as i32, (y as u32 * scale) as i32);
-            img.draw(&Rectangle::new(
-                [(x0, y0), (x0 + scale as i32, y0 + scale as i32)],
-                c.filled(),
-            ))
-            .map_err(|e| err(&e))?;
-        }
-    }
-    let (_, right) = root.split_horizontally(iw + 20);
-    let mut bb = ChartBuilder::on(&right);
-    bb.margin(10).margin_top(top as i32);
-    if labels {
-        bb.y_label_area_size(85);
-    }
-    let mut bar = bb
-        .build_cartesian_2d(0.0..1.0, -range..range)
-        .map_err(|e| err(&e))?;
-    if labels {
-        bar.configure_mesh()
-            .disable_mesh()
-            .disable_x_axis()
-            .y_desc("a − b")
-            .y_label_formatter(&|v| format!("{v:.2e}"))
-            .label_style(("sans-serif", 13))
-            .axis_desc_style(("sans-serif", 15))
-            .draw()
-            .map_err(|e| err(&e))?;
-    }
-    let steps = 128;
-    bar.draw_series((0..steps).map(|k| {
-        let lo = -range + 2.0 * range * k as f64 / steps as f64;
-        let hi = -range + 2.0 * range * (k + 1) as f64 / steps as f64;
-        Rectangle::new(
-            [(0.0, lo), (1.0, hi)],
-            diverging((lo + hi) / (2.0 * range)).filled(),
-        )
-    }))
-    .map_err(|e| err(&e))?;
-    root.present().map_err(|e| err(&e))?;
-    Ok(())
-}
-
-/// Compares the images at `a` and `b` (the reference); with `out`, writes
-/// `out/difference.png` and `out/metrics.json`.
-pub fn compare_files(
-    a: &Path,
-    b: &Path,
-    out: Option<&Path>,
-) -> anyhow::Result<(Metrics, Option<Vec<ChannelMetrics>>)> {
-    let (wa, ha, ca) = pn_formats::read_exr_rgb(a)?;
-    let (wb, hb, cb) = pn_formats::read_exr_rgb(b)?;
-    let grey = |width, height, c: &[Vec<f32>; 3]| GrayImage {
-        width,
-        height,
-        data: pn_formats::channel_mean(c)
-            .into_iter()
-            .map(f64::from)
-            .collect(),
-    };
-    let (ia, ib) = (grey(wa, ha, &ca), grey(wb, hb, &cb));
-    let m = metrics(&ia, &ib)
-        .with_context(|| format!("comparing {} with {}", a.display(), b.display()))?;
-    if let Some(dir) = out {
-        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
-        let title = format!(
-            "{} − {}   RMSE {:.3e}",
-            a.file_name()
-                .map_or(String::new(), |s| s.to_string_lossy().into()),
-            b.file_name()
-                .map_or(String::new(), |s| s.to_string_lossy().into()),
-            m.rmse
-        );
-        write_difference_png(&dir.join("difference.png"), &ia, &ib, &title)?;
-        let json = serde_json::to_string_pretty(&m)?;
-        std::fs::write(dir.join("metrics.json"), json + "\n")
-            .with_context(|| format!("cannot write {}", dir.join("metrics.json").display()))?;
-    }
-    Ok((m, channel_metrics(&ca, &cb)))
-}
-
-/// Error metrics of one colour channel ([`compare_files`]).
+/// Error metrics of one colour channel ([`channel_metrics`]).
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct ChannelMetrics {
     /// "R", "G" or "B".
@@ -312,7 +186,7 @@ pub struct ChannelMetrics {
 /// Per-channel metrics of the channels `ca` against the reference's `cb` (of the same size,
 /// checked by [`metrics`] before), or `None` when both are grey (equal R, G and B in every
 /// pixel), where the metrics of the mean say everything.
-fn channel_metrics(ca: &[Vec<f32>; 3], cb: &[Vec<f32>; 3]) -> Option<Vec<ChannelMetrics>> {
+pub fn channel_metrics(ca: &[Vec<f32>; 3], cb: &[Vec<f32>; 3]) -> Option<Vec<ChannelMetrics>> {
     let grey = |c: &[Vec<f32>; 3]| c[0] == c[1] && c[1] == c[2];
     if grey(ca) && grey(cb) {
         return None;
@@ -383,36 +257,22 @@ mod tests {
     }
 
     #[test]
-    fn difference_image_has_the_right_colours() {
-        let dir = std::env::temp_dir().join(format!("pn-compare-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let path = dir.join("d.png");
-        // Left half brighter in a (red), right half darker (blue).
-        let b = img(20, 10, |_, _| 1.0);
-        let a = img(20, 10, |x, _| if x < 10 { 1.2 } else { 0.8 });
-        write_difference_png(&path, &a, &b, "test").unwrap();
-        let png = image::open(&path).unwrap().to_rgb8();
-        assert!(png.width() >= 200);
-        // Saturated red pixels (a > b) lie left of saturated blue ones (a < b).
-        let xs = |want: [u8; 3]| -> Vec<u32> {
-            png.enumerate_pixels()
-                .filter(|(_, _, p)| p.0 == want)
-                .map(|(x, _, _)| x)
-                .collect()
-        };
-        let (red, blue) = (xs([178, 24, 43]), xs([33, 102, 172]));
-        assert!(red.len() > 1000 && blue.len() > 1000);
-        // Pixel scale 8 (800/20, capped): 10 image pixels = 80 bitmap pixels per half.
-        assert!(red.iter().max().unwrap() < blue.iter().min().unwrap());
-        assert!(blue.iter().max().unwrap() - red.iter().min().unwrap() >= 159);
-        std::fs::remove_dir_all(&dir).ok();
+    fn difference_is_a_minus_b_after_the_checks() {
+        let b = img(3, 2, |x, _| x as f64);
+        let a = img(3, 2, |_, y| y as f64);
+        let d = difference(&a, &b).unwrap();
+        assert_eq!(d, vec![0.0, -1.0, -2.0, 1.0, 0.0, -1.0]);
+        assert!(difference(&a, &img(2, 3, |_, _| 0.0)).is_err());
     }
 
     #[test]
-    fn colour_range_ignores_a_firefly() {
-        let mut d = vec![0.1; 1000];
-        d[3] = 100.0;
-        assert!((colour_range(&d) - 0.1).abs() < 1e-15);
-        assert_eq!(colour_range(&[0.0, 0.0]), 1.0);
+    fn grey_channels_have_no_channel_metrics() {
+        let grey = [vec![1.0f32, 2.0], vec![1.0, 2.0], vec![1.0, 2.0]];
+        assert!(channel_metrics(&grey, &grey).is_none());
+        let g = gray_of_channels(2, 1, &[vec![1.0, 2.0], vec![2.0, 2.0], vec![3.0, 2.0]]);
+        assert_eq!(g.data, vec![2.0, 2.0]);
+        let c = channel_metrics(&[vec![2.0, 2.0], vec![1.0, 1.0], vec![1.0, 1.0]], &grey).unwrap();
+        assert_eq!(c.len(), 3);
+        assert!((c[0].rel_bias - 1.0 / 3.0).abs() < 1e-12);
     }
 }

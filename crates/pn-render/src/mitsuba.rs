@@ -1,6 +1,8 @@
-//! Mitsuba 3 ground truth (docs/design.md §6, docs/rendering.md): writes a render scene as a `.vol` density
-//! grid plus a Python script that builds the *same* scene with `mi.load_dict` (variant
-//! `scalar_rgb`) and renders it with the `volpath` path tracer; runs that script.
+//! Mitsuba 3 ground truth (docs/design.md §6, docs/rendering.md): the contents of a render
+//! scene's export — a `.vol` density grid plus a Python script that builds the *same* scene
+//! with `mi.load_dict` (variant `scalar_rgb`) and renders it with the `volpath` path tracer —
+//! as values ([`export_files`], [`script_text`]). Writing them into a folder and running the
+//! script with Python are the drivers' (`pn_drivers::mitsuba`).
 //!
 //! **How each convention maps** (every line checked against an independent deterministic
 //! single-scattering integral on an asymmetric scene, see `tests/mitsuba_single_scatter.rs`
@@ -33,11 +35,9 @@
 use super::medium::{DensityFilter, DensityGrid};
 use super::scene::{Albedo, RenderScene};
 use super::Light;
-use anyhow::{bail, ensure, Context};
+use anyhow::{ensure, Context};
 use pn_runtime::problem::Phase;
 use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
-use std::process::Command;
 
 /// The generated script's file name in the export folder.
 pub const SCRIPT_FILE: &str = "render_mitsuba.py";
@@ -87,56 +87,48 @@ impl ExportOptions {
     }
 }
 
-/// The files of an export.
+/// The contents of an export folder, computed and not written ([`export_files`]).
 #[derive(Clone, Debug, PartialEq)]
-pub struct Exported {
-    /// The folder.
-    pub dir: PathBuf,
-    /// `render_mitsuba.py`.
-    pub script: PathBuf,
-    /// `density.vol`.
-    pub density: PathBuf,
-    /// `albedo.vol` where the albedo is a grid.
-    pub albedo: Option<PathBuf>,
+pub struct ExportFiles {
+    /// The bytes of [`DENSITY_FILE`] (`density.vol`).
+    pub density: Vec<u8>,
+    /// The bytes of [`ALBEDO_FILE`] (`albedo.vol`) where the albedo is a grid.
+    pub albedo: Option<Vec<u8>>,
+    /// The text of [`SCRIPT_FILE`] (`render_mitsuba.py`, [`script_text`]).
+    pub script: String,
     /// The `filter_type` the script gives the grids (the scene's filter).
     pub filter: DensityFilter,
 }
 
-/// Writes `dir/density.vol` (and `dir/albedo.vol` for an albedo grid) and
-/// `dir/render_mitsuba.py` for `scene`; creates `dir`.
-pub fn export(scene: &RenderScene, dir: &Path, opts: &ExportOptions) -> anyhow::Result<Exported> {
+/// The files of the export of `scene` with `opts`: `density.vol` (and `albedo.vol` for an
+/// albedo grid) and `render_mitsuba.py` (deterministic: the same scene and options give the
+/// same bytes).
+pub fn export_files(scene: &RenderScene, opts: &ExportOptions) -> anyhow::Result<ExportFiles> {
     opts.validate()?;
     let grid = scene.density_grid()?;
-    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
-    let density = dir.join(DENSITY_FILE);
-    write_vol(&density, &grid, &sigma_t_channels(scene).1)?;
+    let density = vol_bytes(&grid, &sigma_t_channels(scene).1);
     let albedo = match &scene.medium.albedo {
         Albedo::Constant(_) => None,
         Albedo::Voxels(v) => {
             let a = DensityGrid::new(grid.res, grid.bbox_min, grid.bbox_max, v.to_vec())
                 .context("albedo grid")?
                 .with_filter(grid.filter);
-            let path = dir.join(ALBEDO_FILE);
-            write_vol(&path, &a, &[1.0])?;
-            Some(path)
+            Some(vol_bytes(&a, &[1.0]))
         }
     };
-    let script = dir.join(SCRIPT_FILE);
-    let text = script_text(scene, &grid, opts)?;
-    std::fs::write(&script, text).with_context(|| format!("cannot write {}", script.display()))?;
-    Ok(Exported {
-        dir: dir.to_path_buf(),
-        script,
+    let script = script_text(scene, &grid, opts)?;
+    Ok(ExportFiles {
         density,
         albedo,
+        script,
         filter: grid.filter,
     })
 }
 
-/// Writes `grid` as a `.vol` file with one channel per factor ([`pn_formats::encode_vol_scaled`]).
-fn write_vol(path: &Path, grid: &DensityGrid, factors: &[f64]) -> anyhow::Result<()> {
-    let bytes = pn_formats::encode_vol_scaled(&grid.to_voxel_grid(), factors);
-    std::fs::write(path, bytes).with_context(|| format!("cannot write {}", path.display()))
+/// `grid` as the bytes of a `.vol` file with one channel per factor
+/// ([`pn_formats::encode_vol_scaled`]).
+fn vol_bytes(grid: &DensityGrid, factors: &[f64]) -> Vec<u8> {
+    pn_formats::encode_vol_scaled(&grid.to_voxel_grid(), factors)
 }
 
 /// σ_t of the export: the `scale` of the medium and the factors of the density volume's
@@ -262,133 +254,10 @@ pub fn script_text(
 /// that [`script_text`] fills).
 const TEMPLATE: &str = include_str!("mitsuba/render_scene.py");
 
-/// The Python interpreter to run Mitsuba with: `explicit`, the caller's choice (the `pn`
-/// binary passes `--python`, else `$PN_MITSUBA_PYTHON`; this library reads no environment),
-/// else `.venv-mitsuba/bin/python` in the current folder or in the repository this binary
-/// was built from. Errors name `scripts/mitsuba-venv.sh`.
-pub fn find_python(explicit: Option<&Path>) -> anyhow::Result<PathBuf> {
-    if let Some(p) = explicit {
-        return Ok(p.to_path_buf());
-    }
-    let repo = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
-    for base in [Path::new("."), repo.as_path()] {
-        let p = base.join(VENV_PYTHON);
-        if p.is_file() {
-            return Ok(p);
-        }
-    }
-    bail!(
-        "no Python with Mitsuba found: run scripts/mitsuba-venv.sh (creates {VENV_PYTHON}), \
-         or pass --python / set {PYTHON_ENV} to an interpreter that has `mitsuba` installed"
-    )
-}
-
-/// Checks that `python` runs and imports `mitsuba` with the `scalar_rgb` variant; returns
-/// the Mitsuba version.
-pub fn check_python(python: &Path) -> anyhow::Result<String> {
-    let out = Command::new(python)
-        .args([
-            "-c",
-            "import mitsuba as mi; mi.set_variant('scalar_rgb'); print(mi.__version__)",
-        ])
-        .output()
-        .with_context(|| {
-            format!(
-                "cannot run the Python interpreter {} (create one with scripts/mitsuba-venv.sh)",
-                python.display()
-            )
-        })?;
-    if !out.status.success() {
-        bail!(
-            "{} cannot import mitsuba (scalar_rgb): {}\ninstall it with scripts/mitsuba-venv.sh",
-            python.display(),
-            String::from_utf8_lossy(&out.stderr).trim()
-        );
-    }
-    Ok(String::from_utf8_lossy(&out.stdout).trim().to_string())
-}
-
-/// Overrides for one run of an exported script (`None`: the exported value).
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct RunOptions {
-    /// Samples per pixel.
-    pub spp: Option<usize>,
-    /// Sampler seed.
-    pub seed: Option<u64>,
-    /// `volpath` max_depth.
-    pub max_depth: Option<i64>,
-    /// Output EXR (default `dir/mitsuba.exr`).
-    pub out: Option<PathBuf>,
-}
-
-/// The result of one Mitsuba render.
-#[derive(Clone, Debug, PartialEq)]
-pub struct MitsubaRun {
-    /// The EXR written.
-    pub image: PathBuf,
-    /// Seconds spent in `mi.render` (scene loading excluded).
-    pub seconds: f64,
-}
-
-/// Runs `dir/render_mitsuba.py` with `python` as exported; returns the EXR's path.
-pub fn run_mitsuba(dir: &Path, python: &Path) -> anyhow::Result<PathBuf> {
-    Ok(run_mitsuba_with(dir, python, &RunOptions::default())?.image)
-}
-
-/// Runs `dir/render_mitsuba.py` with `python` and the overrides in `opts`.
-pub fn run_mitsuba_with(
-    dir: &Path,
-    python: &Path,
-    opts: &RunOptions,
-) -> anyhow::Result<MitsubaRun> {
-    let script = dir.join(SCRIPT_FILE);
-    ensure!(
-        script.is_file(),
-        "{} does not exist: run `pn export-mitsuba` first",
-        script.display()
-    );
-    check_python(python)?;
-    let mut cmd = Command::new(python);
-    cmd.arg(&script);
-    if let Some(s) = opts.spp {
-        ensure!(s >= 1, "spp must be at least 1");
-        cmd.args(["--spp", &s.to_string()]);
-    }
-    if let Some(s) = opts.seed {
-        cmd.args(["--seed", &s.to_string()]);
-    }
-    if let Some(d) = opts.max_depth {
-        ensure!(d == -1 || d >= 1, "max_depth must be -1 or at least 1");
-        cmd.args(["--max-depth", &d.to_string()]);
-    }
-    if let Some(o) = &opts.out {
-        cmd.arg("--out").arg(o);
-    }
-    let out = cmd
-        .output()
-        .with_context(|| format!("cannot run {} {}", python.display(), script.display()))?;
-    if !out.status.success() {
-        bail!(
-            "Mitsuba render failed ({}): {}",
-            out.status,
-            String::from_utf8_lossy(&out.stderr).trim()
-        );
-    }
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    let last = stdout.lines().last().unwrap_or("");
-    let v: serde_json::Value = serde_json::from_str(last)
-        .with_context(|| format!("unexpected output of {}: {stdout}", script.display()))?;
-    let image = v["image"]
-        .as_str()
-        .map(PathBuf::from)
-        .with_context(|| format!("no image in the output of {}", script.display()))?;
-    let seconds = v["seconds"].as_f64().unwrap_or(f64::NAN);
-    Ok(MitsubaRun { image, seconds })
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::process::Command;
 
     fn scene() -> RenderScene {
         RenderScene::builtin("lowalbedo").unwrap()
@@ -464,22 +333,17 @@ mod tests {
     }
 
     #[test]
-    fn export_writes_a_vol_that_reads_back() {
+    fn export_files_hold_a_vol_that_decodes_and_the_script() {
         let s = scene();
-        let dir = std::env::temp_dir().join(format!("pn-mitsuba-export-{}", std::process::id()));
-        let e = export(&s, &dir, &ExportOptions::from_scene(&s)).unwrap();
-        let back = pn_formats::read_vol(&e.density).unwrap();
+        let o = ExportOptions::from_scene(&s);
+        let e = export_files(&s, &o).unwrap();
+        let back = pn_formats::decode_vol(&e.density).unwrap();
         let g = s.density_grid().unwrap();
         assert_eq!(back.dims, g.res);
         let [i, j, k] = [3, 17, 25];
         assert_eq!(back.at(i, j, k) as f32, g.data[g.index(i, j, k)]);
-        assert!(e.script.is_file() && e.albedo.is_none());
-        std::fs::remove_dir_all(&dir).ok();
-    }
-
-    #[test]
-    fn missing_python_is_a_clear_error() {
-        let e = check_python(Path::new("/nonexistent/python")).unwrap_err();
-        assert!(format!("{e:#}").contains("mitsuba-venv.sh"));
+        assert!(e.albedo.is_none());
+        assert_eq!(e.script, script_text(&s, &g, &o).unwrap());
+        assert_eq!(e, export_files(&s, &o).unwrap());
     }
 }

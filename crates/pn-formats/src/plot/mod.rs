@@ -1,12 +1,15 @@
 //! Plotters scaffolding shared by the PNG plots (the convergence study, the point-source
 //! profiles): the white canvas, the chart frame, the legend box and the error text; and
 //! those plots: [`write_convergence_png`], and the point-source profiles as CSV
-//! ([`write_profile_csv`]) and PNG ([`write_profile_png`], [`write_profile_png_titled`]).
+//! ([`write_profile_csv`]) and PNG ([`write_profile_png`], [`write_profile_png_titled`]), and
+//! the false-colour difference of two images ([`write_difference_png`]).
 
 mod convergence;
+mod difference;
 mod profile;
 
 pub use convergence::write_convergence_png;
+pub use difference::write_difference_png;
 pub use profile::{
     write_profile_csv, write_profile_png, write_profile_png_titled, PROFILE_CSV_HEADER,
 };

@@ -26,7 +26,7 @@ pub struct RaceRequest {
     /// Reference cache (default `out/race-cache`).
     pub cache: Option<PathBuf>,
     /// The Python interpreter with Mitsuba and pyoidn (default: see
-    /// `pn_render::mitsuba::find_python`).
+    /// `pn_drivers::mitsuba::find_python`).
     pub python: Option<PathBuf>,
     /// The `pn` binary for the pn points (the command line passes itself).
     pub pn_binary: PathBuf,
