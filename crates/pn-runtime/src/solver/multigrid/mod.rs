@@ -265,47 +265,6 @@ fn csr_asymmetry(a: &CsMat<f64>, tol: f64) -> f64 {
 /// `S` measured 4e-5 to 4e-4 (random probes) on the point source and checkerboard P_3/P_5.
 pub const COARSE_SYMMETRY_TOL: f64 = 1e-11;
 
-/// `a` without its weak couplings: an entry with `|a_ij| < drop · sqrt(|a_ii a_jj|)` is
-/// removed and `|a_ij|` added to `a_ii`. For a symmetric `a` removing the pair `a_ij`,
-/// `a_ji` and adding `|a_ij|` to both diagonals adds the positive semidefinite
-/// `[[|a|, −a], [−a, |a|]]`, so a positive definite operator stays positive definite and
-/// the V-cycle symmetric: only the preconditioner changes, never the answer.
-pub fn sparsify(a: CsMat<f64>, drop: f64) -> CsMat<f64> {
-    if drop <= 0.0 {
-        return a;
-    }
-    let d = csr_diagonal(&a);
-    let mut indptr = Vec::with_capacity(a.rows() + 1);
-    let (mut indices, mut data) = (Vec::new(), Vec::new());
-    indptr.push(0);
-    for (i, row) in a.outer_iterator().enumerate() {
-        let mut extra = 0.0;
-        let start = data.len();
-        let mut diag_at = None;
-        for (j, &v) in row.iter() {
-            if j == i {
-                diag_at = Some(data.len());
-            } else if v.abs() < drop * (d[i] * d[j]).abs().sqrt() {
-                extra += v.abs();
-                continue;
-            }
-            indices.push(j);
-            data.push(v);
-        }
-        match diag_at {
-            Some(k) => data[k] += extra,
-            None if extra > 0.0 => {
-                let k = start + indices[start..].partition_point(|&j| j < i);
-                indices.insert(k, i);
-                data.insert(k, extra);
-            }
-            None => {}
-        }
-        indptr.push(data.len());
-    }
-    CsMat::new((a.rows(), a.cols()), indptr, indices, data)
-}
-
 /// The first coarse operator `Pᵀ A P`, as [`Multigrid::build`] takes it.
 pub enum FirstCoarse {
     /// A CSR matrix (sparsified by [`MgOptions::drop`] and stored as [`LevelOp::new`]
@@ -340,20 +299,18 @@ impl Building {
     }
 
     /// `Pᵀ A P` of `agg`: from a stencil level straight as the next stencil level
-    /// ([`StencilLevel::galerkin_level`]) where the options store coarse levels as stencils
-    /// and drop nothing, otherwise as CSR.
+    /// ([`StencilLevel::galerkin_level`]) where the options store coarse levels as stencils,
+    /// otherwise as CSR.
     fn galerkin(&self, agg: &Aggregation, opts: &MgOptions) -> Building {
         match self {
-            Building::Csr(a) => {
-                Building::Csr(sparsify(galerkin::coarse_from_csr(a, agg), opts.drop))
-            }
+            Building::Csr(a) => Building::Csr(galerkin::coarse_from_csr(a, agg)),
             Building::Stencil(s) => {
-                if opts.drop <= 0.0 && opts.stencil_coarse && !opts.double_coarse {
+                if opts.stencil_coarse && !opts.double_coarse {
                     if let Some(next) = s.galerkin_level(agg) {
                         return Building::Stencil(next);
                     }
                 }
-                Building::Csr(sparsify(s.galerkin(agg), opts.drop))
+                Building::Csr(s.galerkin(agg))
             }
         }
     }
@@ -570,7 +527,7 @@ impl Multigrid {
         let inv = inverse_diagonal(0, &fine_diag)?;
         let t_agg = t0.elapsed().as_secs_f64();
         let (a, first_asymmetry) = match first_coarse(&agg) {
-            FirstCoarse::Csr(c) => (Building::Csr(sparsify(c, opts.drop)), None),
+            FirstCoarse::Csr(c) => (Building::Csr(c), None),
             FirstCoarse::Stencil(s, asym) => (Building::Stencil(s), Some(asym)),
         };
         let t_first = t0.elapsed().as_secs_f64();
@@ -804,62 +761,5 @@ impl Multigrid {
             self.cycle_stats[0].load(Relaxed),
             self.cycle_stats[1].load(Relaxed) as f64 * 1e-9,
         )
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// A symmetric, weakly diagonally dominant matrix with strong and weak couplings: the
-    /// weak ones go, their magnitude lands on the diagonal, the strong ones stay, and the
-    /// result is still symmetric positive definite (Cholesky succeeds) and no smaller in
-    /// the energy norm on any vector (`xᵀ(A_s − A)x ≥ 0`).
-    #[test]
-    fn sparsify_drops_weak_couplings_and_stays_positive_definite() {
-        let n = 6;
-        let mut tri = sprs::TriMat::new((n, n));
-        for i in 0..n {
-            tri.add_triplet(i, i, 2.0);
-            if i + 1 < n {
-                tri.add_triplet(i, i + 1, -0.9);
-                tri.add_triplet(i + 1, i, -0.9);
-            }
-            if i + 2 < n {
-                // Weak couplings of both signs: |a_ij| = 0.01 < 0.05 · 2.
-                let w = if i % 2 == 0 { 0.01 } else { -0.01 };
-                tri.add_triplet(i, i + 2, w);
-                tri.add_triplet(i + 2, i, w);
-            }
-        }
-        let a: CsMat<f64> = tri.to_csr();
-        assert_eq!(sparsify(a.clone(), 0.0), a, "drop 0 keeps the operator");
-        let s = sparsify(a.clone(), 0.05);
-        assert_eq!(s.nnz(), n + 2 * (n - 1), "only the tridiagonal part stays");
-        for i in 0..n {
-            let dropped = (i >= 2) as usize + (i + 2 < n) as usize;
-            let want = 2.0 + 0.01 * dropped as f64;
-            assert!(
-                (s.get(i, i).copied().unwrap() - want).abs() < 1e-15,
-                "row {i}"
-            );
-            if i + 1 < n {
-                assert_eq!(s.get(i, i + 1), Some(&-0.9));
-            }
-        }
-        let dense = |m: &CsMat<f64>| {
-            let mut d = nalgebra::DMatrix::<f64>::zeros(n, n);
-            for (i, row) in m.outer_iterator().enumerate() {
-                for (j, &v) in row.iter() {
-                    d[(i, j)] = v;
-                }
-            }
-            d
-        };
-        let (ad, sd) = (dense(&a), dense(&s));
-        assert!(sd.clone().cholesky().is_some());
-        let diff = sd - ad;
-        let eig = diff.symmetric_eigenvalues();
-        assert!(eig.iter().all(|&l| l >= -1e-14), "{eig}");
     }
 }

@@ -55,14 +55,14 @@ pub struct MgOptions {
     /// How the finest level enters the preconditioner.
     pub fine_cycle: FineCycle,
     /// Keep the coarse levels' operators in double precision instead of the compact
-    /// single-precision storage ([`LevelOp`](super::LevelOp); for comparisons).
+    /// single-precision storage ([`LevelOp`](super::LevelOp)). For comparisons in tests
+    /// only: the experiment concluded for `f32` (docs/lab/solvers-history.md).
     pub double_coarse: bool,
     /// Store the structured coarse levels as per-class stencils with per-row weights
-    /// ([`StencilLevel`](super::StencilLevel)) instead of the compact CSR; `PN_MG_COARSE_CSR` (set) turns it off.
+    /// ([`StencilLevel`](super::StencilLevel)) instead of the compact CSR. `false` is for
+    /// the tests' cross-checks of the two storages only: the experiment concluded for the
+    /// stencils.
     pub stencil_coarse: bool,
-    /// Coarse entries `|a_ij| < drop · sqrt(|a_ii a_jj|)` are dropped and their magnitude
-    /// added to the diagonal ([`sparsify`](super::sparsify)); 0 keeps the Galerkin operators whole.
-    pub drop: f64,
     /// Run the finest level of the cycle in single precision where the finest operator has
     /// an `f32` form ([`Multigrid::with_single_fine`](super::Multigrid::with_single_fine)): `None` decides by the solve's
     /// tolerance ([`SINGLE_FINE_MIN_TOL`]); `PN_MG_SINGLE=0|1` forces it.
@@ -134,7 +134,6 @@ impl Default for MgOptions {
             fine_cycle: FineCycle::AdditiveIfSymmetric,
             double_coarse: false,
             stencil_coarse: true,
-            drop: 0.0,
             single_fine: None,
         }
     }
@@ -146,8 +145,8 @@ impl MgOptions {
     /// the second), `PN_MG_COARSE_DEGREE`, `PN_MG_COARSE_DEGREE_2D`, `PN_MG_RATIO`,
     /// `PN_MG_FINE_RATIO`, `PN_MG_POWER_STEPS`, `PN_MG_COARSE_MAX`, `PN_MG_SCALE`;
     /// `PN_MG_ADDITIVE=ω` (ω > 0) forces [`FineCycle::Additive`], `PN_MG_ADDITIVE=0`
-    /// [`FineCycle::Multiplicative`]; `PN_MG_DOUBLE_COARSE` (set) keeps the coarse levels in
-    /// `f64`. Unset or unparsable values leave the default. The
+    /// [`FineCycle::Multiplicative`]; `PN_MG_SINGLE=0|1`. Unset or unparsable values leave
+    /// the default. The
     /// command line passes the environment ([`crate::solver::SolverTuning::from_vars`]).
     pub fn from_vars(get: &dyn Fn(&str) -> Option<String>) -> Self {
         fn parse<T: std::str::FromStr>(
@@ -174,9 +173,6 @@ impl MgOptions {
                 w if w.is_nan() || w < 0.0 || w.is_infinite() => d.fine_cycle,
                 _ => FineCycle::Multiplicative,
             },
-            double_coarse: get("PN_MG_DOUBLE_COARSE").is_some(),
-            stencil_coarse: get("PN_MG_COARSE_CSR").is_none(),
-            drop: parse(get, "PN_MG_DROP").unwrap_or(d.drop),
             single_fine: parse::<u8>(get, "PN_MG_SINGLE")
                 .map(|v| v != 0)
                 .or(d.single_fine),

@@ -510,7 +510,7 @@ fn first_coarse(
     let Some(st) = stencil else {
         return FirstCoarse::Csr(super::galerkin::coarse_from_split(split, agg));
     };
-    if opts.stencil_coarse && !opts.double_coarse && opts.drop <= 0.0 {
+    if opts.stencil_coarse && !opts.double_coarse {
         if let Some(parts) = st.coarse_parts(&split.d_e, &split.d_o, agg) {
             // Only the cycle that depends on it reads the asymmetry (as for the CSR).
             let asym = match opts.fine_cycle {
