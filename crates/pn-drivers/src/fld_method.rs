@@ -138,9 +138,7 @@ pub fn run(a: &SolveRequest, stdout: &mut dyn Write) -> Result<()> {
     }
     // The stencil is only used by the Picard route, but the report names it either way.
     let kernel = diffusion_kernel(Dim::Three)?;
-    if let Some(note) = &kernel.note {
-        eprintln!("{note}");
-    }
+    crate::progress::print_notes(kernel.note.as_slice());
     let run =
         pn_runtime::with_threads(a.threads, || solve_fld_route(&fp, &settings, &kernel, None))??;
     crate::progress::print_notes(&run.notes);

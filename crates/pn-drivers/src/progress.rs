@@ -1,9 +1,22 @@
-//! What a command shows on the terminal while and after a library works: the progress bar
-//! of a solve, drawn from the solver's iteration observer, and the notes a library returns
-//! (the libraries never draw or print).
+//! What a command shows on the terminal while and after a library works: the progress bars
+//! of a solve (from the solver's iteration observer) and of a render (from the renderer's
+//! row callback), and the notes a library returns (the libraries never draw or print).
 
+use pn_render::ProgressCallback;
 use pn_runtime::solver::IterationObserver;
 use std::io::IsTerminal;
+use std::sync::Mutex;
+
+/// `bar` with the look of every bar of the commands: spinner, elapsed time, count, message,
+/// rate.
+fn styled(bar: indicatif::ProgressBar) -> indicatif::ProgressBar {
+    if let Ok(style) = indicatif::ProgressStyle::with_template(
+        "{spinner} [{elapsed_precise}] {pos} it  {msg}  ({per_sec})",
+    ) {
+        bar.set_style(style);
+    }
+    bar
+}
 
 /// An observer that draws a spinner with the iteration count and the relative residual on
 /// stderr, cleared when the solve ends; `None` when `enabled` is false or stderr is not a
@@ -15,12 +28,7 @@ pub fn terminal_observer(
     if !enabled || !std::io::stderr().is_terminal() {
         return inner;
     }
-    let bar = indicatif::ProgressBar::new_spinner();
-    if let Ok(style) = indicatif::ProgressStyle::with_template(
-        "{spinner} [{elapsed_precise}] {pos} it  {msg}  ({per_sec})",
-    ) {
-        bar.set_style(style);
-    }
+    let bar = styled(indicatif::ProgressBar::new_spinner());
     let done = bar.clone();
     let inner_done = inner.clone();
     Some(IterationObserver::with_finish(
@@ -49,4 +57,38 @@ pub fn print_notes(notes: &[String]) {
     for note in notes {
         eprintln!("{note}");
     }
+}
+
+/// A progress bar over the image rows ("image rows"), one per image, hidden unless stderr
+/// is a terminal.
+pub fn row_progress_bar() -> ProgressCallback {
+    let bar: Mutex<Option<indicatif::ProgressBar>> = Mutex::new(None);
+    ProgressCallback::new(move |done, total| {
+        // A poisoned lock only loses the bar.
+        let Ok(mut bar) = bar.lock() else {
+            return;
+        };
+        if done == 0 {
+            *bar = Some(row_bar(total));
+            return;
+        }
+        if let Some(b) = bar.as_ref() {
+            b.set_position(b.position().max(done as u64));
+        }
+        if done == total {
+            if let Some(b) = bar.take() {
+                b.finish_and_clear();
+            }
+        }
+    })
+}
+
+/// An indicatif bar of `len` rows, hidden unless stderr is a terminal.
+fn row_bar(len: usize) -> indicatif::ProgressBar {
+    if !std::io::stderr().is_terminal() {
+        return indicatif::ProgressBar::hidden();
+    }
+    let bar = styled(indicatif::ProgressBar::new(len as u64));
+    bar.set_message("image rows");
+    bar
 }

@@ -14,11 +14,10 @@ use pn_formats::{
 };
 use pn_render::pde_kernel::PdeKernel;
 use pn_render::scene::{RenderMethod, RendererKind};
-use pn_render::ProgressCallback;
 use pn_render::{DensityFilter, RenderScene, RgbImages, SceneOverride};
 use std::io::Write;
 use std::path::{Path, PathBuf};
-use std::sync::{Arc, Mutex};
+use std::sync::Arc;
 
 pub use pn_render::{
     turntable_camera, ChannelReport, RenderOptions, RenderReport, RenderRun, SolverReport, Timings,
@@ -210,62 +209,20 @@ pub fn render_views(
 ) -> Result<RenderRun> {
     let mut options = options.clone();
     if options.progress && options.rows.is_none() {
-        options.rows = Some(row_progress_bar());
+        options.rows = Some(crate::progress::row_progress_bar());
     }
     // The solver's bar (iterations and residual), as the solver drew it before it was a
     // library that never draws.
     options.observer =
         crate::progress::terminal_observer(options.progress, options.observer.take());
     let run = pn_render::render_views(scene, &options, views)?;
-    for note in &run.notes {
-        eprintln!("{note}");
-    }
+    crate::progress::print_notes(&run.notes);
     Ok(run)
 }
 
 /// [`render_views`] of the scene's own camera.
 pub fn render_scene(scene: &RenderScene, options: &RenderOptions) -> Result<RenderRun> {
     render_views(scene, options, 1)
-}
-
-/// A progress bar over the image rows ("image rows"), one per image, hidden unless stderr
-/// is a terminal.
-fn row_progress_bar() -> ProgressCallback {
-    let bar: Mutex<Option<indicatif::ProgressBar>> = Mutex::new(None);
-    ProgressCallback::new(move |done, total| {
-        // A poisoned lock only loses the bar.
-        let Ok(mut bar) = bar.lock() else {
-            return;
-        };
-        if done == 0 {
-            *bar = Some(new_bar(total));
-            return;
-        }
-        if let Some(b) = bar.as_ref() {
-            b.set_position(b.position().max(done as u64));
-        }
-        if done == total {
-            if let Some(b) = bar.take() {
-                b.finish_and_clear();
-            }
-        }
-    })
-}
-
-/// An indicatif bar of `len` rows, hidden unless stderr is a terminal.
-fn new_bar(len: usize) -> indicatif::ProgressBar {
-    use std::io::IsTerminal;
-    if !std::io::stderr().is_terminal() {
-        return indicatif::ProgressBar::hidden();
-    }
-    let pb = indicatif::ProgressBar::new(len as u64);
-    if let Ok(style) = indicatif::ProgressStyle::with_template(
-        "{spinner} [{elapsed_precise}] {pos} it  {msg}  ({per_sec})",
-    ) {
-        pb.set_style(style);
-    }
-    pb.set_message("image rows");
-    pb
 }
 
 /// "solver NAME: K iterations, relative residual R" of the summary lines.

@@ -270,9 +270,7 @@ pub fn sampled_problem(problem: &Problem, sampling: Sampling) -> Problem {
 /// for CDA). Prints the choice's note (an interpreted stencil) to stderr.
 pub fn kernel_for(req: &SolveRequest, scene: &Scene) -> Result<(KernelChoice, usize)> {
     let (choice, order) = select_kernel(req, scene)?;
-    if let Some(note) = &choice.note {
-        eprintln!("{note}");
-    }
+    crate::progress::print_notes(choice.note.as_slice());
     Ok((choice, order))
 }
 
