@@ -53,7 +53,7 @@ use std::sync::Arc;
 pub(crate) fn source_moments(
     grid: &Grid,
     sigma_s: &[f64],
-    phase: Phase,
+    phase: &Phase,
     lights: &[Light],
     shadows: &DeepShadowMaps,
     max_band: u32,
@@ -83,7 +83,7 @@ pub(crate) fn source_moments(
 pub fn source_moments_weighted(
     grid: &Grid,
     weights: &[Vec<f64>],
-    phase: Phase,
+    phase: &Phase,
     lights: &[Light],
     max_band: u32,
 ) -> Vec<(u32, i32, Vec<f64>)> {
@@ -199,7 +199,7 @@ pub fn first_scatter_problem_with_depth(
             grid.res, grid.min, grid.max, data,
         )?)))
     };
-    let sources = source_moments_weighted(grid, &weights, scene.phase, &scene.lights, max_band)
+    let sources = source_moments_weighted(grid, &weights, &scene.phase, &scene.lights, max_band)
         .into_iter()
         .map(|(l, m, q)| {
             Ok(SourceTerm {
@@ -213,7 +213,7 @@ pub fn first_scatter_problem_with_depth(
         grid: grid.clone(),
         sigma_t: voxel(sigma_t)?,
         scattering: Scattering::SigmaS(voxel(sigma_s)?),
-        phase: scene.phase,
+        phase: scene.phase.clone(),
         sources,
         boundary: match scene.solve.boundary {
             SolveBoundary::Dirichlet => Boundary::Dirichlet,
@@ -264,7 +264,7 @@ mod tests {
         let q = source_moments(
             &g,
             &sigma_s,
-            Phase::HenyeyGreenstein(0.5),
+            &Phase::HenyeyGreenstein(0.5),
             &lights,
             &shadows,
             1,
@@ -303,7 +303,7 @@ mod tests {
             maps: vec![vec![0.5]],
         };
         let phase = Phase::HenyeyGreenstein(0.3);
-        let q = source_moments(&g, &[2.0], phase, &lights, &shadows, 5);
+        let q = source_moments(&g, &[2.0], &phase, &lights, &shadows, 5);
         let quad = SphereQuadrature::new(48, 96);
         for (l, m, v) in q {
             let mut s = 0.0;
@@ -313,7 +313,7 @@ mod tests {
                 s += w
                     * 2.0
                     * 0.5
-                    * phase_value(phase, cos)
+                    * phase_value(&phase, cos)
                     * real_sh(l as usize, m as i64, *mu, *phi);
             }
             assert!((v[0] - s).abs() < 1e-9, "Q_{l}^{m}: {} vs {s}", v[0]);
@@ -378,7 +378,7 @@ mod tests {
         let shadows = DeepShadowMaps {
             maps: vec![vec![1.0]],
         };
-        let q = source_moments(&g, &[1.0], Phase::Isotropic, &lights, &shadows, 3);
+        let q = source_moments(&g, &[1.0], &Phase::Isotropic, &lights, &shadows, 3);
         assert_eq!(q.len(), 1);
         // E = Φ/(4π r²) at r = 3, Q_0^0 = σ_s E Y_0^0.
         let expect = 1.0 / (4.0 * std::f64::consts::PI * 9.0) / (4.0 * std::f64::consts::PI).sqrt();

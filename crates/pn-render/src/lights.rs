@@ -92,13 +92,8 @@ impl Light {
 /// The phase function value p(μ) for the cosine μ between the two **propagation**
 /// directions (incoming travel direction and outgoing direction), normalised over the sphere
 /// (docs/design.md §2: ∫p = 1; HG with λ_l p_l = g^l).
-pub fn phase_value(phase: pn_runtime::problem::Phase, mu: f64) -> f64 {
-    match phase {
-        pn_runtime::problem::Phase::Isotropic => 1.0 / (4.0 * std::f64::consts::PI),
-        pn_runtime::problem::Phase::HenyeyGreenstein(g) => {
-            pn_stencil::quadrature::henyey_greenstein(g, mu.clamp(-1.0, 1.0))
-        }
-    }
+pub fn phase_value(phase: &pn_runtime::problem::Phase, mu: f64) -> f64 {
+    phase.value(mu)
 }
 
 #[cfg(test)]
@@ -125,11 +120,11 @@ mod tests {
             let s: f64 =
                 q.0.iter()
                     .zip(&q.1)
-                    .map(|(mu, w)| w * 2.0 * std::f64::consts::PI * phase_value(phase, *mu))
+                    .map(|(mu, w)| w * 2.0 * std::f64::consts::PI * phase_value(&phase, *mu))
                     .sum();
             assert!((s - 1.0).abs() < 1e-6, "{phase:?}: {s}");
         }
         let hg = Phase::HenyeyGreenstein(0.6);
-        assert!(phase_value(hg, 1.0) > phase_value(hg, -1.0));
+        assert!(phase_value(&hg, 1.0) > phase_value(&hg, -1.0));
     }
 }

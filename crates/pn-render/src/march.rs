@@ -302,7 +302,7 @@ impl<'a> Marcher<'a> {
             return 0.0;
         };
         let wo = dir.map(|c| -c);
-        let phase = self.scene.phase;
+        let phase = &self.scene.phase;
         let lights = &self.scene.lights;
         // p·E of the directional lights: constant along the ray.
         let directional: Vec<Option<f64>> = lights
@@ -639,7 +639,7 @@ height = {size}
             12,
         );
         s.medium.sigma_t_scale = 12.0;
-        let ms = field(s.phase);
+        let ms = field(s.phase.clone());
         for filter in [DensityFilter::Nearest, DensityFilter::Trilinear] {
             let g = s.density_grid().unwrap().with_filter(filter);
             let reference = render(&s, &g, Some(&ms), settings(1.0 / 256.0));
@@ -666,7 +666,7 @@ height = {size}
         for camera in [[0.4, 0.8, 3.2], [0.05, -0.1, 0.2]] {
             let mut s = scene("[phase]\nkind = \"hg\"\ng = 0.5", LIGHTS, camera, 12);
             s.medium.sigma_t_scale = 8.0;
-            let ms = field(s.phase);
+            let ms = field(s.phase.clone());
             let g = s.density_grid().unwrap();
             let ext = Extinction {
                 grid: &g,

@@ -166,6 +166,67 @@ fn py3(v: [f64; 3]) -> anyhow::Result<String> {
     Ok(format!("[{}, {}, {}]", py(v[0])?, py(v[1])?, py(v[2])?))
 }
 
+/// Nodes of the regular `tabphase` grid that an irregular table or the droplet phase's
+/// Draine lobe (smooth: g_D ≤ 0.65) is resampled onto.
+pub const TABPHASE_NODES: usize = 4097;
+
+/// Mitsuba's phase dictionary for `phase` (Python source). Henyey–Greenstein is `hg`; a
+/// two-lobe blend is `blendphase` of two `hg` (`weight`: the second lobe's share, as
+/// Mitsuba's); a tabulated phase is `tabphase`, whose values run over cos θ from −1
+/// (backward) to 1 (forward) on a regular grid (checked against Mitsuba 3.6: the last value
+/// is forward scattering): a regular table as given, an irregular one resampled on
+/// [`TABPHASE_NODES`] nodes (its linear interpolant read there; exact where the table's nodes
+/// fall on the grid). The droplet phase is `blendphase` of `hg(g_HG)` and a `tabphase` of the
+/// Draine lobe on [`TABPHASE_NODES`] nodes (Mitsuba has no Draine lobe).
+pub fn phase_dict(phase: &Phase) -> anyhow::Result<String> {
+    let tab = |values: &[f64]| -> anyhow::Result<String> {
+        let v: Vec<String> = values
+            .iter()
+            .map(|v| py(*v))
+            .collect::<anyhow::Result<_>>()?;
+        Ok(format!(
+            "{{\"type\": \"tabphase\", \"values\": \"{}\"}}",
+            v.join(", ")
+        ))
+    };
+    let hg = |g: f64| -> anyhow::Result<String> {
+        Ok(format!("{{\"type\": \"hg\", \"g\": {}}}", py(g)?))
+    };
+    let grid = |n: usize| (0..n).map(move |i| -1.0 + 2.0 * i as f64 / (n - 1) as f64);
+    Ok(match phase {
+        Phase::Isotropic => "{\"type\": \"isotropic\"}".to_string(),
+        Phase::HenyeyGreenstein(g) => hg(*g)?,
+        Phase::TwoTermHg { g1, g2, weight } => format!(
+            "{{\"type\": \"blendphase\", \"weight\": {}, \"phase1\": {}, \"phase2\": {}}}",
+            py(*weight)?,
+            hg(*g1)?,
+            hg(*g2)?
+        ),
+        Phase::Tabulated(t) => {
+            if t.is_regular() {
+                tab(t.values())?
+            } else {
+                let v: Vec<f64> = grid(TABPHASE_NODES).map(|mu| t.value(mu)).collect();
+                tab(&v)?
+            }
+        }
+        Phase::Droplet(d) => {
+            let v: Vec<f64> = grid(TABPHASE_NODES)
+                .map(|mu| pn_runtime::phase::draine(d.g_draine, d.alpha, mu))
+                .collect();
+            format!(
+                "{{\"type\": \"blendphase\", \"weight\": {}, \"phase1\": {}, \"phase2\": {}}}",
+                py(d.w_draine)?,
+                hg(d.g_hg)?,
+                tab(&v)?
+            )
+        }
+        Phase::DeltaM(_) => anyhow::bail!(
+            "internal: a delta-M truncated phase is the solve's, not a scene's; export the scene's phase"
+        ),
+    })
+}
+
 /// Whether `p` lies strictly inside the box (the camera then starts in the medium).
 fn inside(p: [f64; 3], min: [f64; 3], max: [f64; 3]) -> bool {
     (0..3).all(|d| p[d] > min[d] && p[d] < max[d])
@@ -197,10 +258,7 @@ pub fn script_text(
             colours.map(|c| c.light_strength[i].map(|v| v * factor)),
         )
     };
-    let phase = match scene.phase {
-        Phase::Isotropic => "{\"type\": \"isotropic\"}".to_string(),
-        Phase::HenyeyGreenstein(g) => format!("{{\"type\": \"hg\", \"g\": {}}}", py(g)?),
-    };
+    let phase = phase_dict(&scene.phase)?;
     let mut emitters = String::new();
     for (i, light) in scene.lights.iter().enumerate() {
         let body = match light {

@@ -239,7 +239,7 @@ impl Renderer<'_> {
                 continue;
             }
             let cos = inc.travel[0] * wo[0] + inc.travel[1] * wo[1] + inc.travel[2] * wo[2];
-            s += phase_value(self.scene.phase, cos)
+            s += phase_value(&self.scene.phase, cos)
                 * ext.transmittance_to(x, light)
                 * inc.irradiance;
         }

@@ -119,7 +119,7 @@ fn reference(scene: &RenderScene, o: [f64; 3], dir: [f64; 3]) -> f64 {
                 let back = travel.map(|c| -c);
                 let ell = inside_length(pos, back, dist);
                 let cos = travel[0] * wo[0] + travel[1] * wo[1] + travel[2] * wo[2];
-                s += phase_value(scene.phase, cos) * (-SIGMA_T * ell).exp() * e;
+                s += phase_value(&scene.phase, cos) * (-SIGMA_T * ell).exp() * e;
             }
             let s_cam = inside_length(o, dir, t);
             sum += 0.5 * (b - a) * wi * (-SIGMA_T * s_cam).exp() * SIGMA_T * ALBEDO * s;

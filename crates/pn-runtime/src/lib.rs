@@ -67,6 +67,7 @@ pub mod marshak;
 mod matfree;
 mod memory;
 pub mod memory_estimate;
+pub mod phase;
 pub mod pipeline;
 pub mod problem;
 pub mod reference;

@@ -64,30 +64,7 @@ impl Grid {
     }
 }
 
-/// Phase function (rotationally symmetric, normalised).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Phase {
-    /// p = 1/(4π): λ_0 p_0 = 1, all other bands 0.
-    Isotropic,
-    /// Henyey–Greenstein with parameter g: λ_l p_l = g^l (docs/design.md §2.1).
-    HenyeyGreenstein(f64),
-}
-
-impl Phase {
-    /// The Funk–Hecke factor λ_l p_l.
-    pub fn moment(&self, l: u32) -> f64 {
-        match self {
-            Phase::Isotropic => {
-                if l == 0 {
-                    1.0
-                } else {
-                    0.0
-                }
-            }
-            Phase::HenyeyGreenstein(g) => g.powi(l as i32),
-        }
-    }
-}
+pub use crate::phase::Phase;
 
 /// How the scattering coefficient is given.
 #[derive(Clone, Debug)]
@@ -603,12 +580,7 @@ impl Problem {
     /// Checks the parts that do not need field evaluation.
     pub fn validate(&self) -> anyhow::Result<()> {
         self.grid.validate()?;
-        if let Phase::HenyeyGreenstein(g) = self.phase {
-            anyhow::ensure!(
-                g.is_finite() && g.abs() < 1.0,
-                "Henyey–Greenstein g must satisfy |g| < 1, got {g}"
-            );
-        }
+        self.phase.validate()?;
         if let Some(min) = self.sigma_t_min {
             anyhow::ensure!(
                 min.is_finite() && min > 0.0,

@@ -167,17 +167,21 @@ impl PopSettings {
 /// The phase function's g for POP: isotropic is g = 0; HG needs g in [0, 1) (the paper's
 /// model has no backscattering lobes, §4; g → 1 is handled as a delta lobe by
 /// [`hg_patch`]).
-pub fn phase_g(phase: Phase) -> anyhow::Result<f64> {
+pub fn phase_g(phase: &Phase) -> anyhow::Result<f64> {
     match phase {
         Phase::Isotropic => Ok(0.0),
         Phase::HenyeyGreenstein(g) => {
             ensure!(
-                g.is_finite() && (0.0..1.0).contains(&g),
+                g.is_finite() && (0.0..1.0).contains(g),
                 "POP needs a Henyey–Greenstein g in [0, 1) (no backward lobes in the paper's \
                  model), got g = {g}"
             );
-            Ok(g)
+            Ok(*g)
         }
+        other => anyhow::bail!(
+            "POP supports isotropic and Henyey–Greenstein phases (the paper's lobes), got {}",
+            other.describe()
+        ),
     }
 }
 
@@ -375,7 +379,7 @@ pub fn solve_light(
     seconds: &mut PopSeconds,
 ) -> anyhow::Result<Option<LightSolution>> {
     settings.validate()?;
-    let g = phase_g(scene.phase)?;
+    let g = phase_g(&scene.phase)?;
     ensure!(
         irradiance.is_finite() && irradiance >= 0.0,
         "POP: irradiance must be finite and non-negative, got {irradiance}"
@@ -441,7 +445,7 @@ pub fn pop_field(
     settings: &PopSettings,
 ) -> anyhow::Result<PopRun> {
     settings.validate()?;
-    let g = phase_g(scene.phase)?;
+    let g = phase_g(&scene.phase)?;
     let pc = (settings.lmax + 1) * (settings.lmax + 1);
     let mut moments = CellMoments {
         res: target.res,

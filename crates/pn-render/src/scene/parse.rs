@@ -11,6 +11,7 @@ use crate::lights::Light;
 use crate::medium::{check_box, DensityFilter, DensityGrid, Procedural};
 use crate::scene_override::SceneOverride;
 use anyhow::{bail, ensure, Context};
+use pn_runtime::phase::{DropletPhase, TabulatedPhase};
 use pn_runtime::problem::Phase;
 use pn_runtime::scene_registry::{self, SceneKind};
 use serde::Deserialize;
@@ -53,6 +54,12 @@ pub(super) struct MediumToml {
 struct PhaseToml {
     kind: String,
     g: Option<f64>,
+    g1: Option<f64>,
+    g2: Option<f64>,
+    weight: Option<f64>,
+    values: Option<Vec<f64>>,
+    cos_theta: Option<Vec<f64>>,
+    diameter: Option<f64>,
 }
 
 #[derive(Deserialize, Debug)]
@@ -266,26 +273,70 @@ pub(super) fn build_light(l: LightToml, n: usize) -> anyhow::Result<(Light, Grey
     }
 }
 
+/// The `[phase]` table: `kind` and the keys of that kind, no others.
+fn build_phase(p: PhaseToml) -> anyhow::Result<Phase> {
+    let given: Vec<&str> = [
+        ("g", p.g.is_some()),
+        ("g1", p.g1.is_some()),
+        ("g2", p.g2.is_some()),
+        ("weight", p.weight.is_some()),
+        ("values", p.values.is_some()),
+        ("cos_theta", p.cos_theta.is_some()),
+        ("diameter", p.diameter.is_some()),
+    ]
+    .into_iter()
+    .filter_map(|(k, set)| set.then_some(k))
+    .collect();
+    let allowed: &[&str] = match p.kind.as_str() {
+        "isotropic" => &[],
+        "hg" => &["g"],
+        "two_term_hg" => &["g1", "g2", "weight"],
+        "tabulated" => &["values", "cos_theta"],
+        "droplet" => &["diameter"],
+        k => {
+            bail!("unknown kind {k:?} (expected isotropic, hg, two_term_hg, tabulated or droplet)")
+        }
+    };
+    if let Some(k) = given.iter().find(|k| !allowed.contains(k)) {
+        bail!(
+            "{k} does not apply to kind = {:?} (its keys: {})",
+            p.kind,
+            if allowed.is_empty() {
+                "none".to_string()
+            } else {
+                allowed.join(", ")
+            }
+        );
+    }
+    let need =
+        |v: Option<f64>, key: &str| v.with_context(|| format!("kind = {:?} needs {key}", p.kind));
+    Ok(match p.kind.as_str() {
+        "isotropic" => Phase::Isotropic,
+        "hg" => Phase::hg(need(p.g, "g")?)?,
+        "two_term_hg" => Phase::two_term_hg(
+            need(p.g1, "g1")?,
+            need(p.g2, "g2")?,
+            need(p.weight, "weight")?,
+        )?,
+        "tabulated" => {
+            let values = p
+                .values
+                .context("kind = \"tabulated\" needs values (over cos θ from -1 to 1)")?;
+            Phase::Tabulated(std::sync::Arc::new(TabulatedPhase::new(
+                p.cos_theta,
+                values,
+            )?))
+        }
+        _ => Phase::Droplet(DropletPhase::new(need(p.diameter, "diameter")?)?),
+    })
+}
+
 pub(super) fn build(t: SceneToml, base: &Path) -> anyhow::Result<RenderScene> {
     let (sigma_t_scale, albedo) = (t.medium.sigma_t_scale, t.medium.albedo);
     let medium = build_medium(t.medium, base).context("[medium]")?;
     let phase = match t.phase {
         None => Phase::Isotropic,
-        Some(p) => match p.kind.as_str() {
-            "isotropic" => {
-                ensure!(p.g.is_none(), "[phase]: g applies to kind = \"hg\" only");
-                Phase::Isotropic
-            }
-            "hg" => {
-                let g = p.g.context("[phase]: kind = \"hg\" needs g")?;
-                ensure!(
-                    g.is_finite() && g.abs() < 1.0,
-                    "[phase]: Henyey–Greenstein g must satisfy |g| < 1, got {g}"
-                );
-                Phase::HenyeyGreenstein(g)
-            }
-            k => bail!("[phase]: unknown kind {k:?} (expected isotropic or hg)"),
-        },
+        Some(p) => build_phase(p).context("[phase]")?,
     };
     let (lights, strengths): (Vec<Light>, Vec<GreyOrRgb>) = t
         .light

@@ -103,7 +103,9 @@ pub(super) fn solve_on_grid(
         ..run.report
     };
     Ok(MsSolution {
-        field: Some(MsField::new(grid, moments, scene.phase)?.with_lookup(scene.render.ms_lookup)),
+        field: Some(
+            MsField::new(grid, moments, scene.phase.clone())?.with_lookup(scene.render.ms_lookup),
+        ),
         unknowns: Some(unknowns),
         solver: Some(solver),
         light_depth: Some(fs.depth),

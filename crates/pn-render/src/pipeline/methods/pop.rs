@@ -47,7 +47,7 @@ impl MultipleScattering for Pop {
         };
         Ok(MsSolution {
             field: Some(
-                MsField::new(sg.grid, run.moments, scene.phase)?
+                MsField::new(sg.grid, run.moments, scene.phase.clone())?
                     .with_lookup(scene.render.ms_lookup),
             ),
             pop: Some(run.report),
