@@ -75,6 +75,7 @@ fn single_scattering_of_a_coloured_cloud_agrees_with_mitsuba_per_channel() {
             scene: &channel,
             density: &grid,
             ms: None,
+            light_leg: None,
         }
         .render(OURS_SPP, 777 + c as u64, None);
         let n = ours.data.len();

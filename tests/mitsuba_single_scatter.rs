@@ -158,6 +158,7 @@ fn single_scattering_agrees(mut scene: RenderScene, filter: DensityFilter, label
         scene: &scene,
         density: &grid,
         ms: None,
+        light_leg: None,
     }
     .render(OURS_SPP, 12345, None);
     let ours_seconds = t.elapsed().as_secs_f64();

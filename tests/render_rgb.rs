@@ -186,7 +186,7 @@ fn a_grey_medium_under_coloured_light_is_one_solve_scaled() {
 }
 
 /// An achromatic σ_t with three albedos: three solves (the albedo is in the operator), but G
-/// and B reuse R's optical depth to the lights, which depends on σ_t and the lights' geometry only, and
+/// and B reuse R's optical depth to the lights, which (without delta-M) depends on σ_t and the lights' geometry only, and
 /// start their iteration from the earlier channels' solutions. Each channel meets the same
 /// residual tolerance (1e-8) as the grey render of its values, from another start: the
 /// images agree to within what that tolerance leaves (bound 1e-6 relative, see below), and
@@ -194,11 +194,23 @@ fn a_grey_medium_under_coloured_light_is_one_solve_scaled() {
 #[test]
 fn an_achromatic_sigma_t_shares_the_light_depth_and_starts_from_earlier_channels() {
     let text = coloured("6.0", "[0.95, 0.8, 0.6]", "1.0", "10.0");
-    let rgb = render_scene(&scene(&text), &one_thread()).unwrap();
+    // With delta-M (the default; HG g = 0.4 here) the light leg's σ_t′ = σ_t − f σ_s depends
+    // on the albedo: no channel can take over another's optical depth.
+    let with_delta_m = render_scene(&scene(&text), &one_thread()).unwrap();
+    for ch in &with_delta_m.report.channels {
+        assert_eq!(ch.light_depth_from, None);
+    }
+    // Without it the optical depth depends on σ_t and the lights only.
+    let no_delta_m = |t: &str| {
+        let mut s = scene(t);
+        s.solve.delta_m = false;
+        s
+    };
+    let rgb = render_scene(&no_delta_m(&text), &one_thread()).unwrap();
     let channels = rgb.rgb.as_ref().unwrap();
     for (c, a) in [0.95, 0.8, 0.6].into_iter().enumerate() {
         let grey = render_scene(
-            &scene(&coloured("6.0", &format!("{a:?}"), "1.0", "10.0")),
+            &no_delta_m(&coloured("6.0", &format!("{a:?}"), "1.0", "10.0")),
             &one_thread(),
         )
         .unwrap();

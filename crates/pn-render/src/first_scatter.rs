@@ -29,12 +29,15 @@
 //! L_ms (light scattered at least once); the uncollided part and single scattering are added
 //! by the renderer.
 
+use super::delta_m::LightLeg;
 use super::hull_absorber::add_hull_absorber;
 use super::light_depth::LightDepth;
 use super::lights::Light;
 use super::medium::DensityGrid;
 use super::scene::{AbsorberPlacement, RenderScene, SolveBoundary};
-use super::shadow::{cell_centre, Extinction};
+use super::shadow::cell_centre;
+#[cfg(test)]
+use super::shadow::Extinction;
 #[cfg(test)]
 use super::shadow::{density_as_grid, DeepShadowMaps};
 use super::solve_setup::{add_absorbing_layer, resample};
@@ -153,25 +156,30 @@ pub(crate) fn first_scatter_problem(
     grid: &Grid,
     max_band: u32,
 ) -> anyhow::Result<FirstScatterProblem> {
-    first_scatter_problem_with_depth(scene, density, grid, max_band, None)
+    let leg = LightLeg::none(scene);
+    first_scatter_problem_with_depth(scene, density, grid, max_band, None, &leg)
 }
 
 /// [`first_scatter_problem`] with the optical depth to the lights given, when another scene
 /// with the same σ_t and the same light positions and directions computed it (the channels
 /// of a coloured scene with an achromatic σ_t): it depends on nothing else. `None` computes
 /// it ([`LightDepth::compute`]).
+///
+/// `light_leg` is the extinction between the lights and the medium: with a delta-M share
+/// f > 0 ([`crate::delta_m`]) the depth and the transmittance are those of σ_t′ = σ_t − f σ_s,
+/// the source is `σ_s (λ_l p_l − f) T′ E Y_l^m(d)` for l ≤ `max_band`, and the problem carries
+/// σ_t′, σ_s′ = (1 − f) σ_s and the truncated phase of order `light_leg`'s N (the same P_N
+/// operator; the transport sweeps read these).
 pub fn first_scatter_problem_with_depth(
     scene: &RenderScene,
     density: &DensityGrid,
     grid: &Grid,
     max_band: u32,
     depth: Option<Arc<LightDepth>>,
+    light_leg: &LightLeg,
 ) -> anyhow::Result<FirstScatterProblem> {
     let t0 = std::time::Instant::now();
-    let ext = Extinction {
-        grid: density,
-        scale: scene.medium.sigma_t_scale,
-    };
+    let ext = light_leg.extinction(density);
     let depth = match depth {
         Some(d) => {
             anyhow::ensure!(
@@ -192,14 +200,29 @@ pub fn first_scatter_problem_with_depth(
     }
     add_absorbing_layer(grid, scene.solve.layer_cells(), &mut sigma_t);
     // σ_s·T·E per solve cell and light, averaged exactly over the cell (module docs).
-    let weights =
+    let mut weights =
         cell_scattering_weights(density, &scene.medium, &ext, &scene.lights, &depth, grid);
+    // Delta-M: σ_s (λ_l p_l − f) = σ_s′ p′_l with σ_s′ = (1 − f) σ_s.
+    let (phase, f) = match light_leg.order() {
+        Some(order) if light_leg.f() > 0.0 => scene.phase.delta_m(order),
+        _ => (scene.phase.clone(), 0.0),
+    };
+    if f > 0.0 {
+        for w in weights.iter_mut().flatten() {
+            *w *= 1.0 - f;
+        }
+        // σ_t′ = σ_t − f σ_s (the absorber's addition to σ_t is kept), σ_s′ = (1 − f) σ_s.
+        for (t, s) in sigma_t.iter_mut().zip(&sigma_s) {
+            *t -= f * s;
+        }
+    }
+    let sigma_s: Vec<f64> = sigma_s.iter().map(|s| (1.0 - f) * s).collect();
     let voxel = |data: Vec<f64>| -> anyhow::Result<Field> {
         Ok(Field::Voxel(Arc::new(VoxelGrid::new(
             grid.res, grid.min, grid.max, data,
         )?)))
     };
-    let sources = source_moments_weighted(grid, &weights, &scene.phase, &scene.lights, max_band)
+    let sources = source_moments_weighted(grid, &weights, &phase, &scene.lights, max_band)
         .into_iter()
         .map(|(l, m, q)| {
             Ok(SourceTerm {
@@ -213,7 +236,7 @@ pub fn first_scatter_problem_with_depth(
         grid: grid.clone(),
         sigma_t: voxel(sigma_t)?,
         scattering: Scattering::SigmaS(voxel(sigma_s)?),
-        phase: scene.phase.clone(),
+        phase,
         sources,
         boundary: match scene.solve.boundary {
             SolveBoundary::Dirichlet => Boundary::Dirichlet,

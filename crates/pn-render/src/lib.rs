@@ -57,6 +57,7 @@
 mod camera;
 mod colour;
 pub mod compare;
+mod delta_m;
 mod first_scatter;
 pub mod fld_problem;
 mod hull_absorber;
@@ -81,6 +82,7 @@ mod transport_sweep;
 
 pub use camera::Camera;
 pub use colour::CHANNELS;
+pub use delta_m::LightLeg;
 pub use lights::{phase_value, Light};
 pub use medium::{DensityFilter, DensityGrid, Procedural};
 pub use pipeline::methods::{method_for, MsSolution, MultipleScattering, PreparedScene};

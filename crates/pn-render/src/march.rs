@@ -107,8 +107,9 @@ pub struct Marcher<'a> {
     support: Option<([f64; 3], [f64; 3])>,
     /// Exact transmittance to the lights by traversal instead of the grid.
     exact: bool,
-    /// The extinction (exact optical depth near each point).
-    ext: Extinction<'a>,
+    /// The extinction on the way to the lights (σ_t′ of delta-M, [`crate::delta_m`]; `ext`
+    /// without it): the optical depth of the single scattering's light leg.
+    light_ext: Extinction<'a>,
     /// Length of the exactly traversed part of each light ray ([`NEAR_VOXELS`] voxels).
     near: f64,
 }
@@ -244,7 +245,7 @@ impl<'a> Marcher<'a> {
                 None
             },
             exact: settings.exact_transmittance,
-            ext: Extinction {
+            light_ext: Extinction {
                 grid: density,
                 scale: scene.medium.sigma_t_scale,
             },
@@ -261,10 +262,10 @@ impl<'a> Marcher<'a> {
     #[inline]
     fn tau_to_light(&self, li: usize, x: [f64; 3], back: [f64; 3], distance: f64) -> f64 {
         if self.exact {
-            return self.ext.optical_depth(x, back, distance);
+            return self.light_ext.optical_depth(x, back, distance);
         }
         let s = self.near.min(distance);
-        let near = self.ext.optical_depth(x, back, s);
+        let near = self.light_ext.optical_depth(x, back, s);
         if s >= distance {
             return near;
         }
@@ -272,7 +273,14 @@ impl<'a> Marcher<'a> {
         if !self.density.contains(y) {
             return near;
         }
-        near + self.light_depth.tau(&self.ext, li, y)
+        near + self.light_depth.tau(&self.light_ext, li, y)
+    }
+
+    /// Reads the light leg's optical depth through `ext` (delta-M's σ_t′,
+    /// [`crate::LightLeg::extinction`]); `light_depth` must have been computed from it.
+    pub fn with_light_extinction(mut self, ext: Extinction<'a>) -> Self {
+        self.light_ext = ext;
+        self
     }
 
     /// Traces the first `voxels` voxel sides of every light ray exactly (default
@@ -684,6 +692,7 @@ height = {size}
                 scene: &s,
                 density: &g,
                 ms: Some(&ms),
+                light_leg: None,
             };
             let frame = s.camera.frame();
             let (mut ratio_num, mut ratio_den, mut dsum, mut msum, mut var_sum) =

@@ -174,6 +174,9 @@ pub struct Renderer<'a> {
     pub density: &'a DensityGrid,
     /// The multiple-scattering solution (None: single scattering only).
     pub ms: Option<&'a MsField>,
+    /// The extinction on the way to the lights (delta-M's σ_t′, [`crate::delta_m`]; None:
+    /// σ_t).
+    pub light_leg: Option<&'a crate::LightLeg>,
 }
 
 impl Renderer<'_> {
@@ -226,7 +229,11 @@ impl Renderer<'_> {
             }
             let albedo = sigma_s / sigma_t;
             let wo = dir.map(|c| -c);
-            return albedo * (self.single(&ext, x, wo) + self.multiple(x, wo));
+            let light_ext = match self.light_leg {
+                Some(leg) => leg.extinction(self.density),
+                None => ext.clone(),
+            };
+            return albedo * (self.single(&light_ext, x, wo) + self.multiple(x, wo));
         }
     }
 

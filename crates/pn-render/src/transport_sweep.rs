@@ -63,10 +63,25 @@ impl SweepSettings {
 
 /// `sweeps` source iterations starting from `moments` (the un-staggered P_N solution of
 /// `problem`); returns the moments of the last sweep's radiance, l ≤ the input's lmax.
+#[cfg(test)]
 pub fn transport_sweeps(
     problem: &Problem,
     moments: &CellMoments,
     settings: SweepSettings,
+) -> Result<CellMoments> {
+    transport_sweeps_to_band(problem, moments, settings, None)
+}
+
+/// [`transport_sweeps`] whose last sweep keeps the angular detail it computed up to band
+/// `out_lmax` (≥ the input's lmax; None: the input's lmax) instead of projecting back to
+/// the solve's bands: every moment l ≤ `out_lmax` of the swept radiance, which the camera's
+/// last scattering reads with the full phase's factors. The angular rule must resolve them
+/// (Gauss–Legendre with n_mu nodes is exact for the products of bands up to 2 n_mu − 1).
+pub fn transport_sweeps_to_band(
+    problem: &Problem,
+    moments: &CellMoments,
+    settings: SweepSettings,
+    out_lmax: Option<usize>,
 ) -> Result<CellMoments> {
     let grid = &problem.grid;
     ensure!(
@@ -88,31 +103,19 @@ pub fn transport_sweeps(
             (-(l as i64)..=l as i64).map(move |m| (l, (l as i64 * (l as i64 + 1) + m) as usize))
         })
         .collect();
+    let out_lmax = out_lmax.unwrap_or(lmax).max(lmax);
+    // The last sweep's output: every moment up to out_lmax when that is above lmax.
+    let wide: Vec<(usize, usize)> = if out_lmax > lmax {
+        (0..=out_lmax)
+            .flat_map(|l| {
+                (-(l as i64)..=l as i64).map(move |m| (l, (l as i64 * (l as i64 + 1) + m) as usize))
+            })
+            .collect()
+    } else {
+        active.clone()
+    };
 
-    // Coefficients as the assembly reads them at the cell centres: the problem's own
-    // threshold and checks, on the voxel values read once per field.
-    let raw_t = cell_values(&problem.sigma_t, grid);
-    let scattering = cell_values(
-        match &problem.scattering {
-            Scattering::SigmaS(f) | Scattering::Albedo(f) => f,
-        },
-        grid,
-    );
-    let mut sigma_t = vec![0.0; n];
-    let mut sigma_s = vec![0.0; n];
-    for c in 0..n {
-        let x = super::shadow::cell_centre(grid, [c / (ny * nz), (c / nz) % ny, c % nz]);
-        let co = problem
-            .coefficients_from(raw_t[c], scattering[c], x)
-            .map_err(|e| {
-                anyhow!(
-                    "transport sweep: invalid coefficients in cell {c}: σ_t = {}: {e}",
-                    raw_t[c]
-                )
-            })?;
-        sigma_t[c] = co.sigma_t;
-        sigma_s[c] = co.sigma_s;
-    }
+    let (sigma_t, sigma_s) = cell_coefficients(problem)?;
     let mut q = vec![0.0; n * active.len()];
     for src in &problem.sources {
         let l = src.l as usize;
@@ -137,6 +140,7 @@ pub fn transport_sweeps(
             let mut oct = Octant {
                 positive: sign,
                 y: Vec::new(),
+                y_wide: Vec::new(),
                 weight: Vec::new(),
                 a: Vec::new(),
                 ell: Vec::new(),
@@ -150,6 +154,10 @@ pub fn transport_sweeps(
                 oct.ell.push(1.0 / (a[0] + a[1] + a[2]));
                 oct.weight.push(*w);
                 oct.y.extend(active.iter().map(|&(l, idx)| {
+                    let m = idx as i64 - (l as i64 * (l as i64 + 1));
+                    real_sh(l, m, *mu, *phi)
+                }));
+                oct.y_wide.extend(wide.iter().map(|&(l, idx)| {
                     let m = idx as i64 - (l as i64 * (l as i64 + 1));
                     real_sh(l, m, *mu, *phi)
                 }));
@@ -172,7 +180,9 @@ pub fn transport_sweeps(
         sigma_t: &sigma_t,
         na,
     };
-    for _ in 0..settings.sweeps {
+    let nw = wide.len();
+    let mut l_wide = Vec::new();
+    for s in 0..settings.sweeps {
         // Emission moments E = Q + σ_s λ_l p_l L.
         let e: Vec<f64> = (0..n * na)
             .map(|i| {
@@ -180,11 +190,13 @@ pub fn transport_sweeps(
                 q[i] + sigma_s[c] * factor[active[a].0] * l_act[i]
             })
             .collect();
-        l_act = octants
+        let last_wide = s + 1 == settings.sweeps && out_lmax > lmax;
+        let width = if last_wide { nw } else { na };
+        let swept = octants
             .par_iter()
-            .map(|oct| sweep_grid.sweep_octant(oct, &e))
+            .map(|oct| sweep_grid.sweep_octant(oct, &e, last_wide))
             .reduce(
-                || vec![0.0; n * na],
+                || vec![0.0; n * width],
                 |mut a, b| {
                     for (x, y) in a.iter_mut().zip(&b) {
                         *x += y;
@@ -192,18 +204,71 @@ pub fn transport_sweeps(
                     a
                 },
             );
-    }
-    let mut out = CellMoments {
-        res: moments.res,
-        per_cell: pc,
-        data: vec![0.0; n * pc],
-    };
-    for c in 0..n {
-        for (a, &(_, idx)) in active.iter().enumerate() {
-            out.data[c * pc + idx] = l_act[c * na + a];
+        if last_wide {
+            l_wide = swept;
+        } else {
+            l_act = swept;
         }
     }
-    Ok(out)
+    Ok(if out_lmax > lmax {
+        full_moments(moments.res, out_lmax, &wide, &l_wide)
+    } else {
+        full_moments(moments.res, lmax, &active, &l_act)
+    })
+}
+
+/// σ_t and σ_s at the cell centres, as the assembly reads them: the problem's own threshold
+/// and checks, on the voxel values read once per field.
+fn cell_coefficients(problem: &Problem) -> Result<(Vec<f64>, Vec<f64>)> {
+    let grid = &problem.grid;
+    let [nx, ny, nz] = grid.res;
+    let n = nx * ny * nz;
+    let raw_t = cell_values(&problem.sigma_t, grid);
+    let scattering = cell_values(
+        match &problem.scattering {
+            Scattering::SigmaS(f) | Scattering::Albedo(f) => f,
+        },
+        grid,
+    );
+    let mut sigma_t = vec![0.0; n];
+    let mut sigma_s = vec![0.0; n];
+    for c in 0..n {
+        let x = super::shadow::cell_centre(grid, [c / (ny * nz), (c / nz) % ny, c % nz]);
+        let co = problem
+            .coefficients_from(raw_t[c], scattering[c], x)
+            .map_err(|e| {
+                anyhow!(
+                    "transport sweep: invalid coefficients in cell {c}: σ_t = {}: {e}",
+                    raw_t[c]
+                )
+            })?;
+        sigma_t[c] = co.sigma_t;
+        sigma_s[c] = co.sigma_s;
+    }
+    Ok((sigma_t, sigma_s))
+}
+
+/// The moments l ≤ `lmax` per cell from the values of the moments `set` (`(l, index)`,
+/// `set.len()` values per cell); the others 0.
+fn full_moments(
+    res: [usize; 3],
+    lmax: usize,
+    set: &[(usize, usize)],
+    values: &[f64],
+) -> CellMoments {
+    let per_cell = (lmax + 1) * (lmax + 1);
+    let n = res[0] * res[1] * res[2];
+    let mut out = CellMoments {
+        res,
+        per_cell,
+        data: vec![0.0; n * per_cell],
+    };
+    for c in 0..n {
+        for (a, &(_, idx)) in set.iter().enumerate() {
+            out.data[c * per_cell + idx] = values[c * set.len() + a];
+        }
+    }
+    out
 }
 
 /// The directions of one octant of the sphere.
@@ -212,6 +277,9 @@ struct Octant {
     positive: [bool; 3],
     /// `Y_l^m(ω_k)` of the active moments, one row of `na` per direction.
     y: Vec<f64>,
+    /// `Y_l^m(ω_k)` of the last sweep's output moments (all l ≤ out_lmax), one row per
+    /// direction.
+    y_wide: Vec<f64>,
     /// Quadrature weights.
     weight: Vec<f64>,
     /// `a_d = |ω_d| / h_d` per direction.
@@ -230,12 +298,18 @@ struct SweepGrid<'a> {
 
 impl SweepGrid<'_> {
     /// Sweeps the directions of `oct` with the emission moments `e` (`na` per cell) and
-    /// returns their contribution `Σ_k w_k L'(ω_k) Y(ω_k)` to the moments.
-    fn sweep_octant(&self, oct: &Octant, e: &[f64]) -> Vec<f64> {
+    /// returns their contribution `Σ_k w_k L'(ω_k) Y(ω_k)` to the moments: the active ones,
+    /// or with `wide` all those up to the output band.
+    fn sweep_octant(&self, oct: &Octant, e: &[f64], wide: bool) -> Vec<f64> {
         let [nx, ny, nz] = self.res;
         let na = self.na;
         let nd = oct.weight.len();
-        let mut acc = vec![0.0; nx * ny * nz * na];
+        let (y_out, nout) = if wide {
+            (&oct.y_wide, oct.y_wide.len() / nd.max(1))
+        } else {
+            (&oct.y, na)
+        };
+        let mut acc = vec![0.0; nx * ny * nz * nout];
         let mut psi = vec![0.0; nx * ny * nz * nd];
         let mut wv = vec![0.0; nd];
         let order = |len: usize, positive: bool| -> Vec<usize> {
@@ -287,8 +361,8 @@ impl SweepGrid<'_> {
                         psi[c * nd + d] = v;
                         wv[d] = oct.weight[d] * v;
                     }
-                    let ac = &mut acc[c * na..(c + 1) * na];
-                    for (yd, &w) in oct.y.chunks_exact(na).zip(&wv) {
+                    let ac = &mut acc[c * nout..(c + 1) * nout];
+                    for (yd, &w) in y_out.chunks_exact(nout).zip(&wv) {
                         for (x, y) in ac.iter_mut().zip(yd) {
                             *x += w * y;
                         }
@@ -417,6 +491,36 @@ mod tests {
         assert!(fixed.get(4, 4, 4, 0) > 1.3 * first.get(4, 4, 4, 0));
         // The anisotropic moments are carried: an off-centre cell has a net flux outward.
         assert!(fixed.get(8, 4, 4, 3) != 0.0 || fixed.get(8, 4, 4, 1) != 0.0);
+    }
+
+    /// The last sweep's wide output keeps the bands the solve carries exactly as the narrow
+    /// one projects them (same directions, same radiance) and adds the higher ones: near a
+    /// face of the cube, where the radiance leaving has no incoming counterpart, band 5 of a
+    /// P_3 start is clearly non-zero.
+    #[test]
+    fn wide_output_keeps_the_solve_bands_and_adds_the_higher_ones() {
+        let problem = cube(7, 2.0, 1.2, Phase::HenyeyGreenstein(0.5), 1.0);
+        let settings = SweepSettings { sweeps: 2, n_mu: 6 };
+        let start = zeros(7, 3);
+        let narrow = transport_sweeps(&problem, &start, settings).unwrap();
+        let wide = transport_sweeps_to_band(&problem, &start, settings, Some(7)).unwrap();
+        assert_eq!(wide.per_cell, 64);
+        for c in [[3, 3, 3], [0, 3, 3], [6, 1, 5]] {
+            for idx in 0..16 {
+                let (a, b) = (
+                    narrow.get(c[0], c[1], c[2], idx),
+                    wide.get(c[0], c[1], c[2], idx),
+                );
+                assert!(
+                    (a - b).abs() <= 1e-12 * (1.0 + a.abs()),
+                    "{c:?} {idx}: {a} vs {b}"
+                );
+            }
+        }
+        // Band 5, m = 0 (index 30) at the −x face: the radiance is one-sided in angle there.
+        let l0 = wide.get(0, 3, 3, 0);
+        let high: f64 = (25..36).map(|i| wide.get(0, 3, 3, i).abs()).sum();
+        assert!(high > 1e-3 * l0, "band 5 at the face: {high} vs L_00 {l0}");
     }
 
     /// Deep inside an optically thick homogeneous cube (half-width 20 mean free paths) the

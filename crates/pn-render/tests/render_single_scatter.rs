@@ -134,6 +134,7 @@ fn estimate(scene: &RenderScene, o: [f64; 3], dir: [f64; 3], n: usize) -> (f64, 
         scene,
         density: &density,
         ms: None,
+        light_leg: None,
     };
     let mut rng = Rng::new(12345, 0);
     let (mut s, mut s2) = (0.0, 0.0);
@@ -185,6 +186,7 @@ fn camera_inside_the_medium_matches_quadrature() {
         scene: &s,
         density: &density,
         ms: None,
+        light_leg: None,
     }
     .render(64, 1, None);
     // 64 samples per pixel: the chance that all escape (P ≈ e^{−1.8} each) is ~1e-49.
@@ -207,6 +209,7 @@ fn vacuum_renders_exactly_zero() {
         scene: &s,
         density: &density,
         ms: None,
+        light_leg: None,
     }
     .render(8, 1, None);
     assert!(img.data.iter().all(|v| *v == 0.0));

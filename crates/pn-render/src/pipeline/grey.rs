@@ -11,7 +11,7 @@ use crate::march::{MarchSettings, Marcher};
 use crate::renderer::{Image, MsField, Renderer};
 use crate::scene::RendererKind;
 use crate::shadow::Extinction;
-use crate::{DensityGrid, RenderScene};
+use crate::{DensityGrid, LightLeg, RenderScene};
 use anyhow::{ensure, Result};
 use std::sync::Arc;
 use std::time::Instant;
@@ -41,12 +41,20 @@ pub(super) fn render_grey_views(
         ..Timings::default()
     };
     let method = method_for(scene, options.pde.as_ref())?;
+    // Delta-M (crate::delta_m): the light leg's σ_t′ serves the source and the camera's
+    // single scattering alike.
+    let light_leg = LightLeg::for_order(
+        scene,
+        &density,
+        method.delta_m_order().filter(|_| scene.solve.delta_m),
+    );
     let prepared = PreparedScene {
         scene,
         density: &density,
         options,
         light_depth: shared.light_depth.clone(),
         guesses: &shared.guesses,
+        light_leg: &light_leg,
     };
     let MsSolution {
         field: ms,
@@ -59,6 +67,24 @@ pub(super) fn render_grey_views(
         seconds,
         mut notes,
     } = method.solve(&prepared)?;
+    if let Some(order) = light_leg.order() {
+        notes.push(format!(
+            "delta-M: the forward peak f = {:.4} (λ_{} p_{} of {}) travels on unscattered; the \
+             solve carries the truncated phase, the camera's single scattering the full one",
+            light_leg.f(),
+            order + 1,
+            order + 1,
+            scene.phase.describe()
+        ));
+    }
+    if let pn_runtime::problem::Phase::Tabulated(t) = &scene.phase {
+        if (t.normalisation() - 1.0).abs() > 1e-6 {
+            notes.push(format!(
+                "the tabulated phase was normalised (2π∫p dμ = 1): its values were multiplied by {:.6}",
+                t.normalisation()
+            ));
+        }
+    }
     timings.light_depth = seconds.light_depth;
     timings.sources = seconds.sources;
     timings.solve = seconds.solve;
@@ -81,7 +107,11 @@ pub(super) fn render_grey_views(
         light_depth = light_depth.or(shared.light_depth);
         if light_depth.is_none() {
             let t_ld = Instant::now();
-            light_depth = Some(compute_light_depth(scene, &density, options.threads)?);
+            light_depth = Some(compute_light_depth(
+                &light_leg.extinction(&density),
+                &scene.lights,
+                options.threads,
+            )?);
             timings.light_depth = t_ld.elapsed().as_secs_f64();
         }
     }
@@ -91,6 +121,7 @@ pub(super) fn render_grey_views(
             density: &density,
             ms: ms.as_ref(),
             light_depth: light_depth.as_deref().filter(|_| deterministic),
+            light_leg: &light_leg,
             options,
             support,
         },
@@ -131,16 +162,12 @@ pub(super) fn render_grey_views(
 
 /// The optical depth to the lights of a render without a solve.
 fn compute_light_depth(
-    scene: &RenderScene,
-    density: &DensityGrid,
+    ext: &Extinction<'_>,
+    lights: &[crate::Light],
     threads: Option<usize>,
 ) -> Result<Arc<LightDepth>> {
-    let ext = Extinction {
-        grid: density,
-        scale: scene.medium.sigma_t_scale,
-    };
     Ok(Arc::new(pn_runtime::with_threads(threads, || {
-        LightDepth::compute(&ext, &scene.lights)
+        LightDepth::compute(ext, lights)
     })?))
 }
 
@@ -151,6 +178,8 @@ struct ViewsInput<'a> {
     ms: Option<&'a MsField>,
     /// The optical depth to the lights for the deterministic renderer (None: Monte Carlo).
     light_depth: Option<&'a LightDepth>,
+    /// The extinction on the way from the lights.
+    light_leg: &'a LightLeg,
     options: &'a RenderOptions,
     /// The medium's box (None: empty).
     support: Option<([f64; 3], [f64; 3])>,
@@ -177,6 +206,7 @@ fn render_images(
         density,
         ms,
         light_depth,
+        light_leg,
         options,
         support,
     } = *input;
@@ -189,7 +219,10 @@ fn render_images(
         cutoff: r.cutoff,
         exact_transmittance: r.exact_transmittance,
     };
-    let marcher = light_depth.map(|ld| Marcher::new(scene, density, ms, ld, settings));
+    let marcher = light_depth.map(|ld| {
+        Marcher::new(scene, density, ms, ld, settings)
+            .with_light_extinction(light_leg.extinction(density))
+    });
     let mut out = Views {
         images: Vec::with_capacity(views),
         reports: Vec::new(),
@@ -228,6 +261,7 @@ fn render_images(
                     scene: sc,
                     density,
                     ms,
+                    light_leg: Some(light_leg),
                 };
                 pn_runtime::with_threads(threads, || renderer.render(r.spp, r.seed, rows))?
             }

@@ -53,6 +53,11 @@ pub(super) fn render_views_rgb(
         .colours
         .as_ref()
         .context("internal: render_views_rgb needs a coloured scene")?;
+    // With delta-M the light leg's σ_t′ = σ_t − f σ_s depends on the albedo.
+    let leg_reads_albedo = scene.solve.delta_m
+        && super::methods::method_for(scene, options.pde.as_ref())?
+            .delta_m_order()
+            .is_some_and(|n| scene.phase.delta_m_fraction(n) > 0.0);
     let mut runs: Vec<Option<RenderRun>> = Vec::new();
     let mut copied: [Option<(usize, f64)>; 3] = [None; 3];
     let mut depth_from: [Option<usize>; 3] = [None; 3];
@@ -66,10 +71,12 @@ pub(super) fn render_views_rgb(
             runs.push(None);
             continue;
         }
-        // The optical depth to the lights depends on σ_t and the lights' geometry only: an
-        // earlier channel with the same σ_t scale has it.
+        // The optical depth to the lights depends on σ_t, the lights' geometry and (with
+        // delta-M, σ_t′ = σ_t − f σ_s) the albedo only: an earlier channel with the same σ_t
+        // scale and albedo has it.
         depth_from[c] = (0..c).find(|&p| {
             colours.sigma_t_scale[p] == colours.sigma_t_scale[c]
+                && (!leg_reads_albedo || colours.albedo.is_none_or(|a| a[p] == a[c]))
                 && runs[p].as_ref().is_some_and(|r| r.light_depth.is_some())
         });
         let light_depth = depth_from[c].and_then(|p| runs[p].as_ref()?.light_depth.clone());

@@ -104,6 +104,8 @@ struct SolveToml {
     pop_epsilon_l: Option<f64>,
     sweeps: Option<usize>,
     sweep_quadrature: Option<usize>,
+    delta_m: Option<bool>,
+    sweep_bands: Option<usize>,
 }
 
 #[derive(Deserialize, Debug)]
@@ -383,6 +385,8 @@ pub(super) fn build(t: SceneToml, base: &Path) -> anyhow::Result<RenderScene> {
         pop_epsilon_l: None,
         sweeps: None,
         sweep_quadrature: None,
+        delta_m: None,
+        sweep_bands: None,
     });
     let solve = SolveSettings {
         method: s.method.unwrap_or(RenderMethod::Pn),
@@ -403,6 +407,8 @@ pub(super) fn build(t: SceneToml, base: &Path) -> anyhow::Result<RenderScene> {
         pop_epsilon_l: s.pop_epsilon_l.unwrap_or(POP_DEFAULT_EPSILON_L),
         sweeps: s.sweeps.unwrap_or(DEFAULT_SWEEPS),
         sweep_quadrature: s.sweep_quadrature.unwrap_or(DEFAULT_SWEEP_QUADRATURE),
+        delta_m: s.delta_m.unwrap_or(true),
+        sweep_bands: s.sweep_bands,
     };
     solve.validate().context("[solve]")?;
     let r = t.render.unwrap_or(RenderToml {

@@ -188,6 +188,15 @@ pub struct SolveSettings {
     /// Gauss–Legendre nodes in μ of the sweeps' directions (`n × 2n` directions,
     /// [`DEFAULT_SWEEP_QUADRATURE`]).
     pub sweep_quadrature: usize,
+    /// Delta-M truncation of the phase for the solve ([`crate::delta_m`]; methods pn, cda
+    /// and fld; default on): the forward peak f = λ_{N+1} p_{N+1} travels on as unscattered
+    /// light, the camera's single scattering stays exact. The identity for isotropic media.
+    pub delta_m: bool,
+    /// The band up to which the last transport sweep keeps the radiance it computed
+    /// (`[solve] sweep_bands`; None: the solve's own bands), read by the camera's last
+    /// scattering with the full phase ([`crate::transport_sweep::transport_sweeps_to_band`]).
+    /// At most 2 × `sweep_quadrature` − 1 (what the angular rule resolves).
+    pub sweep_bands: Option<usize>,
 }
 
 /// Default number of transport sweeps after a render's solve (`[solve] sweeps`). Each is one

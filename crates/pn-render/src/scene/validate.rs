@@ -111,6 +111,15 @@ impl SolveSettings {
             "sweep_quadrature must lie in 1..=64 (Gauss nodes in cos θ), got {}",
             self.sweep_quadrature
         );
+        if let Some(b) = self.sweep_bands {
+            ensure!(
+                b < 2 * self.sweep_quadrature,
+                "sweep_bands = {b} needs sweep_quadrature ≥ {} (the angular rule resolves bands \
+                 up to 2 × sweep_quadrature − 1), got {}",
+                b / 2 + 1,
+                self.sweep_quadrature
+            );
+        }
         if self.boundary == SolveBoundary::Marshak {
             ensure!(
                 self.method == RenderMethod::Pn && self.order % 2 == 1,

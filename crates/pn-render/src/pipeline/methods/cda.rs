@@ -14,6 +14,10 @@ impl MultipleScattering for Cda {
         "cda"
     }
 
+    fn delta_m_order(&self) -> Option<u32> {
+        Some(1)
+    }
+
     fn solve(&self, p: &PreparedScene<'_>) -> Result<MsSolution> {
         let kernel = cda_kernel(Dim::Three)?;
         let method = GridMethod {

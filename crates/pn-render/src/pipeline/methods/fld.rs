@@ -22,6 +22,10 @@ impl MultipleScattering for Fld {
         "fld"
     }
 
+    fn delta_m_order(&self) -> Option<u32> {
+        Some(1)
+    }
+
     fn solve(&self, p: &PreparedScene<'_>) -> Result<MsSolution> {
         let method = GridMethod {
             kernel: None,

@@ -7,7 +7,7 @@ use super::{MsSeconds, MsSolution, PreparedScene};
 use crate::first_scatter::first_scatter_problem_with_depth;
 use crate::renderer::MsField;
 use crate::solve_setup::solve_grid;
-use crate::transport_sweep::{transport_sweeps, SweepSettings};
+use crate::transport_sweep::{transport_sweeps_to_band, SweepSettings};
 use crate::DensityGrid;
 use anyhow::Result;
 use pn_kernels::KernelChoice;
@@ -66,7 +66,14 @@ pub(super) fn solve_on_grid(
         )?;
     }
     let fs = pn_runtime::with_threads(threads, || {
-        first_scatter_problem_with_depth(scene, density, &grid, m.max_band, p.light_depth.clone())
+        first_scatter_problem_with_depth(
+            scene,
+            density,
+            &grid,
+            m.max_band,
+            p.light_depth.clone(),
+            p.light_leg,
+        )
     })??;
     let mut seconds = MsSeconds {
         light_depth: fs.seconds_light_depth,
@@ -82,13 +89,14 @@ pub(super) fn solve_on_grid(
     if s.sweeps > 0 {
         let t2 = Instant::now();
         moments = pn_runtime::with_threads(threads, || {
-            transport_sweeps(
+            transport_sweeps_to_band(
                 &fs.problem,
                 &moments,
                 SweepSettings {
                     sweeps: s.sweeps,
                     n_mu: s.sweep_quadrature,
                 },
+                s.sweep_bands,
             )
         })??;
         seconds.sweeps = t2.elapsed().as_secs_f64();

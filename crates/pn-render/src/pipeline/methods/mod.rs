@@ -7,6 +7,7 @@
 
 use super::report::{SolverReport, UnknownStats};
 use super::RenderOptions;
+use crate::delta_m::LightLeg;
 use crate::light_depth::LightDepth;
 use crate::pde_kernel::PdeKernel;
 use crate::pop::PopReport;
@@ -37,6 +38,8 @@ pub struct PreparedScene<'a> {
     pub light_depth: Option<Arc<LightDepth>>,
     /// Staggered solutions on the same solve grid, to start the iteration from.
     pub guesses: &'a [&'a [f64]],
+    /// The extinction on the way from the lights (σ_t′ of delta-M, σ_t without it).
+    pub light_leg: &'a LightLeg,
 }
 
 /// Seconds per stage of a method (0 for the stages it does not have).
@@ -83,6 +86,12 @@ pub trait MultipleScattering {
     fn name(&self) -> &str;
     /// The report's `order` (P_N order, POP's highest band; None for the others).
     fn order(&self) -> Option<usize> {
+        None
+    }
+    /// The P_N order N whose delta-M truncation the method's solve carries
+    /// ([`crate::delta_m`]; P_N: N, the diffusion methods: 1, i.e. δ-Eddington); None for
+    /// methods without it (POP, text PDEs, single scattering only).
+    fn delta_m_order(&self) -> Option<u32> {
         None
     }
     /// Computes the multiple scattering of `prepared`.

@@ -21,6 +21,10 @@ impl MultipleScattering for Pn {
         Some(self.order)
     }
 
+    fn delta_m_order(&self) -> Option<u32> {
+        Some(self.order as u32)
+    }
+
     fn solve(&self, p: &PreparedScene<'_>) -> Result<MsSolution> {
         let kernel = pn_kernel(self.order, Dim::Three, Staggering::Staggered)?;
         let method = GridMethod {

@@ -1,0 +1,158 @@
+//! Delta-M truncation of a forward-peaked phase function for the solve (Wiscombe 1977), with
+//! the single scattering seen by the camera kept exact (the TMS idea of Nakajima & Tanaka
+//! 1988). docs/design.md §6 and `pn_runtime::phase` give the relations.
+//!
+//! A P_N solve of order N carries the phase's factors λ_l p_l for l ≤ N only. For a
+//! forward-peaked phase (HG g = 0.877: g^6 ≈ 0.45) the first-scatter source
+//! `σ_s T E λ_l p_l Y_l^m(d)` is then a truncated series of a sharp peak around the light's
+//! direction d, which rings, and most of the light it carries is light that scattering
+//! barely deflected. Delta-M splits the share `f = λ_{N+1} p_{N+1}` of every scattering
+//! event off as a delta in the forward direction: that light travels on as if unscattered,
+//! and the rest scatters with the truncated phase `p′_l = (λ_l p_l − f)/(1 − f)`, l ≤ N:
+//!
+//! ```text
+//! σ_t′ = σ_t − f σ_s,   σ_s′ = (1 − f) σ_s,   T′ = exp(−∫ σ_t′)   (the light leg),
+//! Q_l^m = σ_s′ T′ E p′_l Y_l^m(d) = σ_s (λ_l p_l − f) T′ E Y_l^m(d).
+//! ```
+//!
+//! The P_N operator is unchanged (σ_t′ − σ_s′ p′_l = σ_t − σ_s p_l for l ≤ N); the
+//! transport sweeps solve the truncated transport equation (σ_t′, σ_s′, p′). The radiance is
+//! then `L ≈ T′ E δ(ω − d) + L′`, with L′ the solution, and the camera's last scattering
+//! event is computed with the full phase on both parts:
+//!
+//! ```text
+//! σ_s ∫ p(ω·ω′) L(ω′) dω′ ≈ σ_s p(d·ω) T′ E + σ_s Σ_{l ≤ N} λ_l p_l L′_l^m Y_l^m(ω),
+//! ```
+//!
+//! with the camera ray's own attenuation σ_t. So the renderer reads the transmittance to the
+//! lights from σ_t′ (this module's [`LightLeg`]) and the solution with the full phase's
+//! factors; with f = 0 (isotropic scattering, g = 0, or delta-M switched off) everything is
+//! exactly as without it. As N → ∞, f → 0: the truncation converges to transport.
+
+use super::medium::DensityGrid;
+use super::scene::{Albedo, RenderScene};
+use super::shadow::Extinction;
+
+/// The extinction light travels through on its way from the lights to a scattering point:
+/// σ_t′ = σ_t − f σ_s = σ_t (1 − f α) (σ_t for f = 0).
+#[derive(Clone, Debug)]
+pub struct LightLeg {
+    /// The density times (1 − f α) per voxel, for a medium whose albedo varies per voxel
+    /// (None: the scene's density, with the factor in `scale`).
+    density: Option<DensityGrid>,
+    /// σ_t′ per unit of the density read.
+    scale: f64,
+    /// The forward-peak share f.
+    f: f64,
+    /// The P_N order whose truncation f belongs to (None: f = 0).
+    order: Option<u32>,
+}
+
+impl LightLeg {
+    /// The light leg of `scene` without delta-M: σ_t itself.
+    pub fn none(scene: &RenderScene) -> Self {
+        Self {
+            density: None,
+            scale: scene.medium.sigma_t_scale,
+            f: 0.0,
+            order: None,
+        }
+    }
+
+    /// The light leg of `scene` for the delta-M truncation of its phase at P_N order `order`
+    /// (`None`, or a share f = 0: σ_t itself).
+    pub fn for_order(scene: &RenderScene, density: &DensityGrid, order: Option<u32>) -> Self {
+        match order {
+            Some(n) => {
+                let f = scene.phase.delta_m_fraction(n);
+                let mut leg = Self::new(scene, density, f);
+                leg.order = (f > 0.0).then_some(n);
+                leg
+            }
+            None => Self::none(scene),
+        }
+    }
+
+    /// The light leg of `scene` with the forward-peak share `f` (0: σ_t itself).
+    fn new(scene: &RenderScene, density: &DensityGrid, f: f64) -> Self {
+        let sigma_t_scale = scene.medium.sigma_t_scale;
+        if f == 0.0 {
+            return Self::none(scene);
+        }
+        match &scene.medium.albedo {
+            Albedo::Constant(a) => Self {
+                density: None,
+                scale: sigma_t_scale * (1.0 - f * a),
+                f,
+                order: None,
+            },
+            Albedo::Voxels(alpha) => {
+                let mut scaled = density.clone();
+                for (d, a) in scaled.data.iter_mut().zip(alpha.iter()) {
+                    *d *= (1.0 - f * f64::from(*a)) as f32;
+                }
+                Self {
+                    density: Some(scaled),
+                    scale: sigma_t_scale,
+                    f,
+                    order: None,
+                }
+            }
+        }
+    }
+
+    /// The forward-peak share f.
+    pub fn f(&self) -> f64 {
+        self.f
+    }
+
+    /// The P_N order of the truncation (None without delta-M).
+    pub fn order(&self) -> Option<u32> {
+        self.order
+    }
+
+    /// The extinction of the light leg; `density` is the scene's density grid.
+    pub fn extinction<'a>(&'a self, density: &'a DensityGrid) -> Extinction<'a> {
+        Extinction {
+            grid: self.density.as_ref().unwrap_or(density),
+            scale: self.scale,
+        }
+    }
+
+    /// Whether two light legs attenuate alike (so that one's optical-depth grid serves the
+    /// other): same share and the same σ_t′ scale.
+    pub fn same_as(&self, other: &LightLeg) -> bool {
+        self.f == other.f
+            && self.order == other.order
+            && self.scale == other.scale
+            && self.density == other.density
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_light_leg_is_sigma_t_minus_f_sigma_s() {
+        let mut scene = RenderScene::builtin("cloud").unwrap();
+        scene.medium.albedo = Albedo::Constant(0.9);
+        let density = scene.density_grid().unwrap();
+        let x = [0.0, 0.0, 0.0];
+        let (st, ss) = scene.medium.coefficients_at(&density, x);
+        assert!(st > 0.0);
+        let f = 0.3;
+        let leg = LightLeg::new(&scene, &density, f);
+        let e = leg.extinction(&density);
+        assert!((e.sigma_t(x) - (st - f * ss)).abs() < 1e-9 * st);
+        // Per-voxel albedo: the scaled density, the same σ_t′ at the voxel centres.
+        let n = density.data.len();
+        scene.medium.albedo = Albedo::Voxels(std::sync::Arc::new(vec![0.9f32; n]));
+        let leg2 = LightLeg::new(&scene, &density, f);
+        let e2 = leg2.extinction(&density);
+        assert!((e2.sigma_t(x) - (st - f * ss)).abs() < 1e-6 * st);
+        // f = 0: σ_t itself.
+        let leg0 = LightLeg::new(&scene, &density, 0.0);
+        assert_eq!(leg0.extinction(&density).sigma_t(x), st);
+    }
+}
