@@ -32,10 +32,32 @@ background and its result is dropped. Bad input raises ValueError with the messa
 prints. `real_sh(lmax, directions)` gives the real spherical harmonics of the moments'
 convention, shape (n, (lmax+1)**2).
 
+Phase functions are dictionaries with the keys of the scene format's `[phase]` table:
+{"kind": "isotropic"}, {"kind": "hg", "g": 0.8}, {"kind": "two_term_hg", "g1": 0.9,
+"g2": -0.3, "weight": 0.2} (weight: the second lobe's share), {"kind": "tabulated",
+"values": v} (v over cos theta from -1 to 1 on a regular grid, or at the cosines
+"cos_theta": c, strictly increasing from -1 to 1; numpy arrays allowed; normalised) and
+{"kind": "droplet", "diameter": 10} (Jendersie & d'Eon's cloud-droplet phase, 5 to 50 um).
+`phase_moments(phase, lmax)` gives lambda_l p_l = 2 pi int p(mu) P_l(mu) dmu for
+l = 0..lmax (g**l for HG), `phase_value(phase, mu)` the normalised value at the cosines mu
+(mu = 1: forward), `mitsuba_phase_dict(phase)` the Mitsuba 3 dictionary `pn export-mitsuba`
+writes for it.
+
 `pnsolver.mitsuba` (needs Mitsuba 3: `pip install ".[mitsuba]"`) is the Mitsuba integrator
 `pn`: `pnsolver.mitsuba.register()`, then `{"type": "pn", "order": 3, ...}` in a scene.
 """
 
-from ._pnsolver import Scene, __version__, builtin_scenes, real_sh, render, solve
+from ._pnsolver import (
+    Scene,
+    __version__,
+    builtin_scenes,
+    mitsuba_phase_dict,
+    phase_moments,
+    phase_value,
+    real_sh,
+    render,
+    solve,
+)
 
-__all__ = ["Scene", "render", "solve", "builtin_scenes", "real_sh", "__version__"]
+__all__ = ["Scene", "render", "solve", "builtin_scenes", "real_sh", "phase_moments",
+           "phase_value", "mitsuba_phase_dict", "__version__"]

@@ -9,7 +9,8 @@
 
 The scene's participating medium must be one `heterogeneous` medium whose `sigma_t` is a
 single-channel `gridvolume` (albedo a constant, grey or RGB, or a single-channel gridvolume of
-the same resolution; phase `hg` or `isotropic`), inside a `cube` shape with a `null` BSDF that
+the same resolution; phase `isotropic`, `hg`, `tabphase` or a `blendphase` of them with a
+constant weight, see `phase_settings_of`), inside a `cube` shape with a `null` BSDF that
 contains the grid's box; the lights are `directional` and `point` emitters. Anything else is
 refused with a `ValueError` that says what is not supported.
 
@@ -53,9 +54,10 @@ except ImportError as e:  # pragma: no cover - the message is the point
         "pnsolver.mitsuba needs Mitsuba 3 (pip install mitsuba==3.9.1): " + str(e)
     ) from e
 
-from . import Scene, solve
+from . import Scene, phase_moments, solve
 
-__all__ = ["register", "integrator_class", "PnIntegrator", "Solution", "scene_settings", "camera_settings", "real_sh"]
+__all__ = ["register", "integrator_class", "PnIntegrator", "Solution", "scene_settings",
+           "camera_settings", "phase_settings_of", "real_sh"]
 
 
 def register(name: str = "pn") -> None:
@@ -273,6 +275,147 @@ def _filter_of(medium, density, scale, lo, hi):
     )
 
 
+# --------------------------------------------------------------------------------------
+# The medium's phase function as a pnsolver phase dictionary
+
+
+class _Children(mi.TraversalCallback):
+    """The objects and values a Mitsuba object hands to `traverse`, by name (its immediate
+    children only; `mi.traverse` flattens them and leaves out children without parameters,
+    such as an `isotropic` phase)."""
+
+    def __init__(self):
+        mi.TraversalCallback.__init__(self)
+        self.objects = {}
+        self.values = {}
+
+    def put(self, name, value, flags, cpptype=None):
+        if isinstance(value, mi.Object):
+            self.objects[name] = value
+        else:
+            self.values[name] = value
+
+    def put_object(self, name, obj, flags):
+        self.objects[name] = obj
+
+    def put_value(self, name, value, flags, cpptype=None):
+        self.values[name] = value
+
+
+def _children(obj):
+    cb = _Children()
+    obj.traverse(cb)
+    return cb.objects
+
+
+def _blend_weight(volume) -> float:
+    """A `blendphase` weight: a constant grey volume (`"weight": 0.3`)."""
+    if volume is None or volume.class_name() != "ConstVolume":
+        kind = "none" if volume is None else volume.class_name()
+        raise ValueError(
+            f"a blendphase weight must be a constant (a number), got a {kind}: a spatially "
+            f"varying phase is not supported by the pn integrator"
+        )
+    w = _value(mi.traverse(volume)["value.value"])
+    if isinstance(w, list):
+        raise ValueError(f"a blendphase weight must be grey (one number), got {w}")
+    return w
+
+
+def _lobes(phase, share=1.0):
+    """The phase as a list of (share, lobe) with lobe ("hg", g) or ("tab", values on the
+    regular grid over cos θ ∈ [−1, 1]); `blendphase` recursively, (1 − weight) for phase1."""
+    name = phase.class_name()
+    if name == "IsotropicPhaseFunction":
+        return [(share, ("hg", 0.0))]
+    if name == "HGPhaseFunction":
+        return [(share, ("hg", _scalar(mi.traverse(phase)["g"])))]
+    if name == "TabulatedPhaseFunction":
+        values = np.array(mi.traverse(phase)["values"], dtype=np.float64).ravel()
+        return [(share, ("tab", values))]
+    if name == "BlendPhaseFunction":
+        c = _children(phase)
+        w = _blend_weight(c.get("weight"))
+        first, second = c.get("phase_0"), c.get("phase_1")
+        if first is None or second is None:
+            raise ValueError("a blendphase needs two nested phase functions")
+        return _lobes(first, share * (1.0 - w)) + _lobes(second, share * w)
+    raise ValueError(
+        f"the phase function must be 'isotropic', 'hg', 'tabphase' or a 'blendphase' of "
+        f"them, got {name}"
+    )
+
+
+def _hg(g, mu):
+    d = 1.0 + g * g - 2.0 * g * mu
+    return (1.0 - g * g) / (4.0 * math.pi * d * np.sqrt(d))
+
+
+def _tab(values, mu):
+    """Mitsuba's `tabphase`: linear in cos θ on its regular grid, normalised over the sphere."""
+    grid = np.linspace(-1.0, 1.0, len(values))
+    integral = 2.0 * math.pi * float(np.sum(0.5 * (values[1:] + values[:-1]) * np.diff(grid)))
+    if not integral > 0.0:
+        raise ValueError("a tabphase with no positive value")
+    return np.interp(mu, grid, values / integral)
+
+
+# Nodes per Henyey–Greenstein lobe of a resampled blend (uniform in log(1 + g² − 2gμ): the
+# relative interpolation error of HG is about (3/2 δ)²/8 with δ the step, < 3e-5 for
+# |g| ≤ 0.99) and of the regular part of the grid.
+_LOBE_NODES = 1025
+_REGULAR_NODES = 2049
+
+
+def _resampled(lobes):
+    """A blend the pn phase kinds cannot name as a `tabulated` phase on irregular nodes: the
+    nodes of every `tabphase` lobe (exact there: the lobe is linear between them), a regular
+    grid, and per HG lobe nodes graded towards its peak."""
+    nodes = [np.linspace(-1.0, 1.0, _REGULAR_NODES)]
+    for _, (kind, p) in lobes:
+        if kind == "tab":
+            nodes.append(np.linspace(-1.0, 1.0, len(p)))
+        elif abs(p) > 1e-3:
+            g = p
+            s = np.exp(np.linspace(math.log((1 - abs(g)) ** 2), math.log((1 + abs(g)) ** 2),
+                                   _LOBE_NODES))
+            nodes.append(np.clip((1 + g * g - s) / (2 * g), -1.0, 1.0))
+    mu = np.unique(np.concatenate(nodes))
+    mu = mu[np.concatenate(([True], np.diff(mu) > 1e-12))]
+    mu[0], mu[-1] = -1.0, 1.0
+    values = np.zeros_like(mu)
+    for share, (kind, p) in lobes:
+        values += share * (_hg(p, mu) if kind == "hg" else _tab(p, mu))
+    return {"kind": "tabulated", "cos_theta": mu, "values": values}
+
+
+def phase_settings_of(phase) -> dict:
+    """The pnsolver phase dictionary (the `[phase]` keys of a pn scene) of a Mitsuba phase
+    function: `isotropic` and `hg` as they are; `tabphase` as a `tabulated` phase (its values
+    on the regular grid over cos θ, the last one forward); a `blendphase` (constant weight:
+    the second phase's share; nested blends too) of two `hg`/`isotropic` as `two_term_hg`,
+    of one as that one, and any other blend as a `tabulated` phase on irregular nodes that
+    resolve its HG peaks (`_resampled`: values within about 1e-4 of the blend's). Raises
+    ValueError for other phase functions and for a varying blend weight."""
+    name = phase.class_name()
+    if name == "IsotropicPhaseFunction":
+        return {"kind": "isotropic"}
+    lobes = [(w, lobe) for w, lobe in _lobes(phase) if w > 0.0]
+    if all(kind == "hg" for _, (kind, _) in lobes):
+        shares = {}
+        for w, (_, g) in lobes:
+            shares[g] = shares.get(g, 0.0) + w
+        if len(shares) == 1:
+            (g,) = shares
+            return {"kind": "isotropic"} if g == 0.0 else {"kind": "hg", "g": g}
+        if len(shares) == 2:
+            (g1, w1), (g2, w2) = shares.items()
+            return {"kind": "two_term_hg", "g1": g1, "g2": g2, "weight": w2 / (w1 + w2)}
+    if len(lobes) == 1:
+        return {"kind": "tabulated", "values": lobes[0][1][1]}
+    return _resampled(lobes)
+
+
 def camera_settings(sensor):
     """The `[camera]` of a pn scene for a Mitsuba `perspective` sensor (horizontal field of
     view, the film's size; pn's pinhole camera looks along the sensor's +z with its +y up)."""
@@ -341,13 +484,7 @@ def scene_settings(scene, solve_settings: dict | None = None, sensor=None):
     else:
         raise ValueError("the medium's albedo must be a constant or a gridvolume")
 
-    phase = medium.phase_function()
-    if phase.class_name() == "HGPhaseFunction":
-        phase_settings = {"kind": "hg", "g": _scalar(mi.traverse(phase)["g"])}
-    elif phase.class_name() == "IsotropicPhaseFunction":
-        phase_settings = {"kind": "isotropic"}
-    else:
-        raise ValueError(f"the phase function must be 'hg' or 'isotropic', got {phase.class_name()}")
+    phase_settings = phase_settings_of(medium.phase_function())
 
     lights = []
     for e in scene.emitters():
@@ -424,10 +561,8 @@ class Solution:
             )
         self.per_cell = self.moments[0].shape[3] if self.moments else 0
         self.lmax = int(round(math.sqrt(self.per_cell))) - 1 if self.moments else -1
-        phase = settings["phase"]
-        g = float(phase.get("g", 0.0)) if phase["kind"] == "hg" else 0.0
-        # λ_l p_l (Phase::moment): g^l for Henyey–Greenstein; isotropic (g = 0): only l = 0.
-        self.phase_moments = [1.0] + [g ** l for l in range(1, self.lmax + 1)]
+        # λ_l p_l (Phase::moment) of the phase the solve used.
+        self.phase_moments = [float(v) for v in phase_moments(settings["phase"], max(self.lmax, 0))]
 
     def inscatter(self, p, wo):
         """Σ_{l,m} λ_l p_l L_l^m(p) Y_l^m(wo) per colour channel (a list), 0 outside the

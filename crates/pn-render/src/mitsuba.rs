@@ -390,6 +390,82 @@ mod tests {
         assert!(script_text(&s, &g, &o).is_err());
     }
 
+    /// The `"values": "a, b, …"` strings of the `tabphase`s in a dict, parsed.
+    fn tab_values(dict: &str) -> Vec<Vec<f64>> {
+        dict.split("\"type\": \"tabphase\", \"values\": \"")
+            .skip(1)
+            .map(|rest| {
+                let end = rest.find('"').unwrap();
+                rest[..end]
+                    .split(", ")
+                    .map(|v| v.parse::<f64>().unwrap())
+                    .collect()
+            })
+            .collect()
+    }
+
+    #[test]
+    fn phase_dicts_have_mitsubas_structure_for_every_kind() {
+        use pn_runtime::phase::{draine, DropletPhase, TabulatedPhase};
+        use std::sync::Arc;
+        assert_eq!(
+            phase_dict(&Phase::Isotropic).unwrap(),
+            "{\"type\": \"isotropic\"}"
+        );
+        assert_eq!(
+            phase_dict(&Phase::hg(-0.25).unwrap()).unwrap(),
+            "{\"type\": \"hg\", \"g\": -0.25}"
+        );
+        // Two lobes: blendphase, weight = the second lobe's share, phase1 = the first lobe.
+        assert_eq!(
+            phase_dict(&Phase::two_term_hg(0.8, -0.4, 0.25).unwrap()).unwrap(),
+            "{\"type\": \"blendphase\", \"weight\": 0.25, \
+             \"phase1\": {\"type\": \"hg\", \"g\": 0.8}, \
+             \"phase2\": {\"type\": \"hg\", \"g\": -0.4}}"
+        );
+        // A regular table: its values as given, normalised (Mitsuba normalises too).
+        let t = TabulatedPhase::new(None, vec![0.0, 0.5, 1.0]).unwrap();
+        let d = phase_dict(&Phase::Tabulated(Arc::new(t.clone()))).unwrap();
+        assert!(
+            d.starts_with("{\"type\": \"tabphase\", \"values\": \""),
+            "{d}"
+        );
+        assert_eq!(tab_values(&d), vec![t.values().to_vec()]);
+        // An irregular table: resampled on the regular grid of TABPHASE_NODES, the last
+        // node forward (μ = 1).
+        let t = TabulatedPhase::new(Some(vec![-1.0, 0.3, 1.0]), vec![1.0, 2.0, 5.0]).unwrap();
+        let d = phase_dict(&Phase::Tabulated(Arc::new(t.clone()))).unwrap();
+        let v = &tab_values(&d)[0];
+        assert_eq!(v.len(), TABPHASE_NODES);
+        assert_eq!(v[0], t.value(-1.0));
+        assert_eq!(v[TABPHASE_NODES - 1], t.value(1.0));
+        assert_eq!(v[(TABPHASE_NODES - 1) / 2], t.value(0.0));
+        // The droplet phase: blendphase(weight = w_D, hg(g_HG), tabphase(Draine lobe)).
+        let dp = DropletPhase::new(10.0).unwrap();
+        let d = phase_dict(&Phase::Droplet(dp)).unwrap();
+        let head = format!(
+            "{{\"type\": \"blendphase\", \"weight\": {:?}, \"phase1\": {{\"type\": \"hg\", \
+             \"g\": {:?}}}, \"phase2\": {{\"type\": \"tabphase\", \"values\": \"",
+            dp.w_draine, dp.g_hg
+        );
+        assert!(d.starts_with(&head), "{}", &d[..200]);
+        assert!(d.ends_with("\"}}"));
+        let v = &tab_values(&d)[0];
+        assert_eq!(v.len(), TABPHASE_NODES);
+        assert_eq!(v[0], draine(dp.g_draine, dp.alpha, -1.0));
+        assert_eq!(v[TABPHASE_NODES - 1], draine(dp.g_draine, dp.alpha, 1.0));
+        assert!(v[TABPHASE_NODES - 1] > v[0]);
+        // A truncated phase is the solve's, never exported.
+        let (trunc, _) = Phase::hg(0.9).unwrap().delta_m(3);
+        assert!(phase_dict(&trunc).is_err());
+        // The script carries the dict.
+        let mut s = scene();
+        s.phase = Phase::two_term_hg(0.8, -0.4, 0.25).unwrap();
+        let g = s.density_grid().unwrap();
+        let text = script_text(&s, &g, &ExportOptions::from_scene(&s)).unwrap();
+        assert!(text.contains(&phase_dict(&s.phase).unwrap()));
+    }
+
     #[test]
     fn export_files_hold_a_vol_that_decodes_and_the_script() {
         let s = scene();

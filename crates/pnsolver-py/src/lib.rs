@@ -14,6 +14,8 @@ use pyo3::exceptions::{PyImportError, PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
+mod phase;
+
 /// An anyhow error as a Python `ValueError` with the whole chain of context.
 fn value_error(e: anyhow::Error) -> PyErr {
     PyValueError::new_err(format!("{e:#}"))
@@ -60,29 +62,17 @@ impl Scene {
     /// "solve": {...}, "render": {...}}`, keys as in the README). With `density` (a numpy
     /// array of shape (nx, ny, nz), x first, covering `medium.bbox_min`..`bbox_max`, which are
     /// then required) the medium is that array; `albedo` (same shape) replaces
-    /// `medium.albedo`.
+    /// `medium.albedo`. Values may be numpy arrays and scalars (the phase's `values`, …).
     #[new]
     #[pyo3(signature = (settings, density = None, albedo = None))]
     fn new(
-        py: Python<'_>,
         settings: &Bound<'_, PyDict>,
         density: Option<&Bound<'_, PyAny>>,
         albedo: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
-        let json: String = py
-            .import("json")?
-            .call_method1("dumps", (settings,))?
-            .extract()?;
-        let value: serde_json::Value = serde_json::from_str(&json)
-            .map_err(|e| PyValueError::new_err(format!("settings: {e}")))?;
-        let mut table: toml::Table = toml::Value::try_from(value)
-            .ok()
-            .and_then(|v| v.as_table().cloned())
-            .ok_or_else(|| {
-                PyValueError::new_err(
-                    "settings must be a dictionary of sections with TOML values (no None)",
-                )
-            })?;
+        let toml::Value::Table(mut table) = phase::to_toml(settings.as_any(), "settings")? else {
+            return Err(PyValueError::new_err("settings must be a dictionary"));
+        };
         let arrays = match density {
             None => {
                 if albedo.is_some() {
@@ -486,6 +476,9 @@ fn _pnsolver(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(solve, m)?)?;
     m.add_function(wrap_pyfunction!(builtin_scenes, m)?)?;
     m.add_function(wrap_pyfunction!(real_sh, m)?)?;
+    m.add_function(wrap_pyfunction!(phase::phase_moments, m)?)?;
+    m.add_function(wrap_pyfunction!(phase::phase_value, m)?)?;
+    m.add_function(wrap_pyfunction!(phase::mitsuba_phase_dict, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

@@ -23,6 +23,7 @@ mod validate;
 mod voxels;
 
 pub use builtin::builtin_names;
+pub use parse::phase_from_table;
 pub use types::*;
 
 #[cfg(test)]

@@ -275,6 +275,17 @@ pub(super) fn build_light(l: LightToml, n: usize) -> anyhow::Result<(Light, Grey
     }
 }
 
+/// A phase function from a `[phase]` table of the scene format (`kind` and the keys of that
+/// kind: `g`; `g1`, `g2`, `weight`; `values`, `cos_theta`; `diameter`), checked as in a scene
+/// file: unknown keys, keys of another kind and bad values are refused with the key's name.
+/// The Python binding reads its phase dictionaries with it.
+pub fn phase_from_table(table: toml::Table) -> anyhow::Result<Phase> {
+    let p: PhaseToml = toml::Value::Table(table)
+        .try_into()
+        .map_err(|e: toml::de::Error| anyhow::anyhow!("{}", e.message().trim_end()))?;
+    build_phase(p)
+}
+
 /// The `[phase]` table: `kind` and the keys of that kind, no others.
 fn build_phase(p: PhaseToml) -> anyhow::Result<Phase> {
     let given: Vec<&str> = [

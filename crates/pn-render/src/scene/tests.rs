@@ -387,3 +387,148 @@ fn vdb_files_are_read_with_their_placement_and_grid_names() {
     let e = err(&MINIMAL.replace("kind = \"sphere\"", "kind = \"sphere\"\ngrid = \"density\""));
     assert!(e.contains("apply to kind = \"grid\" only"), "{e}");
 }
+
+/// MINIMAL with a `[phase]` table of these lines.
+fn with_phase(lines: &str) -> String {
+    format!("{MINIMAL}[phase]\n{lines}\n")
+}
+
+#[test]
+fn every_phase_kind_is_read() {
+    let p = |lines: &str| parse(&with_phase(lines)).unwrap().phase;
+    assert_eq!(p("kind = \"isotropic\""), Phase::Isotropic);
+    assert_eq!(
+        p("kind = \"hg\"\ng = -0.25"),
+        Phase::HenyeyGreenstein(-0.25)
+    );
+    let two = p("kind = \"two_term_hg\"\ng1 = 0.8\ng2 = -0.4\nweight = 0.25");
+    assert_eq!(
+        two,
+        Phase::TwoTermHg {
+            g1: 0.8,
+            g2: -0.4,
+            weight: 0.25
+        }
+    );
+    // weight is the second lobe's share (Mitsuba's blendphase).
+    assert!((two.moment(1) - (0.75 * 0.8 + 0.25 * -0.4)).abs() < 1e-15);
+
+    // A regular table over [-1, 1]: p ∝ 1 + μ (normalised: 2π ∫ (1 + μ) dμ = 4π), g = 1/3.
+    let tab = p("kind = \"tabulated\"\nvalues = [0.0, 0.5, 1.0]");
+    let Phase::Tabulated(t) = &tab else {
+        panic!("{tab:?}")
+    };
+    assert_eq!(t.cos_theta(), &[-1.0, 0.0, 1.0]);
+    assert!((t.normalisation() - 1.0 / (2.0 * std::f64::consts::PI)).abs() < 1e-15);
+    assert!(
+        (tab.moment(1) - 1.0 / 3.0).abs() < 1e-14,
+        "{}",
+        tab.moment(1)
+    );
+    assert!((tab.value(1.0) - 1.0 / (2.0 * std::f64::consts::PI)).abs() < 1e-15);
+    // The same function on irregular nodes, forward = cos θ = 1.
+    let irr = p("kind = \"tabulated\"\ncos_theta = [-1.0, 0.5, 1.0]\nvalues = [0.0, 1.5, 2.0]");
+    let Phase::Tabulated(t) = &irr else {
+        panic!("{irr:?}")
+    };
+    assert_eq!(t.cos_theta(), &[-1.0, 0.5, 1.0]);
+    assert!(!t.is_regular());
+    assert!(
+        (irr.moment(1) - 1.0 / 3.0).abs() < 1e-14,
+        "{}",
+        irr.moment(1)
+    );
+
+    let drop = p("kind = \"droplet\"\ndiameter = 10.0");
+    let Phase::Droplet(d) = &drop else {
+        panic!("{drop:?}")
+    };
+    assert_eq!(d.diameter, 10.0);
+    let g = (1.0 - d.w_draine) * d.g_hg
+        + d.w_draine * pn_runtime::phase::draine_moment(d.g_draine, d.alpha, 1);
+    assert!((drop.moment(1) - g).abs() < 1e-15);
+    assert!((0.8..0.9).contains(&g), "{g}");
+    // An integer diameter is a number too.
+    assert_eq!(p("kind = \"droplet\"\ndiameter = 20").moment(1), {
+        Phase::Droplet(pn_runtime::phase::DropletPhase::new(20.0).unwrap()).moment(1)
+    });
+}
+
+#[test]
+fn bad_phase_tables_are_refused_with_the_key() {
+    let cases: &[(&str, &[&str])] = &[
+        ("kind = \"hg\"\ng = 1.0", &["[phase]", "g", "< 1"]),
+        ("kind = \"hg\"\ng = -1.5", &["g", "< 1"]),
+        ("kind = \"hg\"", &["needs g"]),
+        (
+            "kind = \"two_term_hg\"\ng1 = 0.5\ng2 = 1.2\nweight = 0.5",
+            &["g2"],
+        ),
+        (
+            "kind = \"two_term_hg\"\ng1 = 0.5\ng2 = 0.2\nweight = 1.5",
+            &["weight", "[0, 1]"],
+        ),
+        (
+            "kind = \"two_term_hg\"\ng1 = 0.5\ng2 = 0.2\nweight = -0.1",
+            &["weight"],
+        ),
+        ("kind = \"two_term_hg\"\ng1 = 0.5\ng2 = 0.2", &["needs weight"]),
+        ("kind = \"tabulated\"\nvalues = [1.0, -0.5, 2.0]", &["values[1]", "non-negative"]),
+        ("kind = \"tabulated\"\nvalues = [1.0, nan]", &["values[1]", "NaN"]),
+        ("kind = \"tabulated\"\nvalues = [1.0]", &["two values"]),
+        ("kind = \"tabulated\"\nvalues = []", &["two values"]),
+        ("kind = \"tabulated\"", &["needs values"]),
+        (
+            "kind = \"tabulated\"\ncos_theta = [-1.0, 0.5, 0.2, 1.0]\nvalues = [1.0, 1.0, 1.0, 1.0]",
+            &["cos_theta[2]", "sorted"],
+        ),
+        (
+            "kind = \"tabulated\"\ncos_theta = [-0.5, 1.0]\nvalues = [1.0, 1.0]",
+            &["cos_theta", "-1 to 1"],
+        ),
+        (
+            "kind = \"tabulated\"\ncos_theta = [-1.0, 1.0]\nvalues = [1.0, 1.0, 1.0]",
+            &["2 cosines for 3 values"],
+        ),
+        ("kind = \"tabulated\"\nvalues = [0.0, 0.0]", &["all values are zero"]),
+        ("kind = \"droplet\"\ndiameter = 4.0", &["diameter", "[5, 50]"]),
+        ("kind = \"droplet\"\ndiameter = 51.0", &["diameter", "[5, 50]"]),
+        ("kind = \"droplet\"", &["needs diameter"]),
+        ("kind = \"droplet\"\ndiameter = 10.0\ng = 0.5", &["g does not apply", "droplet", "diameter"]),
+        ("kind = \"isotropic\"\ng = 0.5", &["g does not apply", "none"]),
+        ("kind = \"hg\"\ng = 0.5\nweight = 0.5", &["weight does not apply"]),
+        ("kind = \"tabulated\"\nvalues = [1.0, 1.0]\ndiameter = 10.0", &["diameter does not apply"]),
+        ("kind = \"mie\"", &["unknown kind \"mie\"", "droplet"]),
+        ("kind = \"hg\"\ng = 0.5\nlobes = 2", &["unknown field `lobes`"]),
+        ("kind = \"hg\"\ng = \"0.5\"", &["invalid type"]),
+    ];
+    for (lines, wants) in cases {
+        let e = err(&with_phase(lines));
+        for w in *wants {
+            assert!(e.contains(w), "{lines:?}: {e:?} lacks {w:?}");
+        }
+    }
+}
+
+#[test]
+fn phase_tables_outside_scene_files_are_read_and_checked_the_same() {
+    let t: toml::Table =
+        toml::from_str("kind = \"two_term_hg\"\ng1 = 0.7\ng2 = -0.2\nweight = 0.1").unwrap();
+    assert_eq!(
+        phase_from_table(t).unwrap(),
+        Phase::TwoTermHg {
+            g1: 0.7,
+            g2: -0.2,
+            weight: 0.1
+        }
+    );
+    let t: toml::Table = toml::from_str("kind = \"droplet\"\ng = 0.5").unwrap();
+    let e = format!("{:#}", phase_from_table(t).unwrap_err());
+    assert!(e.contains("g does not apply"), "{e}");
+    let t: toml::Table = toml::from_str("kind = \"hg\"\ngee = 0.5").unwrap();
+    let e = format!("{:#}", phase_from_table(t).unwrap_err());
+    assert!(e.contains("unknown field `gee`"), "{e}");
+    let t: toml::Table = toml::from_str("g = 0.5").unwrap();
+    let e = format!("{:#}", phase_from_table(t).unwrap_err());
+    assert!(e.contains("kind"), "{e}");
+}
