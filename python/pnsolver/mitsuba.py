@@ -517,7 +517,11 @@ def scene_settings(scene, solve_settings: dict | None = None, sensor=None):
         "phase": phase_settings,
         "light": lights,
         "camera": camera if sensor is None else camera_settings(sensor),
-        "solve": dict(solve_settings or {}),
+        # Mitsuba computes the single scattering here with the true transmittance to the
+        # lights, so the solve must not be delta-M truncated (pn's delta-M moves the forward
+        # peak's light into a single-scattering term with σ_t − f σ_s, which Mitsuba does not
+        # have; docs/design.md §6).
+        "solve": {"delta_m": False, **dict(solve_settings or {})},
     }
     return settings, density, albedo_array
 
