@@ -54,7 +54,7 @@ except ImportError as e:  # pragma: no cover - the message is the point
         "pnsolver.mitsuba needs Mitsuba 3 (pip install mitsuba==3.9.1): " + str(e)
     ) from e
 
-from . import Scene, phase_moments, solve
+from . import Scene, phase_moments, phase_value, solve
 
 __all__ = ["register", "integrator_class", "PnIntegrator", "Solution", "scene_settings",
            "camera_settings", "phase_settings_of", "real_sh"]
@@ -346,20 +346,6 @@ def _lobes(phase, share=1.0):
     )
 
 
-def _hg(g, mu):
-    d = 1.0 + g * g - 2.0 * g * mu
-    return (1.0 - g * g) / (4.0 * math.pi * d * np.sqrt(d))
-
-
-def _tab(values, mu):
-    """Mitsuba's `tabphase`: linear in cos θ on its regular grid, normalised over the sphere."""
-    grid = np.linspace(-1.0, 1.0, len(values))
-    integral = 2.0 * math.pi * float(np.sum(0.5 * (values[1:] + values[:-1]) * np.diff(grid)))
-    if not integral > 0.0:
-        raise ValueError("a tabphase with no positive value")
-    return np.interp(mu, grid, values / integral)
-
-
 # Nodes per Henyey–Greenstein lobe of a resampled blend (uniform in log(1 + g² − 2gμ): the
 # relative interpolation error of HG is about (3/2 δ)²/8 with δ the step, < 3e-5 for
 # |g| ≤ 0.99) and of the regular part of the grid.
@@ -385,7 +371,10 @@ def _resampled(lobes):
     mu[0], mu[-1] = -1.0, 1.0
     values = np.zeros_like(mu)
     for share, (kind, p) in lobes:
-        values += share * (_hg(p, mu) if kind == "hg" else _tab(p, mu))
+        # Each lobe's normalised value from pnsolver's own phase functions (a `tabphase`
+        # lobe is pn's regular `tabulated` phase: linear in cos θ, normalised).
+        lobe = {"kind": "hg", "g": p} if kind == "hg" else {"kind": "tabulated", "values": p}
+        values += share * phase_value(lobe, mu)
     return {"kind": "tabulated", "cos_theta": mu, "values": values}
 
 

@@ -32,9 +32,19 @@
 use super::medium::DensityGrid;
 use super::scene::{Albedo, RenderScene};
 use super::shadow::Extinction;
+use pn_runtime::problem::Phase;
+
+/// The P_N order N and the forward-peak share f = λ_{N+1} p_{N+1} of the delta-M truncation
+/// that a method carrying order `method_order` (`MultipleScattering::delta_m_order`) uses
+/// for `scene`: None when the method has none, `[solve] delta_m = false`, or f = 0.
+pub fn truncation(scene: &RenderScene, method_order: Option<u32>) -> Option<(u32, f64)> {
+    let n = method_order.filter(|_| scene.solve.delta_m)?;
+    let f = scene.phase.delta_m_fraction(n);
+    (f > 0.0).then_some((n, f))
+}
 
 /// The extinction light travels through on its way from the lights to a scattering point:
-/// σ_t′ = σ_t − f σ_s = σ_t (1 − f α) (σ_t for f = 0).
+/// σ_t′ = σ_t − f σ_s = σ_t (1 − f α) (σ_t without a truncation).
 #[derive(Clone, Debug)]
 pub struct LightLeg {
     /// The density times (1 − f α) per voxel, for a medium whose albedo varies per voxel
@@ -42,10 +52,8 @@ pub struct LightLeg {
     density: Option<DensityGrid>,
     /// σ_t′ per unit of the density read.
     scale: f64,
-    /// The forward-peak share f.
-    f: f64,
-    /// The P_N order whose truncation f belongs to (None: f = 0).
-    order: Option<u32>,
+    /// The truncation's order N and share f ([`truncation`]; None: σ_t itself).
+    truncation: Option<(u32, f64)>,
 }
 
 impl LightLeg {
@@ -54,37 +62,21 @@ impl LightLeg {
         Self {
             density: None,
             scale: scene.medium.sigma_t_scale,
-            f: 0.0,
-            order: None,
+            truncation: None,
         }
     }
 
-    /// The light leg of `scene` for the delta-M truncation of its phase at P_N order `order`
-    /// (`None`, or a share f = 0: σ_t itself).
-    pub fn for_order(scene: &RenderScene, density: &DensityGrid, order: Option<u32>) -> Self {
-        match order {
-            Some(n) => {
-                let f = scene.phase.delta_m_fraction(n);
-                let mut leg = Self::new(scene, density, f);
-                leg.order = (f > 0.0).then_some(n);
-                leg
-            }
-            None => Self::none(scene),
-        }
-    }
-
-    /// The light leg of `scene` with the forward-peak share `f` (0: σ_t itself).
-    fn new(scene: &RenderScene, density: &DensityGrid, f: f64) -> Self {
-        let sigma_t_scale = scene.medium.sigma_t_scale;
-        if f == 0.0 {
+    /// The light leg of `scene` under `truncation` ([`truncation`]; None: σ_t itself).
+    pub fn new(scene: &RenderScene, density: &DensityGrid, truncation: Option<(u32, f64)>) -> Self {
+        let Some((_, f)) = truncation else {
             return Self::none(scene);
-        }
+        };
+        let sigma_t_scale = scene.medium.sigma_t_scale;
         match &scene.medium.albedo {
             Albedo::Constant(a) => Self {
                 density: None,
                 scale: sigma_t_scale * (1.0 - f * a),
-                f,
-                order: None,
+                truncation,
             },
             Albedo::Voxels(alpha) => {
                 let mut scaled = density.clone();
@@ -94,21 +86,23 @@ impl LightLeg {
                 Self {
                     density: Some(scaled),
                     scale: sigma_t_scale,
-                    f,
-                    order: None,
+                    truncation,
                 }
             }
         }
     }
 
-    /// The forward-peak share f.
-    pub fn f(&self) -> f64 {
-        self.f
+    /// The truncation's order N and share f (None without delta-M).
+    pub fn truncation(&self) -> Option<(u32, f64)> {
+        self.truncation
     }
 
-    /// The P_N order of the truncation (None without delta-M).
-    pub fn order(&self) -> Option<u32> {
-        self.order
+    /// The phase the solve carries and f: `phase` truncated at N, or itself and 0.
+    pub fn solve_phase(&self, phase: &Phase) -> (Phase, f64) {
+        match self.truncation {
+            Some((n, _)) => phase.delta_m(n),
+            None => (phase.clone(), 0.0),
+        }
     }
 
     /// The extinction of the light leg; `density` is the scene's density grid.
@@ -117,15 +111,6 @@ impl LightLeg {
             grid: self.density.as_ref().unwrap_or(density),
             scale: self.scale,
         }
-    }
-
-    /// Whether two light legs attenuate alike (so that one's optical-depth grid serves the
-    /// other): same share and the same σ_t′ scale.
-    pub fn same_as(&self, other: &LightLeg) -> bool {
-        self.f == other.f
-            && self.order == other.order
-            && self.scale == other.scale
-            && self.density == other.density
     }
 }
 
@@ -142,17 +127,32 @@ mod tests {
         let (st, ss) = scene.medium.coefficients_at(&density, x);
         assert!(st > 0.0);
         let f = 0.3;
-        let leg = LightLeg::new(&scene, &density, f);
+        let leg = LightLeg::new(&scene, &density, Some((5, f)));
         let e = leg.extinction(&density);
         assert!((e.sigma_t(x) - (st - f * ss)).abs() < 1e-9 * st);
         // Per-voxel albedo: the scaled density, the same σ_t′ at the voxel centres.
         let n = density.data.len();
         scene.medium.albedo = Albedo::Voxels(std::sync::Arc::new(vec![0.9f32; n]));
-        let leg2 = LightLeg::new(&scene, &density, f);
+        let leg2 = LightLeg::new(&scene, &density, Some((5, f)));
         let e2 = leg2.extinction(&density);
         assert!((e2.sigma_t(x) - (st - f * ss)).abs() < 1e-6 * st);
-        // f = 0: σ_t itself.
-        let leg0 = LightLeg::new(&scene, &density, 0.0);
+        // No truncation: σ_t itself.
+        let leg0 = LightLeg::new(&scene, &density, None);
         assert_eq!(leg0.extinction(&density).sigma_t(x), st);
+    }
+
+    #[test]
+    fn truncation_needs_a_method_order_the_switch_and_a_forward_peak() {
+        let mut scene = RenderScene::builtin("cloud").unwrap();
+        scene.phase = Phase::HenyeyGreenstein(0.7);
+        let (n, f) = truncation(&scene, Some(5)).unwrap();
+        assert_eq!(n, 5);
+        assert!((f - 0.7f64.powi(6)).abs() < 1e-15, "{f}");
+        assert_eq!(truncation(&scene, None), None);
+        scene.solve.delta_m = false;
+        assert_eq!(truncation(&scene, Some(5)), None);
+        scene.solve.delta_m = true;
+        scene.phase = Phase::Isotropic;
+        assert_eq!(truncation(&scene, Some(5)), None);
     }
 }

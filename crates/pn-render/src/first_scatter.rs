@@ -203,10 +203,7 @@ pub fn first_scatter_problem_with_depth(
     let mut weights =
         cell_scattering_weights(density, &scene.medium, &ext, &scene.lights, &depth, grid);
     // Delta-M: σ_s (λ_l p_l − f) = σ_s′ p′_l with σ_s′ = (1 − f) σ_s.
-    let (phase, f) = match light_leg.order() {
-        Some(order) if light_leg.f() > 0.0 => scene.phase.delta_m(order),
-        _ => (scene.phase.clone(), 0.0),
-    };
+    let (phase, f) = light_leg.solve_phase(&scene.phase);
     if f > 0.0 {
         for w in weights.iter_mut().flatten() {
             *w *= 1.0 - f;

@@ -97,22 +97,21 @@ pub fn transport_sweeps_to_band(
     let n = nx * ny * nz;
     // Moments the renderer and the scattering source read: λ_l p_l ≠ 0.
     let factor: Vec<f64> = (0..=lmax).map(|l| problem.phase.moment(l as u32)).collect();
+    // The moments (l, index l(l+1)+m) of band l.
+    let band = |l: usize| {
+        (-(l as i64)..=l as i64).map(move |m| (l, (l as i64 * (l as i64 + 1) + m) as usize))
+    };
     let active: Vec<(usize, usize)> = (0..=lmax)
         .filter(|&l| factor[l] != 0.0)
-        .flat_map(|l| {
-            (-(l as i64)..=l as i64).map(move |m| (l, (l as i64 * (l as i64 + 1) + m) as usize))
-        })
+        .flat_map(band)
         .collect();
     let out_lmax = out_lmax.unwrap_or(lmax).max(lmax);
-    // The last sweep's output: every moment up to out_lmax when that is above lmax.
+    // The last sweep's output when out_lmax is above lmax: every moment up to out_lmax
+    // (empty otherwise: the last sweep projects on the active moments like the others).
     let wide: Vec<(usize, usize)> = if out_lmax > lmax {
-        (0..=out_lmax)
-            .flat_map(|l| {
-                (-(l as i64)..=l as i64).map(move |m| (l, (l as i64 * (l as i64 + 1) + m) as usize))
-            })
-            .collect()
+        (0..=out_lmax).flat_map(band).collect()
     } else {
-        active.clone()
+        Vec::new()
     };
 
     let (sigma_t, sigma_s) = cell_coefficients(problem)?;

@@ -23,6 +23,7 @@
 //! what changes is the light that counts as unscattered (it travels on through the peak),
 //! see `pn_render::first_scatter`. As N → ∞, f → 0 and the truncation is the identity.
 
+use pn_stencil::quadrature::{gauss_legendre, henyey_greenstein};
 use std::f64::consts::PI;
 use std::sync::Arc;
 
@@ -65,12 +66,6 @@ pub struct PhaseError(pub String);
 
 fn err<T>(msg: String) -> Result<T, PhaseError> {
     Err(PhaseError(msg))
-}
-
-/// The Henyey–Greenstein value, normalised over the sphere.
-pub fn henyey_greenstein(g: f64, mu: f64) -> f64 {
-    let d = 1.0 + g * g - 2.0 * g * mu;
-    (1.0 - g * g) / (4.0 * PI * d * d.sqrt())
 }
 
 /// The Draine phase value (Draine 2003), normalised over the sphere:
@@ -271,38 +266,6 @@ impl TabulatedPhase {
         }
         out
     }
-}
-
-/// Gauss–Legendre nodes and weights on [−1, 1] (Newton on P_n from the Chebyshev guess).
-pub fn gauss_legendre(n: usize) -> (Vec<f64>, Vec<f64>) {
-    let mut x = vec![0.0; n];
-    let mut w = vec![0.0; n];
-    for i in 0..n {
-        let mut z = (PI * (i as f64 + 0.75) / (n as f64 + 0.5)).cos();
-        let mut dp = 1.0;
-        for _ in 0..100 {
-            let (mut p0, mut p1) = (1.0, z);
-            for k in 2..=n {
-                let kf = k as f64;
-                let p2 = ((2.0 * kf - 1.0) * z * p1 - (kf - 1.0) * p0) / kf;
-                p0 = p1;
-                p1 = p2;
-            }
-            if n == 1 {
-                p1 = z;
-                p0 = 1.0;
-            }
-            dp = n as f64 * (z * p1 - p0) / (z * z - 1.0);
-            let dz = p1 / dp;
-            z -= dz;
-            if dz.abs() < 1e-15 {
-                break;
-            }
-        }
-        x[i] = z;
-        w[i] = 2.0 / ((1.0 - z * z) * dp * dp);
-    }
-    (x, w)
 }
 
 /// Droplet diameters (µm) over which Jendersie & d'Eon's fit for large droplets holds.

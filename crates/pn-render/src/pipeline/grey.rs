@@ -43,10 +43,10 @@ pub(super) fn render_grey_views(
     let method = method_for(scene, options.pde.as_ref())?;
     // Delta-M (crate::delta_m): the light leg's σ_t′ serves the source and the camera's
     // single scattering alike.
-    let light_leg = LightLeg::for_order(
+    let light_leg = LightLeg::new(
         scene,
         &density,
-        method.delta_m_order().filter(|_| scene.solve.delta_m),
+        crate::delta_m::truncation(scene, method.delta_m_order()),
     );
     let prepared = PreparedScene {
         scene,
@@ -67,11 +67,10 @@ pub(super) fn render_grey_views(
         seconds,
         mut notes,
     } = method.solve(&prepared)?;
-    if let Some(order) = light_leg.order() {
+    if let Some((order, f)) = light_leg.truncation() {
         notes.push(format!(
-            "delta-M: the forward peak f = {:.4} (λ_{} p_{} of {}) travels on unscattered; the \
+            "delta-M: the forward peak f = {f:.4} (λ_{} p_{} of {}) travels on unscattered; the \
              solve carries the truncated phase, the camera's single scattering the full one",
-            light_leg.f(),
             order + 1,
             order + 1,
             scene.phase.describe()

@@ -54,10 +54,11 @@ pub(super) fn render_views_rgb(
         .as_ref()
         .context("internal: render_views_rgb needs a coloured scene")?;
     // With delta-M the light leg's σ_t′ = σ_t − f σ_s depends on the albedo.
-    let leg_reads_albedo = scene.solve.delta_m
-        && super::methods::method_for(scene, options.pde.as_ref())?
-            .delta_m_order()
-            .is_some_and(|n| scene.phase.delta_m_fraction(n) > 0.0);
+    let leg_reads_albedo = crate::delta_m::truncation(
+        scene,
+        super::methods::method_for(scene, options.pde.as_ref())?.delta_m_order(),
+    )
+    .is_some();
     let mut runs: Vec<Option<RenderRun>> = Vec::new();
     let mut copied: [Option<(usize, f64)>; 3] = [None; 3];
     let mut depth_from: [Option<usize>; 3] = [None; 3];
