@@ -6,7 +6,8 @@
 
 use anyhow::{bail, ensure, Context};
 use pn_render::mitsuba::{
-    export_files, ExportOptions, ALBEDO_FILE, DENSITY_FILE, PYTHON_ENV, SCRIPT_FILE, VENV_PYTHON,
+    export_files, ExportOptions, ALBEDO_FILE, DENSITY_FILE, PYTHON_ENV, SCRIPT_FILE, SKY_FILE,
+    VENV_PYTHON,
 };
 use pn_render::{DensityFilter, RenderScene};
 use std::path::{Path, PathBuf};
@@ -42,6 +43,9 @@ pub fn export(scene: &RenderScene, dir: &Path, opts: &ExportOptions) -> anyhow::
             Some(path)
         }
     };
+    if let Some(bytes) = &files.sky {
+        pn_formats::files::write(&dir.join(SKY_FILE), bytes)?;
+    }
     let script = dir.join(SCRIPT_FILE);
     pn_formats::files::write(&script, &files.script)?;
     Ok(Exported {

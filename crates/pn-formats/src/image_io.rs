@@ -76,6 +76,39 @@ pub fn read_exr_rgb(path: &Path) -> anyhow::Result<(usize, usize, [Vec<f32>; 3])
     Ok((w, h, [channel(0), channel(1), channel(2)]))
 }
 
+/// The width and height of an image file, from its header alone (nothing decoded), so that
+/// a caller can refuse a huge image before reading it.
+pub fn image_dimensions(path: &Path) -> anyhow::Result<(usize, usize)> {
+    let (w, h) = image::ImageReader::open(path)
+        .with_context(|| format!("cannot open {}", path.display()))?
+        .with_guessed_format()
+        .with_context(|| format!("cannot read {}", path.display()))?
+        .into_dimensions()
+        .with_context(|| format!("cannot read the header of {} as an image", path.display()))?;
+    Ok((w as usize, h as usize))
+}
+
+/// Three channel images (R, G, B; row-major from the top-left) as the bytes of a linear f32
+/// RGB OpenEXR file (what [`write_exr_rgb`] writes).
+pub fn encode_exr_rgb(
+    width: usize,
+    height: usize,
+    channels: [&[f32]; 3],
+) -> anyhow::Result<Vec<u8>> {
+    for c in channels {
+        check_size(width, height, c)?;
+    }
+    let rgb: Vec<f32> = (0..width * height)
+        .flat_map(|i| channels.map(|c| c[i]))
+        .collect();
+    let img = image::Rgb32FImage::from_raw(width as u32, height as u32, rgb)
+        .context("image buffer size")?;
+    let mut bytes = std::io::Cursor::new(Vec::new());
+    img.write_to(&mut bytes, image::ImageFormat::OpenExr)
+        .context("cannot encode the image as OpenEXR")?;
+    Ok(bytes.into_inner())
+}
+
 /// The exposure that maps the 99th percentile of the positive values to 1 (1 if there are
 /// none).
 pub fn exposure(data: &[f32]) -> f32 {

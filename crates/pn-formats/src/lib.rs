@@ -37,8 +37,8 @@ mod vdb;
 mod vol;
 
 pub use image_io::{
-    channel_mean, exposure, read_exr_gray, read_exr_rgb, srgb8, write_exr_gray, write_exr_rgb,
-    write_png_tonemapped, write_png_tonemapped_rgb,
+    channel_mean, encode_exr_rgb, exposure, image_dimensions, read_exr_gray, read_exr_rgb, srgb8,
+    write_exr_gray, write_exr_rgb, write_png_tonemapped, write_png_tonemapped_rgb,
 };
 pub use json::write_atomic;
 pub use npy::{decode_npy, encode_npy, read_npy, write_npy, NpyArray};

@@ -91,6 +91,14 @@ pub fn source_moments_weighted(
     max_band: u32,
 ) -> Vec<(u32, i32, Vec<f64>)> {
     let [nx, ny, nz] = grid.res;
+    let sh = |l: u32, m: i32, d: [f64; 3]| {
+        real_sh(
+            l as usize,
+            m as i64,
+            d[2].clamp(-1.0, 1.0),
+            d[1].atan2(d[0]),
+        )
+    };
     let mut out = Vec::new();
     for l in 0..=max_band {
         let f = phase.moment(l);
@@ -98,23 +106,28 @@ pub fn source_moments_weighted(
             continue;
         }
         for m in -(l as i32)..=(l as i32) {
+            // A directional light's Y_l^m(d) is the same in every cell (a sky brings tens).
+            let fixed: Vec<Option<f64>> = lights
+                .iter()
+                .map(|light| match light {
+                    Light::Directional { direction, .. } => Some(sh(l, m, *direction)),
+                    Light::Point { .. } => None,
+                })
+                .collect();
             let mut q = vec![0.0; nx * ny * nz];
             for (c, v) in q.iter_mut().enumerate() {
                 if weights.iter().all(|w| w[c] == 0.0) {
                     continue;
                 }
                 let x = cell_centre(grid, [c / (ny * nz), (c / nz) % ny, c % nz]);
-                for (light, w) in lights.iter().zip(weights) {
+                for ((light, w), y) in lights.iter().zip(weights).zip(&fixed) {
                     if w[c] == 0.0 {
                         continue;
                     }
-                    let d = light.incident(x).travel;
-                    let y = real_sh(
-                        l as usize,
-                        m as i64,
-                        d[2].clamp(-1.0, 1.0),
-                        d[1].atan2(d[0]),
-                    );
+                    let y = match y {
+                        Some(y) => *y,
+                        None => sh(l, m, light.incident(x).travel),
+                    };
                     *v += w[c] * f * y;
                 }
             }
@@ -180,6 +193,7 @@ pub fn first_scatter_problem_with_depth(
 ) -> anyhow::Result<FirstScatterProblem> {
     let t0 = std::time::Instant::now();
     let ext = light_leg.extinction(density);
+    let sky_from = scene.sky_lights.as_ref().map(|s| s.first);
     let depth = match depth {
         Some(d) => {
             anyhow::ensure!(
@@ -190,7 +204,7 @@ pub fn first_scatter_problem_with_depth(
             );
             d
         }
-        None => Arc::new(LightDepth::compute(&ext, &scene.lights)),
+        None => Arc::new(LightDepth::compute_with_sky(&ext, &scene.lights, sky_from)),
     };
     let seconds_light_depth = t0.elapsed().as_secs_f64();
     let t1 = std::time::Instant::now();
@@ -200,8 +214,15 @@ pub fn first_scatter_problem_with_depth(
     }
     add_absorbing_layer(grid, scene.solve.layer_cells(), &mut sigma_t);
     // σ_s·T·E per solve cell and light, averaged exactly over the cell (module docs).
-    let mut weights =
-        cell_scattering_weights(density, &scene.medium, &ext, &scene.lights, &depth, grid);
+    let mut weights = cell_scattering_weights(
+        density,
+        &scene.medium,
+        &ext,
+        &scene.lights,
+        &depth,
+        grid,
+        sky_from,
+    );
     // Delta-M: σ_s (λ_l p_l − f) = σ_s′ p′_l with σ_s′ = (1 − f) σ_s.
     let (phase, f) = light_leg.solve_phase(&scene.phase);
     if f > 0.0 {

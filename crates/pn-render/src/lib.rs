@@ -29,6 +29,8 @@
 //! * [`fld_problem`]: the FLD problem of a scene and its solve (the route `pn render` and
 //!   `pn solve` share); [`pde_kernel`]: text PDEs' stencils (shared with `pn solve`);
 //! * [`pop`]: Principal-Ordinates Propagation for directional lights;
+//! * [`sky`]: sky lights (a uniform sky, a latitude–longitude environment map in Mitsuba's
+//!   convention) and how they become directional lights;
 //! * [`mitsuba`]: the Mitsuba 3 export and run; [`compare`]: image comparison (metrics,
 //!   difference images).
 //!
@@ -76,6 +78,7 @@ mod scene_file;
 mod scene_kind;
 mod scene_override;
 mod shadow;
+pub mod sky;
 mod solve_setup;
 mod source_quadrature;
 mod transport_sweep;

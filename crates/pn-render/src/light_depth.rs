@@ -57,6 +57,15 @@ pub const MAX_TAU: f64 = 745.0;
 /// did with one traversal per plane interval (cumulus: 0.08 s against 0.09 s).
 pub const PLANE_SPACING: f64 = 0.25;
 
+/// Transverse lattice spacing of a sky light's planes ([`LightDepth::compute_with_sky`]), in
+/// smallest voxel sides: a sky is cut into tens of directional lights, each carrying a small
+/// share of its power, so each gets a lattice 16 times coarser than a sun's, read trilinearly.
+pub const SKY_PLANE_SPACING: f64 = 0.5;
+
+/// Most lattice points of one sky light's planes (8 MB of f32): a larger support widens the
+/// sky lights' lattice beyond [`SKY_PLANE_SPACING`] instead of growing the memory.
+pub const SKY_PLANE_POINTS: usize = 1 << 21;
+
 /// Optical depth at which a light-frame column stops (T = e^{−40} < 10⁻¹⁷).
 pub const TAU_CUTOFF: f64 = 40.0;
 
@@ -82,6 +91,9 @@ pub struct PlaneDepth {
     /// `tau[(k·nu + i)·nv + j]`: τ at plane k, lattice point (i, j) (f32: 7 digits in τ, an
     /// error of 10⁻⁷ relative in T).
     tau: Vec<f32>,
+    /// Sky lights ([`SKY_PLANE_SPACING`]): τ trilinear between the planes instead of the
+    /// exact segment back to the plane upstream.
+    coarse: bool,
 }
 
 fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
@@ -92,6 +104,17 @@ impl PlaneDepth {
     /// Traces the columns of a light travelling along the unit vector `d` through the
     /// support of `ext`'s density (`None` for an empty medium).
     pub fn compute(ext: &Extinction, d: [f64; 3]) -> Option<Self> {
+        Self::compute_spaced(ext, d, PLANE_SPACING, false)
+    }
+
+    /// [`Self::compute`] with a transverse lattice of `spacing` smallest voxel sides;
+    /// `coarse` lookups interpolate between planes instead of tracing back to one.
+    pub fn compute_spaced(
+        ext: &Extinction,
+        d: [f64; 3],
+        spacing: f64,
+        coarse: bool,
+    ) -> Option<Self> {
         let g = ext.grid;
         let (lo, hi) = g.support()?;
         // e1 ⟂ d from the axis least aligned with d, e2 = d × e1.
@@ -123,8 +146,17 @@ impl PlaneDepth {
             }
         }
         let hmin = g.h().iter().fold(f64::INFINITY, |m, v| m.min(*v));
-        let (hu, ds) = (PLANE_SPACING * hmin, hmin);
         let count = |q: usize, step: f64| ((ext_max[q] - ext_min[q]) / step).ceil() as usize + 1;
+        // Coarse (sky) planes are read trilinearly, so they lie as close as their lattice,
+        // which is widened where it would hold more than SKY_PLANE_POINTS.
+        let spacing = if coarse {
+            let h = spacing * hmin;
+            let points = (count(0, h) * count(1, h) * count(2, h)) as f64;
+            spacing * (points / SKY_PLANE_POINTS as f64).cbrt().max(1.0)
+        } else {
+            spacing
+        };
+        let (hu, ds) = (spacing * hmin, if coarse { spacing * hmin } else { hmin });
         let (nu, nv, ns) = (count(0, hu), count(1, hu), count(2, ds));
         let (u0, v0, s0) = (ext_min[0], ext_min[1], ext_min[2]);
         // Columns in parallel: column (i, j) walks the planes k = 0, 1, … downstream; the
@@ -162,6 +194,7 @@ impl PlaneDepth {
             nv,
             ns,
             tau,
+            coarse,
         })
     }
 
@@ -175,11 +208,26 @@ impl PlaneDepth {
         }
         let k = (floor_fast(s / self.ds) as usize).min(self.ns - 1);
         let back = s - k as f64 * self.ds;
+        if self.coarse {
+            let here = self.in_plane(k, x);
+            let w = back / self.ds;
+            if k + 1 >= self.ns || w == 0.0 || !here.is_finite() {
+                return here;
+            }
+            return here + w * (self.in_plane(k + 1, x) - here);
+        }
         let near = if back > 0.0 {
             ext.optical_depth(x, self.d.map(|c| -c), back)
         } else {
             0.0
         };
+        near + self.in_plane(k, x)
+    }
+
+    /// τ on plane `k` at the foot of `x`, bilinear between the lattice points (+∞ past the
+    /// cutoff).
+    #[inline]
+    fn in_plane(&self, k: usize, x: [f64; 3]) -> f64 {
         let top_u = (self.nu - 1) as f64;
         let top_v = (self.nv - 1) as f64;
         let fu = ((dot(x, self.e1) - self.u0) / self.hu).clamp(0.0, top_u);
@@ -194,7 +242,7 @@ impl PlaneDepth {
             return f64::INFINITY;
         }
         let lerp = |p: f64, q: f64, w: f64| p + w * (q - p);
-        near + lerp(lerp(t00, t01, tv), lerp(t10, t11, tv), tu)
+        lerp(lerp(t00, t01, tv), lerp(t10, t11, tv), tu)
     }
 
     /// Bytes held.
@@ -229,6 +277,13 @@ impl LightDepth {
     /// read equals [`Self::compute_voxel_centres`]'s; the others hold 0. This is the one
     /// optical-depth grid of a render: the first-scatter source and the camera rays read it.
     pub fn compute(ext: &Extinction, lights: &[Light]) -> Self {
+        Self::compute_with_sky(ext, lights, None)
+    }
+
+    /// [`Self::compute`] where the lights from index `sky_from` on are a sky's
+    /// ([`crate::sky`]): their planes have the coarser lattice [`SKY_PLANE_SPACING`] and are
+    /// read trilinearly.
+    pub fn compute_with_sky(ext: &Extinction, lights: &[Light], sky_from: Option<usize>) -> Self {
         let point = |l: &Light| matches!(l, Light::Point { .. });
         // Only point lights trace the voxel centres: no mask without one.
         let near = if lights.iter().any(point) {
@@ -237,18 +292,25 @@ impl LightDepth {
             Vec::new()
         };
         let mut ld = Self::compute_voxel_centres_where(ext, lights, point, |c| near[c]);
-        ld.planes = Self::planes(ext, lights);
+        ld.planes = Self::planes(ext, lights, sky_from.unwrap_or(usize::MAX));
         ld
     }
 
-    /// Light-frame planes of the directional lights (`None` for point lights).
-    fn planes(ext: &Extinction, lights: &[Light]) -> Vec<Option<PlaneDepth>> {
+    /// Light-frame planes of the directional lights (`None` for point lights); the lights
+    /// from `sky_from` on get the sky's coarse planes.
+    fn planes(ext: &Extinction, lights: &[Light], sky_from: usize) -> Vec<Option<PlaneDepth>> {
         lights
             .iter()
-            .map(|l| match l {
+            .enumerate()
+            .map(|(i, l)| match l {
                 Light::Directional { direction, .. } => {
                     let n = dot(*direction, *direction).sqrt();
-                    PlaneDepth::compute(ext, direction.map(|c| c / n))
+                    let d = direction.map(|c| c / n);
+                    if i >= sky_from {
+                        PlaneDepth::compute_spaced(ext, d, SKY_PLANE_SPACING, true)
+                    } else {
+                        PlaneDepth::compute(ext, d)
+                    }
                 }
                 Light::Point { .. } => None,
             })
@@ -282,10 +344,12 @@ impl LightDepth {
         let [_, ny, nz] = g.res;
         let centres = ld.origin;
         let h = ld.h;
+        let n: usize = g.res.iter().product();
         for (light, tau) in lights.iter().zip(&mut ld.tau) {
             if !traced(light) {
                 continue;
             }
+            *tau = vec![0.0; n];
             tau.par_chunks_mut(ny * nz)
                 .enumerate()
                 .filter(|(i, _)| (first[0]..=last[0]).contains(i))
@@ -316,12 +380,12 @@ impl LightDepth {
 
     fn empty(g: &DensityGrid, lights: usize) -> Self {
         let h = g.h();
-        let n: usize = g.res.iter().product();
         Self {
             origin: [0, 1, 2].map(|d| g.bbox_min[d] + 0.5 * h[d]),
             h,
             res: g.res,
-            tau: vec![vec![0.0; n]; lights],
+            // Allocated for the lights traced at the voxel centres only (point lights).
+            tau: vec![Vec::new(); lights],
             planes: vec![None; lights],
         }
     }
@@ -369,6 +433,9 @@ impl LightDepth {
         }
         let [_, ny, nz] = self.res;
         let data = &self.tau[light];
+        if data.is_empty() {
+            return 0.0; // a directional light over an empty medium: nothing in the way
+        }
         let at = |i: usize, j: usize, k: usize| data[(i * ny + j) * nz + k];
         let lerp = |a: f64, b: f64, s: f64| a + s * (b - a);
         let c00 = lerp(at(lo[0], lo[1], lo[2]), at(lo[0], lo[1], hi[2]), t[2]);

@@ -303,23 +303,38 @@ impl<'a> Marcher<'a> {
     /// The radiance arriving at `origin` along the unit direction `dir` (from the medium
     /// towards `origin` is −`dir`).
     pub fn radiance(&self, origin: [f64; 3], dir: [f64; 3]) -> f64 {
+        // The sky seen along the ray (unless hidden), attenuated by the whole ray.
+        let background = match (&self.scene.sky, self.scene.render.hide_emitters) {
+            (Some(sky), false) => sky.radiance(dir),
+            _ => 0.0,
+        };
         let Some((smin, smax)) = self.support else {
-            return 0.0;
+            return background;
         };
         let Some((t0, t1)) = clip_box(origin, dir, smin, smax) else {
-            return 0.0;
+            return background;
         };
         let wo = dir.map(|c| -c);
         let phase = &self.scene.phase;
         let lights = &self.scene.lights;
-        // p·E of the directional lights: constant along the ray.
+        let sky_lights = self.scene.sky_lights.as_deref();
+        // p·E of the directional lights: constant along the ray. A sky light reads the phase
+        // function averaged over its region (crate::sky::CapPhase).
         let directional: Vec<Option<f64>> = lights
             .iter()
-            .map(|l| match l {
+            .enumerate()
+            .map(|(li, l)| match l {
                 Light::Directional {
                     direction,
                     irradiance,
-                } => Some(phase_value(phase, dot(*direction, wo)) * irradiance),
+                } => {
+                    let mu = dot(*direction, wo);
+                    let p = match sky_lights {
+                        Some(s) => s.phase_value(phase, li, mu),
+                        None => phase_value(phase, mu),
+                    };
+                    Some(p * irradiance)
+                }
                 Light::Point { .. } => None,
             })
             .collect();
@@ -369,7 +384,9 @@ impl<'a> Marcher<'a> {
             }
             true
         });
-        sum
+        // Past the cutoff the rest of the ray is dropped: the background's share there is
+        // below cutoff × its radiance.
+        sum + trans * background
     }
 
     /// Calls `visit(t_a, t_b)` for the pieces of `origin + t·dir`, t ∈ [t0, t1], between

@@ -35,6 +35,7 @@
 use super::medium::{DensityFilter, DensityGrid};
 use super::scene::{Albedo, RenderScene};
 use super::Light;
+use crate::sky::{Sky, SkyRadiance};
 use anyhow::{ensure, Context};
 use pn_runtime::problem::Phase;
 use std::fmt::Write as _;
@@ -45,6 +46,8 @@ pub const SCRIPT_FILE: &str = "render_mitsuba.py";
 pub const DENSITY_FILE: &str = "density.vol";
 /// The per-voxel albedo's file name (only for scenes with an albedo grid).
 pub const ALBEDO_FILE: &str = "albedo.vol";
+/// An environment map's file name in the export folder (scenes with an `envmap` sky).
+pub const SKY_FILE: &str = "sky.exr";
 /// The image the script writes by default.
 pub const IMAGE_FILE: &str = "mitsuba.exr";
 /// Environment variable naming the Python interpreter that has `mitsuba`.
@@ -94,6 +97,8 @@ pub struct ExportFiles {
     pub density: Vec<u8>,
     /// The bytes of [`ALBEDO_FILE`] (`albedo.vol`) where the albedo is a grid.
     pub albedo: Option<Vec<u8>>,
+    /// The bytes of [`SKY_FILE`] (`sky.exr`) where the sky is an environment map.
+    pub sky: Option<Vec<u8>>,
     /// The text of [`SCRIPT_FILE`] (`render_mitsuba.py`, [`script_text`]).
     pub script: String,
     /// The `filter_type` the script gives the grids (the scene's filter).
@@ -117,9 +122,19 @@ pub fn export_files(scene: &RenderScene, opts: &ExportOptions) -> anyhow::Result
         }
     };
     let script = script_text(scene, &grid, opts)?;
+    let sky = match scene.sky.as_ref().map(|s| &s.radiance) {
+        Some(SkyRadiance::Map(m)) => {
+            let (w, h) = m.size();
+            let plane = |c: usize| m.texels().iter().map(|t| t[c]).collect::<Vec<f32>>();
+            let (r, g, b) = (plane(0), plane(1), plane(2));
+            Some(pn_formats::encode_exr_rgb(w, h, [&r, &g, &b])?)
+        }
+        _ => None,
+    };
     Ok(ExportFiles {
         density,
         albedo,
+        sky,
         script,
         filter: grid.filter,
     })
@@ -278,6 +293,9 @@ pub fn script_text(
         };
         writeln!(emitters, "        \"light{i}\": {body},")?;
     }
+    if let Some(sky) = &scene.sky {
+        writeln!(emitters, "        \"sky\": {},", sky_dict(sky)?)?;
+    }
     let c = &scene.camera;
     let sensor_medium = if inside(c.position, grid.bbox_min, grid.bbox_max) {
         "\n            \"medium\": {\"type\": \"ref\", \"id\": \"medium\"},"
@@ -291,6 +309,14 @@ pub fn script_text(
             .replace("@SPP@", &opts.spp.to_string())
             .replace("@SEED@", &opts.seed.to_string())
             .replace("@MAX_DEPTH@", &opts.max_depth.to_string())
+            .replace(
+                "@HIDE_EMITTERS@",
+                if scene.render.hide_emitters {
+                    "True"
+                } else {
+                    "False"
+                },
+            )
             .replace("@BBOX_MIN@", &py3(grid.bbox_min)?)
             .replace("@BBOX_MAX@", &py3(grid.bbox_max)?)
             .replace("@SCALE@", &py(sigma_t_channels(scene).0)?)
@@ -306,6 +332,39 @@ pub fn script_text(
             .replace("@SENSOR_MEDIUM@", sensor_medium))
     };
     fill(TEMPLATE)
+}
+
+/// A sky as a Mitsuba emitter: `constant` with its radiance, or `envmap` reading
+/// [`SKY_FILE`] with `scale` and `to_world` (the rotation as a 4 × 4 matrix).
+fn sky_dict(sky: &Sky) -> anyhow::Result<String> {
+    let rgb = |c: [f64; 3]| -> anyhow::Result<String> {
+        Ok(format!("{{\"type\": \"rgb\", \"value\": {}}}", py3(c)?))
+    };
+    Ok(match &sky.radiance {
+        SkyRadiance::Constant(c) => format!(
+            "{{\"type\": \"constant\", \"radiance\": {}}}",
+            rgb(c.map(|v| v * sky.scale))?
+        ),
+        SkyRadiance::Map(_) => {
+            let m = &sky.to_world;
+            let mut rows = Vec::new();
+            for r in m {
+                rows.push(format!(
+                    "[{}, {}, {}, 0.0]",
+                    py(r[0])?,
+                    py(r[1])?,
+                    py(r[2])?
+                ));
+            }
+            rows.push("[0.0, 0.0, 0.0, 1.0]".into());
+            format!(
+                "{{\"type\": \"envmap\", \"filename\": os.path.join(HERE, \"{SKY_FILE}\"), \
+                 \"scale\": {}, \"to_world\": T([{}])}}",
+                py(sky.scale)?,
+                rows.join(", ")
+            )
+        }
+    })
 }
 
 /// The script template (`mitsuba/render_scene.py`, a Python file with `@KEY@` placeholders

@@ -207,17 +207,22 @@ impl Renderer<'_> {
             grid: self.density,
             scale: self.scene.medium.sigma_t_scale,
         };
+        // The sky seen along the ray (unless hidden): the ray escapes with probability T.
+        let background = match (&self.scene.sky, self.scene.render.hide_emitters) {
+            (Some(sky), false) => sky.radiance(dir),
+            _ => 0.0,
+        };
         if majorant <= 0.0 {
-            return 0.0;
+            return background;
         }
         let Some((t0, t1)) = ext.clip(origin, dir, f64::INFINITY) else {
-            return 0.0;
+            return background;
         };
         let mut t = t0;
         loop {
             t -= (1.0 - rng.uniform()).ln() / majorant;
             if t >= t1 {
-                return 0.0;
+                return background;
             }
             let x = [0, 1, 2].map(|d| origin[d] + t * dir[d]);
             let (sigma_t, sigma_s) = self.scene.medium.coefficients_at(self.density, x);
@@ -240,15 +245,18 @@ impl Renderer<'_> {
     /// Σ_lights p(d·ω_o) T(x, light) E(x).
     fn single(&self, ext: &Extinction, x: [f64; 3], wo: [f64; 3]) -> f64 {
         let mut s = 0.0;
-        for light in &self.scene.lights {
+        let sky_lights = self.scene.sky_lights.as_deref();
+        for (li, light) in self.scene.lights.iter().enumerate() {
             let inc = light.incident(x);
             if inc.irradiance == 0.0 {
                 continue;
             }
             let cos = inc.travel[0] * wo[0] + inc.travel[1] * wo[1] + inc.travel[2] * wo[2];
-            s += phase_value(&self.scene.phase, cos)
-                * ext.transmittance_to(x, light)
-                * inc.irradiance;
+            let p = match sky_lights {
+                Some(sky) => sky.phase_value(&self.scene.phase, li, cos),
+                None => phase_value(&self.scene.phase, cos),
+            };
+            s += p * ext.transmittance_to(x, light) * inc.irradiance;
         }
         s
     }

@@ -214,6 +214,24 @@ pub(crate) fn gauss_nodes(density: &DensityGrid, grid: &Grid, d: usize) -> Vec<V
         .collect()
 }
 
+/// The midpoint rule on the same pieces as [`gauss_nodes`]: per cell along axis `d`, one
+/// node per piece at its middle, weighted by the piece's share of the cell. Exact for linear
+/// functions; for e^{−σ_t x} on a piece of length ℓ its relative error is (σ_t ℓ)²/24. The
+/// sky lights' source uses it ([`super::source_quadrature`]).
+pub(crate) fn midpoint_nodes(density: &DensityGrid, grid: &Grid, d: usize) -> Vec<Vec<(f64, f64)>> {
+    let h = grid.h(d);
+    let breaks = density.axis_breaks(d);
+    (0..grid.res[d])
+        .map(|c| {
+            let mut n = Vec::new();
+            pieces(density, grid, d, c, &breaks, |a, b| {
+                n.push((0.5 * (a + b), (b - a) / h))
+            });
+            n
+        })
+        .collect()
+}
+
 /// The volume average over each cell of `grid` of a per-voxel quantity read with the
 /// density's filter: `value([i, j, k], index)` gives the voxel value (voxel coordinates and
 /// density index); the field is `Σ value_ijk φ_i φ_j φ_k`, 0 outside the density box.

@@ -36,14 +36,17 @@ use super::lights::Light;
 use super::medium::DensityGrid;
 use super::scene::MediumSpec;
 use super::shadow::Extinction;
-use super::solve_setup::gauss_nodes;
+use super::solve_setup::{gauss_nodes, midpoint_nodes};
 use pn_runtime::problem::Grid;
 use rayon::prelude::*;
 
 /// `w[light][c] = (1/V_c) ∫_c σ_s T_light E_light dx` for every cell c of the solve grid
 /// `grid` (x slowest, the order of [`pn_runtime::field::VoxelGrid`]): module docs. `ext` is the
 /// medium's extinction on `density`, `medium` gives the scale and the albedo, `depth` the
-/// optical depth to each of `lights`.
+/// optical depth to each of `lights`. The lights from `sky_from` on are a sky's
+/// ([`crate::sky`]): tens of lights each carrying a small share of the sky's power, averaged
+/// with the midpoint rule on the same pieces ([`midpoint_nodes`], 8 times fewer nodes; the
+/// relative error (σ_t ℓ)²/24 on a piece of length ℓ, 0.6 % at σ_t ℓ = 0.375).
 pub fn cell_scattering_weights(
     density: &DensityGrid,
     medium: &MediumSpec,
@@ -51,15 +54,41 @@ pub fn cell_scattering_weights(
     lights: &[Light],
     depth: &LightDepth,
     grid: &Grid,
+    sky_from: Option<usize>,
+) -> Vec<Vec<f64>> {
+    let split = sky_from.unwrap_or(lights.len()).min(lights.len());
+    let gauss = [0, 1, 2].map(|d| gauss_nodes(density, grid, d));
+    let mut w = weights_on_nodes(density, medium, ext, lights, 0..split, depth, grid, &gauss);
+    if split < lights.len() {
+        let mid = [0, 1, 2].map(|d| midpoint_nodes(density, grid, d));
+        let range = split..lights.len();
+        w.extend(weights_on_nodes(
+            density, medium, ext, lights, range, depth, grid, &mid,
+        ));
+    }
+    w
+}
+
+/// [`cell_scattering_weights`] for the lights `range` with the per-axis nodes `nodes`.
+#[allow(clippy::too_many_arguments)]
+fn weights_on_nodes(
+    density: &DensityGrid,
+    medium: &MediumSpec,
+    ext: &Extinction,
+    lights: &[Light],
+    range: std::ops::Range<usize>,
+    depth: &LightDepth,
+    grid: &Grid,
+    nodes: &[Vec<Vec<(f64, f64)>>; 3],
 ) -> Vec<Vec<f64>> {
     let [nx, ny, nz] = grid.res;
-    let nodes = [0, 1, 2].map(|d| gauss_nodes(density, grid, d));
     let reach = [0, 1, 2].map(|d| voxels_read(density, &nodes[d], d));
+    let count = range.len();
     // One x-slab of cells per task: [light][(j·nz + k)].
     let slabs: Vec<Vec<Vec<f64>>> = (0..nx)
         .into_par_iter()
         .map(|i| {
-            let mut slab = vec![vec![0.0; ny * nz]; lights.len()];
+            let mut slab = vec![vec![0.0; ny * nz]; count];
             for j in 0..ny {
                 for k in 0..nz {
                     if !reads_nonzero_voxel(density, [reach[0][i], reach[1][j], reach[2][k]]) {
@@ -74,13 +103,13 @@ pub fn cell_scattering_weights(
                                     continue;
                                 }
                                 let base = sigma_s * wx * wy * wz;
-                                for (l, light) in lights.iter().enumerate() {
-                                    let e = light.incident(p).irradiance;
+                                for (s, l) in range.clone().enumerate() {
+                                    let e = lights[l].incident(p).irradiance;
                                     if e == 0.0 {
                                         continue;
                                     }
                                     let t = (-depth.tau(ext, l, p)).exp();
-                                    slab[l][j * nz + k] += base * t * e;
+                                    slab[s][j * nz + k] += base * t * e;
                                 }
                             }
                         }
@@ -90,7 +119,7 @@ pub fn cell_scattering_weights(
             slab
         })
         .collect();
-    (0..lights.len())
+    (0..count)
         .map(|l| slabs.iter().flat_map(|s| s[l].iter().copied()).collect())
         .collect()
 }
@@ -181,6 +210,7 @@ mod tests {
                     &sun(),
                     &depth,
                     &grid,
+                    None,
                 );
                 let h = 2.0 / cells as f64;
                 for (c, got) in w[0].iter().enumerate() {
@@ -226,7 +256,7 @@ mod tests {
             let mut grid = test_box_grid([7; 3]);
             grid.min = [-1.3; 3];
             grid.max = [1.3; 3];
-            let w = cell_scattering_weights(&density, &spec, &ext, &sun(), &depth, &grid);
+            let w = cell_scattering_weights(&density, &spec, &ext, &sun(), &depth, &grid, None);
             let nodes = [0, 1, 2].map(|d| gauss_nodes(&density, &grid, d));
             let (mut skipped, mut lit) = (0, 0);
             for (c, got) in w[0].iter().enumerate() {
@@ -285,7 +315,7 @@ mod tests {
         let depth = LightDepth::compute(&ext, &sun());
         let grid = test_box_grid([3; 3]);
         let spec = medium(&density, st, albedo);
-        let w = cell_scattering_weights(&density, &spec, &ext, &sun(), &depth, &grid);
+        let w = cell_scattering_weights(&density, &spec, &ext, &sun(), &depth, &grid, None);
         let h = 2.0 / 3.0;
         let brute = |cell: [usize; 3], m: usize| {
             let mut sum = 0.0;

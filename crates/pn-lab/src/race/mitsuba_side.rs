@@ -7,7 +7,7 @@ use anyhow::{Context, Result};
 use pn_drivers::mitsuba;
 use pn_formats::write_exr_gray;
 use pn_render::compare::{read_gray, GrayImage};
-use pn_render::mitsuba::{ExportOptions, ALBEDO_FILE, DENSITY_FILE, SCRIPT_FILE};
+use pn_render::mitsuba::{ExportOptions, ALBEDO_FILE, DENSITY_FILE, SCRIPT_FILE, SKY_FILE};
 use pn_render::RenderScene;
 use serde::{Deserialize, Serialize};
 use std::io::Write;
@@ -169,7 +169,7 @@ fn fnv1a(h: &mut u64, bytes: &[u8]) {
 /// the spp, max_depth, seeds and the Mitsuba version.
 pub fn cache_key(export: &Path, spp: usize, max_depth: i64, version: &str) -> Result<String> {
     let mut h = 0xcbf2_9ce4_8422_2325u64;
-    for f in [SCRIPT_FILE, DENSITY_FILE, ALBEDO_FILE] {
+    for f in [SCRIPT_FILE, DENSITY_FILE, ALBEDO_FILE, SKY_FILE] {
         let p = export.join(f);
         if p.is_file() {
             fnv1a(&mut h, f.as_bytes());

@@ -51,7 +51,8 @@ def scene_dict(max_depth):
     half = [(b - a) / 2 for a, b in zip(BBOX_MIN, BBOX_MAX)]
     return {
         "type": "scene",
-        "integrator": {"type": "volpath", "max_depth": max_depth},
+        "integrator": {"type": "volpath", "max_depth": max_depth,
+                       "hide_emitters": @HIDE_EMITTERS@},
         "medium": {
             "type": "heterogeneous",
             "id": "medium",

@@ -108,7 +108,7 @@ pub(super) fn render_grey_views(
             let t_ld = Instant::now();
             light_depth = Some(compute_light_depth(
                 &light_leg.extinction(&density),
-                &scene.lights,
+                scene,
                 options.threads,
             )?);
             timings.light_depth = t_ld.elapsed().as_secs_f64();
@@ -162,11 +162,12 @@ pub(super) fn render_grey_views(
 /// The optical depth to the lights of a render without a solve.
 fn compute_light_depth(
     ext: &Extinction<'_>,
-    lights: &[crate::Light],
+    scene: &RenderScene,
     threads: Option<usize>,
 ) -> Result<Arc<LightDepth>> {
+    let sky_from = scene.sky_lights.as_ref().map(|s| s.first);
     Ok(Arc::new(pn_runtime::with_threads(threads, || {
-        LightDepth::compute(ext, lights)
+        LightDepth::compute_with_sky(ext, &scene.lights, sky_from)
     })?))
 }
 

@@ -124,6 +124,8 @@ pub fn render_views(
     options: &RenderOptions,
     views: usize,
 ) -> Result<RenderRun> {
+    // A sky becomes directional lights here, once, for every channel and view.
+    let scene = &scene.with_sky_lights();
     if scene.colours.is_some() {
         return rgb::render_views_rgb(scene, options, views);
     }

@@ -27,4 +27,6 @@ pub use parse::phase_from_table;
 pub use types::*;
 
 #[cfg(test)]
+mod sky_tests;
+#[cfg(test)]
 mod tests;

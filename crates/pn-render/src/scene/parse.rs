@@ -10,6 +10,7 @@ use crate::colour::{Colours, GreyOrRgb};
 use crate::lights::Light;
 use crate::medium::{check_box, DensityFilter, DensityGrid, Procedural};
 use crate::scene_override::SceneOverride;
+use crate::sky::{rotation_to_up, Sky, SkyRadiance};
 use anyhow::{bail, ensure, Context};
 use pn_runtime::phase::{DropletPhase, TabulatedPhase};
 use pn_runtime::problem::Phase;
@@ -70,6 +71,12 @@ pub(super) struct LightToml {
     irradiance: Option<GreyOrRgb>,
     position: Option<[f64; 3]>,
     power: Option<GreyOrRgb>,
+    file: Option<PathBuf>,
+    radiance: Option<GreyOrRgb>,
+    scale: Option<f64>,
+    up: Option<[f64; 3]>,
+    to_world: Option<[[f64; 3]; 3]>,
+    directions: Option<usize>,
 }
 
 #[derive(Deserialize, Debug)]
@@ -118,6 +125,7 @@ struct RenderToml {
     step: Option<f64>,
     cutoff: Option<f64>,
     exact_transmittance: Option<bool>,
+    hide_emitters: Option<bool>,
     ms_lookup: Option<MsLookup>,
 }
 
@@ -223,6 +231,22 @@ pub(super) fn channel_mean(v: GreyOrRgb) -> f64 {
 /// A light and its strength (irradiance or power) as given, grey or per channel.
 pub(super) fn build_light(l: LightToml, n: usize) -> anyhow::Result<(Light, GreyOrRgb)> {
     let ctx = || format!("light {} (kind = {:?})", n + 1, l.kind);
+    if let Some(k) = [
+        ("file", l.file.is_some()),
+        ("radiance", l.radiance.is_some()),
+        ("scale", l.scale.is_some()),
+        ("up", l.up.is_some()),
+        ("to_world", l.to_world.is_some()),
+        ("directions", l.directions.is_some()),
+    ]
+    .into_iter()
+    .find_map(|(k, set)| set.then_some(k))
+    {
+        bail!(
+            "{}: {k} applies to sky lights (kind = \"envmap\" or \"constant\")",
+            ctx()
+        );
+    }
     match l.kind.as_str() {
         "directional" => {
             ensure!(
@@ -269,10 +293,78 @@ pub(super) fn build_light(l: LightToml, n: usize) -> anyhow::Result<(Light, Grey
             Ok((light, w))
         }
         k => bail!(
-            "light {}: unknown kind {k:?} (expected directional or point)",
+            "light {}: unknown kind {k:?} (expected directional, point, envmap or constant)",
             n + 1
         ),
     }
+}
+
+/// A sky light: `kind = "envmap"` with `file` (relative to the scene file), or
+/// `kind = "constant"` with `radiance`; optional `scale`, `up` or `to_world` (a rotation,
+/// rows) and `directions` ([`crate::sky`]).
+fn build_sky(l: LightToml, n: usize, base: &Path) -> anyhow::Result<Sky> {
+    let ctx = || format!("light {} (kind = {:?})", n + 1, l.kind);
+    if let Some(k) = [
+        ("direction", l.direction.is_some()),
+        ("irradiance", l.irradiance.is_some()),
+        ("position", l.position.is_some()),
+        ("power", l.power.is_some()),
+    ]
+    .into_iter()
+    .find_map(|(k, set)| set.then_some(k))
+    {
+        bail!("{}: {k} applies to directional or point lights", ctx());
+    }
+    let mut sky = if l.kind == "envmap" {
+        ensure!(
+            l.radiance.is_none(),
+            "{}: radiance applies to kind = \"constant\" (an envmap's radiance is its file; \
+             use scale)",
+            ctx()
+        );
+        let file = l
+            .file
+            .with_context(|| format!("{}: needs file (a latitude–longitude EXR)", ctx()))?;
+        let path = base.join(&file);
+        let map = crate::sky::read_envmap(&path).with_context(ctx)?;
+        let mut s = Sky::constant([0.0; 3]);
+        s.radiance = SkyRadiance::Map(Arc::new(map));
+        s.file = Some(path);
+        s
+    } else {
+        ensure!(
+            l.file.is_none(),
+            "{}: file applies to kind = \"envmap\"",
+            ctx()
+        );
+        let r = l
+            .radiance
+            .with_context(|| format!("{}: needs radiance", ctx()))?;
+        let c = r.channels();
+        for v in c {
+            nonneg("radiance", v).with_context(ctx)?;
+        }
+        Sky::constant(c)
+    };
+    if let Some(s) = l.scale {
+        sky.scale = s;
+    }
+    ensure!(
+        !(l.up.is_some() && l.to_world.is_some()),
+        "{}: give up or to_world, not both",
+        ctx()
+    );
+    if let Some(up) = l.up {
+        sky.to_world = rotation_to_up(up).with_context(ctx)?;
+    }
+    if let Some(m) = l.to_world {
+        sky.to_world = m;
+    }
+    if let Some(k) = l.directions {
+        sky.directions = k;
+    }
+    sky.validate().with_context(ctx)?;
+    Ok(sky)
 }
 
 /// A phase function from a `[phase]` table of the scene format (`kind` and the keys of that
@@ -351,17 +443,25 @@ pub(super) fn build(t: SceneToml, base: &Path) -> anyhow::Result<RenderScene> {
         None => Phase::Isotropic,
         Some(p) => build_phase(p).context("[phase]")?,
     };
-    let (lights, strengths): (Vec<Light>, Vec<GreyOrRgb>) = t
-        .light
-        .into_iter()
-        .enumerate()
-        .map(|(n, l)| build_light(l, n))
-        .collect::<anyhow::Result<Vec<_>>>()?
-        .into_iter()
-        .unzip();
+    let mut sky: Option<Sky> = None;
+    let mut own = Vec::new();
+    for (n, l) in t.light.into_iter().enumerate() {
+        if matches!(l.kind.as_str(), "envmap" | "constant") {
+            ensure!(
+                sky.is_none(),
+                "light {}: a scene has at most one sky (kind = \"envmap\" or \"constant\")",
+                n + 1
+            );
+            sky = Some(build_sky(l, n, base)?);
+        } else {
+            own.push(build_light(l, n)?);
+        }
+    }
+    let (lights, strengths): (Vec<Light>, Vec<GreyOrRgb>) = own.into_iter().unzip();
     let coloured = sigma_t_scale.is_rgb()
         || albedo.is_some_and(|a| a.is_rgb())
-        || strengths.iter().any(|s| s.is_rgb());
+        || strengths.iter().any(|s| s.is_rgb())
+        || sky.as_ref().is_some_and(Sky::is_rgb);
     let colours = coloured.then(|| Colours {
         sigma_t_scale: sigma_t_scale.channels(),
         albedo: albedo.map(|a| a.channels()),
@@ -430,6 +530,7 @@ pub(super) fn build(t: SceneToml, base: &Path) -> anyhow::Result<RenderScene> {
         step: None,
         cutoff: None,
         exact_transmittance: None,
+        hide_emitters: None,
         ms_lookup: None,
     });
     let render = RenderSettings {
@@ -441,6 +542,7 @@ pub(super) fn build(t: SceneToml, base: &Path) -> anyhow::Result<RenderScene> {
         cutoff: r.cutoff.unwrap_or(DEFAULT_CUTOFF),
         exact_transmittance: r.exact_transmittance.unwrap_or(false),
         ms_lookup: r.ms_lookup.unwrap_or_default(),
+        hide_emitters: r.hide_emitters.unwrap_or(false),
     };
     render.validate().context("[render]")?;
     Ok(RenderScene {
@@ -448,6 +550,8 @@ pub(super) fn build(t: SceneToml, base: &Path) -> anyhow::Result<RenderScene> {
         medium,
         phase,
         lights,
+        sky,
+        sky_lights: None,
         colours,
         camera,
         solve,

@@ -5,6 +5,7 @@ use crate::camera::Camera;
 use crate::colour::Colours;
 use crate::lights::Light;
 use crate::medium::{DensityFilter, DensityGrid, Procedural};
+use crate::sky::{Sky, SkyLights};
 use anyhow::bail;
 use pn_runtime::problem::Phase;
 use serde::Deserialize;
@@ -333,6 +334,9 @@ pub struct RenderSettings {
     pub exact_transmittance: bool,
     /// How both renderers read the multiple-scattering solution between solve-cell centres.
     pub ms_lookup: MsLookup,
+    /// Lights are not seen directly (Mitsuba volpath's `hide_emitters`): the sky behind and
+    /// around the medium is black, only the light the medium scatters is shown.
+    pub hide_emitters: bool,
 }
 
 /// How the renderers read the un-staggered solution L_l^m between solve-cell centres
@@ -372,6 +376,11 @@ pub struct RenderScene {
     pub phase: Phase,
     /// Lights.
     pub lights: Vec<Light>,
+    /// The sky ([`crate::sky`]): a uniform sky or an environment map (`None`: black).
+    pub sky: Option<Sky>,
+    /// The sky cut into directional lights, appended to `lights` (set by
+    /// [`RenderScene::with_sky_lights`]; `None` until then).
+    pub sky_lights: Option<Arc<SkyLights>>,
     /// Per-channel values of a coloured scene (`None`: grey). A coloured scene's grey fields
     /// (`medium.sigma_t_scale`, a constant `medium.albedo`, the lights' strengths) hold the
     /// mean of the channels; it is rendered channel by channel ([`RenderScene::channel`]).
@@ -418,7 +427,33 @@ impl RenderScene {
             for (light, strength) in s.lights.iter_mut().zip(&col.light_strength) {
                 *light = light.with_strength(strength[c]);
             }
+            s.sky = s.sky.map(|sky| sky.channel(c));
         }
+        s
+    }
+
+    /// This scene with its sky cut into directional lights ([`crate::sky::Sky::lights`]),
+    /// appended to its lights (per channel for a coloured scene), and [`Self::sky_lights`]
+    /// set; a scene without a sky, or whose sky is already cut, as it is.
+    pub fn with_sky_lights(&self) -> RenderScene {
+        let mut s = self.clone();
+        let Some(sky) = &self.sky else {
+            return s;
+        };
+        if self.sky_lights.is_some() {
+            return s;
+        }
+        let lights = SkyLights::new(sky, &self.phase, self.lights.len());
+        for l in &lights.lights {
+            s.lights.push(Light::Directional {
+                direction: l.travel,
+                irradiance: sky.grey(l.irradiance),
+            });
+            if let Some(col) = s.colours.as_mut() {
+                col.light_strength.push(l.irradiance);
+            }
+        }
+        s.sky_lights = Some(Arc::new(lights));
         s
     }
 

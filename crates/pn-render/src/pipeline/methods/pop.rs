@@ -24,6 +24,11 @@ impl MultipleScattering for Pop {
 
     fn solve(&self, p: &PreparedScene<'_>) -> Result<MsSolution> {
         let (scene, s) = (p.scene, &p.scene.solve);
+        anyhow::ensure!(
+            scene.sky.is_none(),
+            "POP does not take sky lights yet (its environment-map ordinates, the paper's §5, \
+             are issue 52): use --method pn, cda or fld with an envmap or constant sky"
+        );
         let Some(sg) = solve_grid(p.density, s.resolution, s.padding(), true)? else {
             return Ok(MsSolution::default());
         };
