@@ -175,12 +175,19 @@ impl PlaneDepth {
                     .collect::<Vec<f32>>()
             })
             .collect();
-        let mut tau = vec![0.0f32; nu * nv * ns];
-        for (c, col) in columns.iter().enumerate() {
-            for (k, t) in col.iter().enumerate() {
-                tau[k * nu * nv + c] = *t;
+        // Coarse planes are read at two neighbouring planes at once: column by column (the
+        // two values one after the other); the others plane by plane.
+        let tau = if coarse {
+            columns.concat()
+        } else {
+            let mut tau = vec![0.0f32; nu * nv * ns];
+            for (c, col) in columns.iter().enumerate() {
+                for (k, t) in col.iter().enumerate() {
+                    tau[k * nu * nv + c] = *t;
+                }
             }
-        }
+            tau
+        };
         Some(Self {
             d,
             e1,
@@ -209,12 +216,7 @@ impl PlaneDepth {
         let k = (floor_fast(s / self.ds) as usize).min(self.ns - 1);
         let back = s - k as f64 * self.ds;
         if self.coarse {
-            let here = self.in_plane(k, x);
-            let w = back / self.ds;
-            if k + 1 >= self.ns || w == 0.0 || !here.is_finite() {
-                return here;
-            }
-            return here + w * (self.in_plane(k + 1, x) - here);
+            return self.between_planes(k, back / self.ds, x);
         }
         let near = if back > 0.0 {
             ext.optical_depth(x, self.d.map(|c| -c), back)
@@ -243,6 +245,38 @@ impl PlaneDepth {
         }
         let lerp = |p: f64, q: f64, w: f64| p + w * (q - p);
         lerp(lerp(t00, t01, tv), lerp(t10, t11, tv), tu)
+    }
+
+    /// Coarse planes (stored column by column): τ trilinear between planes `k` and `k + 1`
+    /// (`w` of the way to `k + 1`) and their lattice points; +∞ where a value read is.
+    #[inline]
+    fn between_planes(&self, k: usize, w: f64, x: [f64; 3]) -> f64 {
+        let top_u = (self.nu - 1) as f64;
+        let top_v = (self.nv - 1) as f64;
+        let fu = ((dot(x, self.e1) - self.u0) / self.hu).clamp(0.0, top_u);
+        let fv = ((dot(x, self.e2) - self.v0) / self.hu).clamp(0.0, top_v);
+        let (i, j) = (floor_fast(fu) as usize, floor_fast(fv) as usize);
+        let (i1, j1) = ((i + 1).min(self.nu - 1), (j + 1).min(self.nv - 1));
+        let (tu, tv) = (fu - i as f64, fv - j as f64);
+        let k1 = (k + 1).min(self.ns - 1);
+        let at = |a: usize, b: usize| {
+            let col = (a * self.nv + b) * self.ns;
+            (self.tau[col + k] as f64, self.tau[col + k1] as f64)
+        };
+        let (c00, c01, c10, c11) = (at(i, j), at(i, j1), at(i1, j), at(i1, j1));
+        let lerp = |p: f64, q: f64, w: f64| p + w * (q - p);
+        let plane = |sel: fn((f64, f64)) -> f64| {
+            let (a, b, c, d) = (sel(c00), sel(c01), sel(c10), sel(c11));
+            if !(a.is_finite() && b.is_finite() && c.is_finite() && d.is_finite()) {
+                return f64::INFINITY;
+            }
+            lerp(lerp(a, b, tv), lerp(c, d, tv), tu)
+        };
+        let here = plane(|p| p.0);
+        if w == 0.0 || k1 == k || !here.is_finite() {
+            return here;
+        }
+        here + w * (plane(|p| p.1) - here)
     }
 
     /// Bytes held.

@@ -214,20 +214,28 @@ pub(crate) fn gauss_nodes(density: &DensityGrid, grid: &Grid, d: usize) -> Vec<V
         .collect()
 }
 
-/// The midpoint rule on the same pieces as [`gauss_nodes`]: per cell along axis `d`, one
-/// node per piece at its middle, weighted by the piece's share of the cell. Exact for linear
-/// functions; for e^{−σ_t x} on a piece of length ℓ its relative error is (σ_t ℓ)²/24. The
-/// sky lights' source uses it ([`super::source_quadrature`]).
-pub(crate) fn midpoint_nodes(density: &DensityGrid, grid: &Grid, d: usize) -> Vec<Vec<(f64, f64)>> {
+/// The 2-point Gauss–Legendre rule on each cell along axis `d` as a whole (clipped to the
+/// density box), not cut at the filter's break points: per cell two nodes, weighted by
+/// their share of the cell. Exact for cubics; across a kink of the filtered density (a voxel
+/// centre inside the cell) its error is O(h²) with no sign of its own, unlike the midpoint
+/// rule's underestimate of the convex e^{−τ}. The sky lights' source uses it
+/// ([`super::source_quadrature`]): about 6 times fewer nodes at 24³ over a 64³ density.
+pub(crate) fn cell_gauss_nodes(
+    density: &DensityGrid,
+    grid: &Grid,
+    d: usize,
+) -> Vec<Vec<(f64, f64)>> {
     let h = grid.h(d);
-    let breaks = density.axis_breaks(d);
+    let off = 0.5 / 3f64.sqrt();
     (0..grid.res[d])
         .map(|c| {
-            let mut n = Vec::new();
-            pieces(density, grid, d, c, &breaks, |a, b| {
-                n.push((0.5 * (a + b), (b - a) / h))
-            });
-            n
+            let x0 = (grid.min[d] + c as f64 * h).max(density.bbox_min[d]);
+            let x1 = (grid.min[d] + (c + 1) as f64 * h).min(density.bbox_max[d]);
+            if x1 <= x0 {
+                return Vec::new();
+            }
+            let (m, l) = (0.5 * (x0 + x1), x1 - x0);
+            vec![(m - off * l, 0.5 * l / h), (m + off * l, 0.5 * l / h)]
         })
         .collect()
 }

@@ -36,7 +36,7 @@ use super::lights::Light;
 use super::medium::DensityGrid;
 use super::scene::MediumSpec;
 use super::shadow::Extinction;
-use super::solve_setup::{gauss_nodes, midpoint_nodes};
+use super::solve_setup::{cell_gauss_nodes, gauss_nodes};
 use pn_runtime::problem::Grid;
 use rayon::prelude::*;
 
@@ -45,8 +45,8 @@ use rayon::prelude::*;
 /// medium's extinction on `density`, `medium` gives the scale and the albedo, `depth` the
 /// optical depth to each of `lights`. The lights from `sky_from` on are a sky's
 /// ([`crate::sky`]): tens of lights each carrying a small share of the sky's power, averaged
-/// with the midpoint rule on the same pieces ([`midpoint_nodes`], 8 times fewer nodes; the
-/// relative error (σ_t ℓ)²/24 on a piece of length ℓ, 0.6 % at σ_t ℓ = 0.375).
+/// with the 2×2×2 Gauss rule on the whole cell ([`cell_gauss_nodes`]: exact for cubics,
+/// about 6 times fewer nodes than the pieces' rule at 24³ over a 64³ density).
 pub fn cell_scattering_weights(
     density: &DensityGrid,
     medium: &MediumSpec,
@@ -60,10 +60,10 @@ pub fn cell_scattering_weights(
     let gauss = [0, 1, 2].map(|d| gauss_nodes(density, grid, d));
     let mut w = weights_on_nodes(density, medium, ext, lights, 0..split, depth, grid, &gauss);
     if split < lights.len() {
-        let mid = [0, 1, 2].map(|d| midpoint_nodes(density, grid, d));
+        let cells = [0, 1, 2].map(|d| cell_gauss_nodes(density, grid, d));
         let range = split..lights.len();
         w.extend(weights_on_nodes(
-            density, medium, ext, lights, range, depth, grid, &mid,
+            density, medium, ext, lights, range, depth, grid, &cells,
         ));
     }
     w
@@ -227,6 +227,57 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// The sky lights' rule (2×2×2 Gauss on the whole cell): in the homogeneous cube it
+    /// matches the exact cell averages to 2e-3 (its error on e^{−σ_t z} over a cell σ_t h = 1.5
+    /// thick is about (σ_t h)⁴/4320 ≈ 1.2e-3), and in the heterogeneous medium of the test
+    /// below (trilinear kinks inside the cells) the total power Σ_c w_c stays within 1 % of
+    /// the pieces' rule.
+    #[test]
+    fn the_sky_rule_keeps_the_cell_averages_and_the_power() {
+        let (n, st, albedo) = (6, 3.0, 0.8);
+        let density = DensityGrid::new([n; 3], [-1.0; 3], [1.0; 3], vec![1.0; n * n * n]).unwrap();
+        let ext = Extinction {
+            grid: &density,
+            scale: st,
+        };
+        let depth = LightDepth::compute(&ext, &sun());
+        for cells in [6, 4] {
+            let grid = test_box_grid([cells; 3]);
+            let spec = medium(&density, st, albedo);
+            let w = cell_scattering_weights(&density, &spec, &ext, &sun(), &depth, &grid, Some(0));
+            let h = 2.0 / cells as f64;
+            for (c, got) in w[0].iter().enumerate() {
+                let k = c % cells;
+                let (lo, hi) = (-1.0 + k as f64 * h, -1.0 + (k + 1) as f64 * h);
+                let t = |z: f64| (-st * (1.0 - z)).exp();
+                let exact = albedo * st * 1.5 * (t(hi) - t(lo)) / (st * h);
+                assert!(
+                    (got - exact).abs() < 2e-3 * exact,
+                    "{cells} cells, cell {c}: {got} vs {exact}"
+                );
+            }
+        }
+        let mut data = vec![0.0f32; 125];
+        for (i, v) in data.iter_mut().enumerate() {
+            *v = 0.2 + 0.3 * (i % 5) as f32 + 0.4 * ((i * 7) % 5) as f32;
+        }
+        let density = DensityGrid::new([5; 3], [-1.0; 3], [1.0; 3], data).unwrap();
+        let ext = Extinction {
+            grid: &density,
+            scale: 1.0,
+        };
+        let depth = LightDepth::compute(&ext, &sun());
+        let grid = test_box_grid([3; 3]);
+        let spec = medium(&density, 1.0, 0.9);
+        let total = |sky: Option<usize>| -> f64 {
+            cell_scattering_weights(&density, &spec, &ext, &sun(), &depth, &grid, sky)[0]
+                .iter()
+                .sum()
+        };
+        let (pieces, cells) = (total(None), total(Some(0)));
+        assert!((cells / pieces - 1.0).abs() < 0.01, "{cells} vs {pieces}");
     }
 
     /// Skipping the cells that read only empty voxels changes nothing: on a medium that is
