@@ -42,6 +42,7 @@ use super::shadow::Extinction;
 use super::shadow::{density_as_grid, DeepShadowMaps};
 use super::solve_setup::{add_absorbing_layer, resample};
 use super::source_quadrature::cell_scattering_weights;
+use crate::sky::SkyLights;
 use pn_runtime::field::{Field, VoxelGrid};
 use pn_runtime::problem::{Boundary, Grid, Phase, Problem, Scattering, SourceTerm};
 use pn_stencil::quadrature::real_sh;
@@ -77,17 +78,19 @@ pub(crate) fn source_moments(
                 .collect()
         })
         .collect();
-    source_moments_weighted(grid, &weights, phase, lights, max_band)
+    source_moments_weighted(grid, &weights, phase, lights, None, max_band)
 }
 
 /// [`source_moments`] from the weight σ_s·T·E of each cell and light, `weights[light][cell]`
 /// (e.g. [`cell_scattering_weights`]): `Q_l^m = Σ_lights weight · λ_l p_l Y_l^m(d)` with
-/// the light's travel direction d at the cell centre.
+/// the light's travel direction d at the cell centre; for the lights of `sky`, Y_l^m averaged
+/// over each light's region.
 pub fn source_moments_weighted(
     grid: &Grid,
     weights: &[Vec<f64>],
     phase: &Phase,
     lights: &[Light],
+    sky: Option<&SkyLights>,
     max_band: u32,
 ) -> Vec<(u32, i32, Vec<f64>)> {
     let [nx, ny, nz] = grid.res;
@@ -106,11 +109,16 @@ pub fn source_moments_weighted(
             continue;
         }
         for m in -(l as i32)..=(l as i32) {
-            // A directional light's Y_l^m(d) is the same in every cell (a sky brings tens).
+            // A directional light's Y_l^m(d) is the same in every cell (a sky brings tens); a
+            // sky light's is averaged over its region (crate::sky::SkyLights::sh_average).
             let fixed: Vec<Option<f64>> = lights
                 .iter()
-                .map(|light| match light {
-                    Light::Directional { direction, .. } => Some(sh(l, m, *direction)),
+                .enumerate()
+                .map(|(i, light)| match light {
+                    Light::Directional { direction, .. } => Some(
+                        sky.and_then(|s| s.sh_average(i, |d| sh(l, m, d)))
+                            .unwrap_or_else(|| sh(l, m, *direction)),
+                    ),
                     Light::Point { .. } => None,
                 })
                 .collect();
@@ -240,7 +248,8 @@ pub fn first_scatter_problem_with_depth(
             grid.res, grid.min, grid.max, data,
         )?)))
     };
-    let sources = source_moments_weighted(grid, &weights, &phase, &scene.lights, max_band)
+    let sky = scene.sky_lights.as_deref();
+    let sources = source_moments_weighted(grid, &weights, &phase, &scene.lights, sky, max_band)
         .into_iter()
         .map(|(l, m, q)| {
             Ok(SourceTerm {

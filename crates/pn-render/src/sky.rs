@@ -24,11 +24,17 @@
 //! ∫ p(ω·ω_o) L(ω) T(x, ω) dω: it vanishes where L·T is constant over each region and
 //! shrinks as K grows (measured in docs/sky.md).
 //!
-//! **Single scattering seen by the camera.** A forward-peaked phase function varies faster
-//! than a region is wide, so the camera's single scattering reads, for a sky light, the
-//! phase function averaged over a cone of the region's solid angle ([`CapPhase`]): the
-//! exact value of the region's integral where L·T is constant on it. It tends to p as the
-//! regions shrink.
+//! **Averages over each region.** The first-scatter source reads, for a sky light, the
+//! spherical harmonics averaged over its region with the sky's radiance as weight
+//! ([`SkyLights::sh_average`], over [`BLOCKS_PER_SIDE`]² blocks): exact where L·T is constant
+//! on the region. A forward-peaked phase function varies faster than a region is wide, so
+//! the camera's single scattering reads, for a sky light, the phase function averaged over
+//! a cone of the region's solid angle about its direction ([`CapPhase`]). (Averaging p over
+//! the region itself was measured and rejected: where the forward peak looks through the
+//! medium, T at the region's direction is larger than along the peak, and a K = 32 cut of a
+//! sky under an HG g = 0.8 medium came out 27 % too bright, against −7.5 % with the cone and
+//! −0.7 % / +0.1 % with the cone at K = 64 / 256; docs/sky.md.) Both tend to p and Y_l^m(d)
+//! as the regions shrink.
 
 use anyhow::{bail, ensure, Context};
 use pn_runtime::problem::Phase;
@@ -164,7 +170,15 @@ pub struct SkyLight {
     pub irradiance: [f64; 3],
     /// The region's solid angle (sr).
     pub solid_angle: f64,
+    /// The region in at most [`BLOCKS_PER_SIDE`]² blocks of cells: each block's
+    /// power-weighted mean travel direction (unit, world) and its share of the region's grey
+    /// power (the shares sum to 1). The renderer averages the phase function and the
+    /// spherical harmonics over them ([`SkyLights::sh_average`]).
+    pub blocks: Vec<([f64; 3], f64)>,
 }
+
+/// Blocks per side a sky light's region is summarised by ([`SkyLight::blocks`]).
+pub const BLOCKS_PER_SIDE: usize = 8;
 
 /// The identity rotation.
 pub const IDENTITY: [[f64; 3]; 3] = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
@@ -514,7 +528,39 @@ impl SkyGrid {
             travel: world.map(|c| -c),
             irradiance: rgb,
             solid_angle: omega,
+            blocks: self.blocks(r, sky),
         }
+    }
+
+    /// The region cut into at most BLOCKS_PER_SIDE² blocks: per block the power-weighted
+    /// mean travel direction (world) and its share of the region's power.
+    fn blocks(&self, r: &Region, sky: &Sky) -> Vec<([f64; 3], f64)> {
+        let edges = |a: usize, b: usize| -> Vec<usize> {
+            let n = (b - a).min(BLOCKS_PER_SIDE);
+            (0..=n).map(|q| a + q * (b - a) / n).collect()
+        };
+        let (ei, ej) = (edges(r.i0, r.i1), edges(r.j0, r.j1));
+        let mut out = Vec::new();
+        for jj in ej.windows(2) {
+            for ii in ei.windows(2) {
+                let (mut p, mut mean) = (0.0, [0.0; 3]);
+                for j in jj[0]..jj[1] {
+                    for i in ii[0]..ii[1] {
+                        let c = j * self.nphi + i;
+                        p += self.power[c];
+                        for (a, b) in mean.iter_mut().zip(&self.dir[c]) {
+                            *a += self.power[c] * b;
+                        }
+                    }
+                }
+                let n = (mean[0] * mean[0] + mean[1] * mean[1] + mean[2] * mean[2]).sqrt();
+                if p > 0.0 && n > 0.0 {
+                    let look = mat_vec(&sky.to_world, mean.map(|c| c / n));
+                    out.push((look.map(|c| -c), p / r.power));
+                }
+            }
+        }
+        out
     }
 }
 
@@ -597,7 +643,7 @@ pub struct SkyLights {
     pub first: usize,
     /// The sky lights.
     pub lights: Vec<SkyLight>,
-    /// Per sky light: the phase averaged over its region.
+    /// Per sky light: the phase averaged over a cone of its region's solid angle.
     pub phases: Option<Vec<Arc<CapPhase>>>,
 }
 
@@ -613,12 +659,22 @@ impl SkyLights {
         }
     }
 
-    /// The phase value for light `index` of the scene (a sky light: its cone average).
+    /// The phase value for light `index` of the scene at the cosine `mu` between its travel
+    /// direction and the outgoing direction (a sky light: its cone average).
     pub fn phase_value(&self, phase: &Phase, index: usize, mu: f64) -> f64 {
         match (&self.phases, index.checked_sub(self.first)) {
             (Some(p), Some(k)) if k < p.len() => p[k].value(mu),
             _ => phase.value(mu),
         }
+    }
+
+    /// For light `index` of the scene: `f` averaged over its region's blocks if it is a sky
+    /// light (the first-scatter source's Y_l^m, exact where L·T is constant on each block),
+    /// `None` for the scene's own lights.
+    pub fn sh_average(&self, index: usize, f: impl Fn([f64; 3]) -> f64) -> Option<f64> {
+        let k = index.checked_sub(self.first)?;
+        let l = self.lights.get(k)?;
+        Some(l.blocks.iter().map(|(d, w)| w * f(*d)).sum())
     }
 }
 
