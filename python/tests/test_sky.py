@@ -119,6 +119,8 @@ def test_a_huge_map_is_refused_before_it_is_read():
     ([{"kind": "envmap", "radiance": 1.0}], "leave radiance out"),
     ([{"kind": "constant", "radiance": 1.0}], "needs a light of kind = \"envmap\""),
     ([{"kind": "envmap", "scale": -1.0}], "scale must be"),
+    ([{"kind": "envmap", "to_world": [[1, 0, 0], [0, 2, 0], [0, 0, 1]]}],
+     'light 1 (kind = "envmap"): to_world must be a rotation'),
 ])
 def test_the_settings_must_fit_the_map(lights, message):
     with pytest.raises(ValueError) as e:

@@ -100,8 +100,9 @@ fn envmap_array(a: &Bound<'_, PyAny>) -> PyResult<pn_render::sky::EnvMap> {
 }
 
 /// The settings' `kind = "envmap"` light, made a placeholder `constant` light for the
-/// parser (its map comes from the array): `file` and `radiance` refused.
-fn envmap_placeholder(table: &mut toml::Table) -> PyResult<()> {
+/// parser (its map comes from the array): `file` and `radiance` refused. Returns the
+/// light's number as the parser's messages name it (`light N`).
+fn envmap_placeholder(table: &mut toml::Table) -> PyResult<usize> {
     let lights = table
         .get_mut("light")
         .and_then(|l| l.as_array_mut())
@@ -111,8 +112,8 @@ fn envmap_placeholder(table: &mut toml::Table) -> PyResult<()> {
                 .collect::<Vec<_>>()
         })
         .unwrap_or_default();
-    let mut found = false;
-    for l in lights {
+    let mut found = None;
+    for (n, l) in lights.into_iter().enumerate() {
         if l.get("kind").and_then(|k| k.as_str()) != Some("envmap") {
             continue;
         }
@@ -125,14 +126,13 @@ fn envmap_placeholder(table: &mut toml::Table) -> PyResult<()> {
         }
         l.insert("kind".into(), toml::Value::String("constant".into()));
         l.insert("radiance".into(), toml::Value::Float(1.0));
-        found = true;
+        found = Some(n + 1);
     }
-    if !found {
-        return Err(PyValueError::new_err(
+    found.ok_or_else(|| {
+        PyValueError::new_err(
             "an envmap array needs a light of kind = \"envmap\" (without file) in settings",
-        ));
-    }
-    Ok(())
+        )
+    })
 }
 
 #[pymethods]
@@ -158,9 +158,10 @@ impl Scene {
             return Err(PyValueError::new_err("settings must be a dictionary"));
         };
         let envmap = envmap.map(envmap_array).transpose()?;
-        if envmap.is_some() {
-            envmap_placeholder(&mut table)?;
-        }
+        let placeholder = match envmap {
+            Some(_) => Some(envmap_placeholder(&mut table)?),
+            None => None,
+        };
         let arrays = match density {
             None => {
                 if albedo.is_some() {
@@ -218,7 +219,17 @@ impl Scene {
         };
         let text = toml::to_string(&table).map_err(|e| PyValueError::new_err(e.to_string()))?;
         let mut inner =
-            RenderScene::from_toml_str(&text, std::path::Path::new(".")).map_err(value_error)?;
+            RenderScene::from_toml_str(&text, std::path::Path::new(".")).map_err(|e| {
+                let mut msg = format!("{e:#}");
+                if let Some(n) = placeholder {
+                    // The parser saw the placeholder: name the light as the user wrote it.
+                    msg = msg.replace(
+                        &format!("light {n} (kind = \"constant\")"),
+                        &format!("light {n} (kind = \"envmap\")"),
+                    );
+                }
+                PyValueError::new_err(msg)
+            })?;
         inner.name = "python".into();
         if let Some(map) = envmap {
             let mut sky = inner
