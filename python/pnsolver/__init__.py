@@ -17,9 +17,11 @@ The library behind the `pn` command, with numpy arrays in and out:
         "solve": {"method": "pn", "order": 3, "resolution": [16, 16, 16]},
     }, density=d)
 
-`Scene(settings, density=None, albedo=None)` takes the TOML scene of `pn render` as a
-dictionary (keys as in the README); a density array has shape (nx, ny, nz) with x the first
-axis (C order, as `.npy` files) and covers medium.bbox_min..bbox_max. `render` returns a dict
+`Scene(settings, density=None, albedo=None, envmap=None)` takes the TOML scene of `pn render`
+as a dictionary (keys as in the README); a density array has shape (nx, ny, nz) with x the
+first axis (C order, as `.npy` files) and covers medium.bbox_min..bbox_max; an envmap array
+(height, width, 3) or (height, width), 2:1, row 0 = +Y as Mitsuba's envmap, is the map of the
+scene's `kind = "envmap"` light (which then has no `file`). `render` returns a dict
 with `image` (linear radiance; (height, width, 3) for a coloured scene), the solution and
 `report`; `solve` returns the solution only: `moments` (real-SH moments of the scattered
 radiance at the solve-cell centres, last axis l(l+1)+m), `fluence` (sqrt(4 pi) times moment 0),

@@ -11,8 +11,9 @@ The scene's participating medium must be one `heterogeneous` medium whose `sigma
 single-channel `gridvolume` (albedo a constant, grey or RGB, or a single-channel gridvolume of
 the same resolution; phase `isotropic`, `hg`, `tabphase` or a `blendphase` of them with a
 constant weight, see `phase_settings_of`), inside a `cube` shape with a `null` BSDF that
-contains the grid's box; the lights are `directional` and `point` emitters. Anything else is
-refused with a `ValueError` that says what is not supported.
+contains the grid's box; the lights are `directional` and `point` emitters and one sky, an
+`envmap` or a `constant` emitter; other shapes (a ground plane or disk) with a `diffuse`
+BSDF. Anything else is refused with a `ValueError` that says what is not supported.
 
 Before the first render of a scene the integrator hands the medium and the lights to
 pnsolver, which solves the multiple scattering (the moments L_l^m of the radiance scattered
@@ -27,7 +28,21 @@ pnsolver's Monte Carlo renderer does (pn-runtime render/renderer.rs):
   `eval_pdf`), plus the in-scattered multiple scattering read from a Dr.Jit 3D texture of
   the solution's SH coefficients (trilinear between solve-cell centres, clamped at the
   outermost centres, 0 outside the solve grid), with ω_o = −ray direction;
-- and the path stops: the solution carries every higher order.
+- and the path stops: the solution carries every higher order;
+- a ray without a collision shows the sky behind the medium (as Mitsuba's `envmap` or
+  `constant` emitter evaluates it; nothing with `hide_emitters`, as volpath), or the surface
+  it reaches: a diffuse surface's direct light by next-event estimation (shadowed by the
+  medium by ratio tracking), plus one cosine-sampled bounce whose first collision in the
+  medium adds the light scattered there (single + multiple, as above).
+
+Skies and surfaces (python/pnsolver/_mitsuba_sky.py): the sky is handed to pnsolver as the
+scene's sky (`constant`, or `envmap` with its map, scale and rotation); where surfaces hide
+part of it from the medium the solve's sky is, per direction, the sky where it is seen and
+the surface's radiance from its direct light where a surface is seen, averaged over nine
+points of the medium's box. A collision in the medium also adds the single scattering of the
+surfaces' direct light (a phase-sampled ray to a surface). Left out: light that reaches the
+medium after two surface reflections or after scattering, reflecting off a surface and
+entering the medium again (docs/python.md gives the numbers).
 
 Many views from one solve: the solution is kept per scene (`prepare(scene)` runs it
 explicitly; `solution(scene)` returns it), so rendering other sensors of the same scene does
@@ -37,7 +52,9 @@ Integrator properties: `method` ("pn", "cda", "fld"; default "pn"; "none": singl
 only), `order` (3),
 `resolution` (solve cells per axis: an integer or "nx,ny,nz"; default 32), `tolerance`
 (1e-4), `margin`, `absorber_width`, `absorbing_layer`, `sweeps` (the `[solve]` keys of a pn render
-scene; defaults as there: 2 transport sweeps after the solve), `threads` (default: all cores).
+scene; defaults as there: 2 transport sweeps after the solve), `threads` (default: all cores),
+`hide_emitters` (false: as volpath's), `surface_light` (true; false leaves the surfaces'
+light out of the medium: to measure what it does).
 """
 
 from __future__ import annotations
@@ -55,9 +72,10 @@ except ImportError as e:  # pragma: no cover - the message is the point
     ) from e
 
 from . import Scene, phase_moments, phase_value, solve
+from . import _mitsuba_sky as _sky
 
 __all__ = ["register", "integrator_class", "PnIntegrator", "Solution", "scene_settings",
-           "camera_settings", "phase_settings_of", "real_sh"]
+           "camera_settings", "phase_settings_of", "real_sh", "scene_inputs"]
 
 
 def register(name: str = "pn") -> None:
@@ -158,11 +176,6 @@ def _the_medium(scene):
             f"{len(media)}"
         )
     shape, medium = media[0]
-    if len(shapes) != 1:
-        raise ValueError(
-            f"the pn integrator renders a medium alone (no surfaces): the scene has "
-            f"{len(shapes)} shapes"
-        )
     if medium.class_name() != "HeterogeneousMedium":
         raise ValueError(
             f"the medium must be 'heterogeneous' (a gridvolume), got {medium.class_name()}"
@@ -428,8 +441,25 @@ def scene_settings(scene, solve_settings: dict | None = None, sensor=None):
     """The pnsolver scene of a Mitsuba scene: (settings dict, density array (x first),
     albedo array or None), as `pnsolver.Scene(settings, density, albedo)` takes them. The
     camera is `sensor`'s (a perspective sensor, see `camera_settings`), else a placeholder
-    (solves do not use it). Raises ValueError for what the integrator does not support."""
+    (solves do not use it). Raises ValueError for what the integrator does not support, and
+    for a scene whose sky is a map (an `envmap`, or a sky that surfaces partly hide): use
+    `scene_inputs` there."""
+    inputs = scene_inputs(scene, solve_settings, sensor)
+    if inputs["envmap"] is not None:
+        raise ValueError("the scene's sky is a map: use scene_inputs (Scene(**inputs))")
+    return inputs["settings"], inputs["density"], inputs["albedo"]
+
+
+def scene_inputs(scene, solve_settings: dict | None = None, sensor=None,
+                 surface_light: bool = True) -> dict:
+    """The pnsolver scene of a Mitsuba scene as the keyword arguments of `pnsolver.Scene`:
+    `settings`, `density` (x first), `albedo` (an array or None) and `envmap` (the sky's
+    map (H, W, 3), or None). Surfaces besides the medium's cube hide part of the sky from
+    the medium: the solve's sky is then shadowed (`_mitsuba_sky.shadowed_sky`). The camera is
+    `sensor`'s, else a placeholder (solves do not use it). With `surface_light` the surfaces
+    seen from the medium send their direct light (wide variants), else they are black."""
     shape, medium = _the_medium(scene)
+    surfaces, surface_scene = _sky.surfaces_of(scene, shape)
     cube_lo, cube_hi = _box_of_cube(shape)
     params = mi.traverse(medium)
     keys = set(params.keys())
@@ -476,8 +506,14 @@ def scene_settings(scene, solve_settings: dict | None = None, sensor=None):
     phase_settings = phase_settings_of(medium.phase_function())
 
     lights = []
+    sky, envmap = _sky.sky_of(scene)
+    if sky is not None and surfaces:
+        sky, envmap = _sky.shadowed_sky(scene, medium, sky, envmap, surface_scene, lo, hi,
+                                          surface_light)
     for e in scene.emitters():
         p = mi.traverse(e)
+        if e.class_name() in ("EnvironmentMapEmitter", "ConstantBackgroundEmitter"):
+            continue
         if e.class_name() == "DirectionalEmitter":
             m = np.array(p["to_world"].matrix, dtype=np.float64).reshape(4, 4)
             d = m[:3, 2]
@@ -491,10 +527,13 @@ def scene_settings(scene, solve_settings: dict | None = None, sensor=None):
                            "power": power})
         else:
             raise ValueError(
-                f"the pn integrator supports directional and point emitters, not {e.class_name()}"
+                f"the pn integrator supports directional, point, envmap and constant "
+                f"emitters, not {e.class_name()}"
             )
+    if sky is not None:
+        lights.append(sky)
     if not lights:
-        raise ValueError("the scene has no directional or point emitter")
+        raise ValueError("the scene has no directional, point, envmap or constant emitter")
 
     centre = (lo + hi) / 2
     extent = float(np.max(hi - lo))
@@ -512,16 +551,11 @@ def scene_settings(scene, solve_settings: dict | None = None, sensor=None):
         # have; docs/design.md §6).
         "solve": {"delta_m": False, **dict(solve_settings or {})},
     }
-    return settings, density, albedo_array
+    return {"settings": settings, "density": density, "albedo": albedo_array, "envmap": envmap}
 
 
 # --------------------------------------------------------------------------------------
 # The integrator
-
-
-def _not(b):
-    """Logical not of a mask: a Dr.Jit array (wide variants) or a Python bool (scalar)."""
-    return (not b) if isinstance(b, bool) else ~b
 
 
 class Solution:
@@ -529,8 +563,8 @@ class Solution:
     texture of the moments, the solve grid's box, the phase moments λ_l p_l and the pn
     reports."""
 
-    def __init__(self, settings, density, albedo, threads):
-        scene = Scene(settings, density=density, albedo=albedo)
+    def __init__(self, settings, density, albedo, threads, envmap=None):
+        scene = Scene(settings, density=density, albedo=albedo, envmap=envmap)
         channels = [scene.channel(c) for c in range(3)] if scene.coloured else [scene]
         self.reports = []
         self.textures = []
@@ -616,6 +650,8 @@ class PnIntegrator:
             solve_settings["absorber_width"] = float(props["absorber_width"])
         self.solve_settings = solve_settings
         self.threads = int(props["threads"]) if "threads" in props else None
+        self.hide_emitters = bool(props.get("hide_emitters", False))
+        self.surface_light = bool(props.get("surface_light", True))
         self._solutions = {}
 
     # Many views from one solve: the solution is kept per scene.
@@ -624,10 +660,12 @@ class PnIntegrator:
         solution) and returns it."""
         key = id(scene)
         if key not in self._solutions:
-            settings, density, albedo = scene_settings(scene, self.solve_settings)
-            _, medium = _the_medium(scene)
-            self._solutions[key] = (scene, medium, Solution(settings, density, albedo, self.threads))
-        return self._solutions[key][2]
+            inputs = scene_inputs(scene, self.solve_settings, surface_light=self.surface_light)
+            shape, medium = _the_medium(scene)
+            _, surfaces = _sky.surfaces_of(scene, shape)
+            self._solutions[key] = (scene, medium, surfaces,
+                                    Solution(**inputs, threads=self.threads))
+        return self._solutions[key][3]
 
     def solution(self, scene) -> Solution:
         """The kept solution of `scene` (solving it first if needed)."""
@@ -641,76 +679,28 @@ class PnIntegrator:
     def sample(self, scene, sampler, ray, medium=None, active=True):
         if id(scene) not in self._solutions:
             self.prepare(scene)
-        _, med, sol = self._solutions[id(scene)]
+        _, med, surfaces, sol = self._solutions[id(scene)]
         ray = mi.Ray3f(ray)
         active = mi.Bool(active)
-
-        # Delta tracking to the first real collision (density T σ_t along the ray).
-        def track_cond(ray, active, found, p, albedo, sampler):
-            return active
-
-        def track_body(ray, active, found, p, albedo, sampler):
-            mei = med.sample_interaction(ray, sampler.next_1d(active), 0, active)
-            valid = active & mei.is_valid()
-            # (The guards only keep scalar Python from dividing by zero where the value is
-            # not used: a valid interaction has a positive majorant, a real one σ_t > 0.)
-            majorant = dr.maximum(mei.combined_extinction[0], 1e-30)
-            p_real = dr.select(valid, mei.sigma_t[0] / majorant, 0.0)
-            real = valid & (sampler.next_1d(valid) < p_real)
-            found = found | real
-            p = dr.select(real, mei.p, p)
-            albedo = dr.select(real, mei.sigma_s / dr.maximum(mei.sigma_t, 1e-30), albedo)
-            active = valid & _not(real)
-            ray.o = dr.select(active, mei.p, ray.o)
-            return ray, active, found, p, albedo, sampler
-
-        found = mi.Bool(False)
-        p = mi.Point3f(0.0)
-        albedo = mi.Spectrum(0.0)
-        ray, _, found, p, albedo, sampler = dr.while_loop(
-            state=(ray, active, found, p, albedo, sampler),
-            cond=track_cond,
-            body=track_body,
-        )
-
-        # Single scattering: next-event estimation (one emitter, as volpath), ratio tracking.
-        wo = -ray.d
-        mei = dr.zeros(mi.MediumInteraction3f)
-        mei.p = p
-        mei.wi = wo
-        mei.sh_frame = mi.Frame3f(wo)
-        mei.t = 0.0
-        mei.time = ray.time
-        mei.wavelengths = ray.wavelengths
-        ds, em = scene.sample_emitter_direction(mei, sampler.next_2d(found), False, found)
-        shadow = mi.Ray3f(p, ds.d)
-        shadow.maxt = ds.dist
-        shadow.time = ray.time
-
-        def ratio_cond(shadow, active, tr, sampler):
-            return active
-
-        def ratio_body(shadow, active, tr, sampler):
-            m = med.sample_interaction(shadow, sampler.next_1d(active), 0, active)
-            valid = active & m.is_valid()
-            majorant = dr.maximum(m.combined_extinction[0], 1e-30)
-            tr = dr.select(valid, tr * m.sigma_n[0] / majorant, tr)
-            shadow.o = dr.select(valid, m.p, shadow.o)
-            shadow.maxt = dr.select(valid, shadow.maxt - m.t, shadow.maxt)
-            return shadow, valid, tr, sampler
-
-        go = found & (ds.pdf > 0)
-        shadow, _, tr, sampler = dr.while_loop(
-            state=(shadow, go, mi.Float(1.0), sampler), cond=ratio_cond, body=ratio_body
-        )
-        ctx = mi.PhaseFunctionContext(sampler)
-        phase_val, _ = med.phase_function().eval_pdf(ctx, mei, ds.d, go)
-        single = em * tr * phase_val
-
-        # Multiple scattering from the solution.
-        ms = sol.inscatter(p, wo)
-        multiple = mi.Spectrum(ms[0]) if len(ms) == 1 else mi.Spectrum(ms[0], ms[1], ms[2])
-        result = dr.select(found, albedo * (dr.select(go, single, 0.0) + multiple), 0.0)
+        hit = mi.Bool(False)
+        if surfaces is not None:
+            si = surfaces.ray_intersect(ray, active)
+            hit = active & si.is_valid()
+            ray.maxt = dr.select(hit, si.t, ray.maxt)
+        # Delta tracking to the first real collision (density T σ_t along the ray), where
+        # single scattering (next-event estimation) and the solution's multiple scattering
+        # are added, and the path stops.
+        found, p, albedo = _sky.track(med, ray, sampler, active)
+        at = _sky.at_collision(scene, med, surfaces, sol, sampler, p, -ray.d, ray.time,
+                               ray.wavelengths, found, self.surface_light)
+        result = dr.select(found, albedo * at, 0.0)
+        # No collision: the sky (unless hidden, as volpath's hide_emitters), or a surface.
+        if not self.hide_emitters:
+            result += _sky.sky_seen(scene, ray.d, active & _sky._not(found | hit))
+        on = hit & _sky._not(found)
+        if surfaces is not None and (on if isinstance(on, bool) else True):
+            result += dr.select(on, _sky.at_surface(scene, med, surfaces, sol, sampler, si,
+                                                    ray.time, on), 0.0)
         return result, mi.Bool(True), []
 
     def aov_names(self):

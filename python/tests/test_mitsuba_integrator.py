@@ -274,8 +274,9 @@ def test_one_solve_serves_many_views():
 
 
 @pytest.mark.parametrize("change, message", [
-    ({"extra": {"env": {"type": "constant"}}}, "directional and point emitters"),
-    ({"extra": {"wall": {"type": "rectangle"}}}, "no surfaces"),
+    ({"extra": {"spot": {"type": "spot"}}}, "directional, point, envmap and constant"),
+    ({"extra": {"wall": {"type": "rectangle", "bsdf": {"type": "roughconductor"}}}},
+     "'diffuse' BSDF"),
     ({"sigma_t": {"type": "constvolume", "value": 1.0}}, "sigma_t must be a gridvolume"),
     ({"sigma_t": "rgb-grid"}, "one channel"),
 ])

@@ -2,9 +2,10 @@
 //! latitude–longitude environment map (`envmap`), in Mitsuba 3's conventions, and how the
 //! renderer turns either into a deterministic set of directional lights.
 //!
-//! **Convention** (Mitsuba's `envmap`: its `eval` agreed with [`EnvMap::eval`] to 1e-6 at 200
-//! random directions on a random 8 × 4 map, Mitsuba 3.9.1, 2026-12-07; tests/mitsuba_sky.rs
-//! renders a one-patch map against Mitsuba): a map of W × H texels, row 0 at the top. A
+//! **Convention** (Mitsuba's `envmap`, checked direction by direction against Mitsuba
+//! 3.9.1's `eval`, python/tests/test_mitsuba_sky.py: 1.4e-5 relative with float32 texels, a
+//! scale and a rotation; tests/mitsuba_sky.rs renders a one-patch map against Mitsuba): a
+//! map of W × H texels, row 0 at the top. A
 //! direction v in the map's frame (the *looking* direction, from the medium towards the
 //! sky) has u = atan2(v_x, −v_z)/2π (mod 1) and v = acos(v_y)/π, i.e. v = (sin θ sin φ,
 //! cos θ, −sin θ cos φ). The radiance is bilinear in the texels: horizontally between

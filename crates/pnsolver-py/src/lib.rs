@@ -55,6 +55,86 @@ fn array3(name: &str, a: &Bound<'_, PyAny>) -> PyResult<([usize; 3], Vec<f64>)> 
     Ok((dims, data))
 }
 
+/// An environment map from a numpy array (height, width, 3) or (height, width), float64 or
+/// float32, row 0 = +Y (Mitsuba's orientation); shape and size checked before copying.
+fn envmap_array(a: &Bound<'_, PyAny>) -> PyResult<pn_render::sky::EnvMap> {
+    let bad = |m: String| PyValueError::new_err(format!("envmap: {m}"));
+    let shape: Vec<usize> = a
+        .getattr("shape")
+        .and_then(|s| s.extract())
+        .map_err(|_| bad(format!("must be a numpy array, got {}", a.get_type())))?;
+    let (h, w) = match shape.as_slice() {
+        [h, w] | [h, w, 3] => (*h, *w),
+        _ => {
+            return Err(bad(format!(
+                "must have shape (height, width, 3) or (height, width), got {shape:?}"
+            )))
+        }
+    };
+    if h * w > pn_render::sky::MAX_ENVMAP_TEXELS {
+        return Err(bad(format!(
+            "{w} × {h} texels would take {:.1} GB; the largest accepted is 4096 × 2048 \
+             (downsample it)",
+            (w * h * 12) as f64 / 1e9
+        )));
+    }
+    let values: Vec<f32> = if let Ok(x) = a.extract::<PyReadonlyArrayDyn<'_, f32>>() {
+        x.as_array().iter().copied().collect()
+    } else if let Ok(x) = a.extract::<PyReadonlyArrayDyn<'_, f64>>() {
+        x.as_array().iter().map(|v| *v as f32).collect()
+    } else {
+        let ty = a
+            .getattr("dtype")
+            .map(|d| d.to_string())
+            .unwrap_or_else(|_| a.get_type().to_string());
+        return Err(bad(format!(
+            "must be an array of float64 or float32, got {ty}"
+        )));
+    };
+    let texels: Vec<[f32; 3]> = if shape.len() == 2 {
+        values.iter().map(|v| [*v; 3]).collect()
+    } else {
+        values.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect()
+    };
+    pn_render::sky::EnvMap::new(w, h, texels).map_err(|e| bad(format!("{e:#}")))
+}
+
+/// The settings' `kind = "envmap"` light, made a placeholder `constant` light for the
+/// parser (its map comes from the array): `file` and `radiance` refused. Returns the
+/// light's number as the parser's messages name it (`light N`).
+fn envmap_placeholder(table: &mut toml::Table) -> PyResult<usize> {
+    let lights = table
+        .get_mut("light")
+        .and_then(|l| l.as_array_mut())
+        .map(|l| {
+            l.iter_mut()
+                .filter_map(|l| l.as_table_mut())
+                .collect::<Vec<_>>()
+        })
+        .unwrap_or_default();
+    let mut found = None;
+    for (n, l) in lights.into_iter().enumerate() {
+        if l.get("kind").and_then(|k| k.as_str()) != Some("envmap") {
+            continue;
+        }
+        for key in ["file", "radiance"] {
+            if l.contains_key(key) {
+                return Err(PyValueError::new_err(format!(
+                    "an envmap array replaces the envmap light's {key}: leave {key} out"
+                )));
+            }
+        }
+        l.insert("kind".into(), toml::Value::String("constant".into()));
+        l.insert("radiance".into(), toml::Value::Float(1.0));
+        found = Some(n + 1);
+    }
+    found.ok_or_else(|| {
+        PyValueError::new_err(
+            "an envmap array needs a light of kind = \"envmap\" (without file) in settings",
+        )
+    })
+}
+
 #[pymethods]
 impl Scene {
     /// `Scene(settings, density=None, albedo=None)`: `settings` is the TOML scene as a
@@ -62,16 +142,25 @@ impl Scene {
     /// "solve": {...}, "render": {...}}`, keys as in the README). With `density` (a numpy
     /// array of shape (nx, ny, nz), x first, covering `medium.bbox_min`..`bbox_max`, which are
     /// then required) the medium is that array; `albedo` (same shape) replaces
-    /// `medium.albedo`. Values may be numpy arrays and scalars (the phase's `values`, …).
+    /// `medium.albedo`. With `envmap` (a numpy array (height, width, 3) or (height, width),
+    /// 2:1, row 0 = +Y as Mitsuba's `envmap`) the map of the scene's `kind = "envmap"` light,
+    /// which then has no `file`. Values may be numpy arrays and scalars (the phase's
+    /// `values`, …).
     #[new]
-    #[pyo3(signature = (settings, density = None, albedo = None))]
+    #[pyo3(signature = (settings, density = None, albedo = None, envmap = None))]
     fn new(
         settings: &Bound<'_, PyDict>,
         density: Option<&Bound<'_, PyAny>>,
         albedo: Option<&Bound<'_, PyAny>>,
+        envmap: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
         let toml::Value::Table(mut table) = phase::to_toml(settings.as_any(), "settings")? else {
             return Err(PyValueError::new_err("settings must be a dictionary"));
+        };
+        let envmap = envmap.map(envmap_array).transpose()?;
+        let placeholder = match envmap {
+            Some(_) => Some(envmap_placeholder(&mut table)?),
+            None => None,
         };
         let arrays = match density {
             None => {
@@ -130,8 +219,28 @@ impl Scene {
         };
         let text = toml::to_string(&table).map_err(|e| PyValueError::new_err(e.to_string()))?;
         let mut inner =
-            RenderScene::from_toml_str(&text, std::path::Path::new(".")).map_err(value_error)?;
+            RenderScene::from_toml_str(&text, std::path::Path::new(".")).map_err(|e| {
+                let mut msg = format!("{e:#}");
+                if let Some(n) = placeholder {
+                    // The parser saw the placeholder: name the light as the user wrote it.
+                    msg = msg.replace(
+                        &format!("light {n} (kind = \"constant\")"),
+                        &format!("light {n} (kind = \"envmap\")"),
+                    );
+                }
+                PyValueError::new_err(msg)
+            })?;
         inner.name = "python".into();
+        if let Some(map) = envmap {
+            let mut sky = inner
+                .sky
+                .clone()
+                .ok_or_else(|| PyValueError::new_err("the scene has no sky for the envmap"))?;
+            sky.radiance = pn_render::sky::SkyRadiance::Map(std::sync::Arc::new(map));
+            inner
+                .set_sky(sky)
+                .map_err(|e| value_error(e.context("envmap")))?;
+        }
         if let Some((dims, data, albedo)) = arrays {
             inner
                 .set_density_arrays(dims, data, albedo)

@@ -152,3 +152,29 @@ fn bad_skies_are_refused_with_the_file_or_key() {
         assert!(e.contains(want), "expected {want:?} in: {e}");
     }
 }
+
+#[test]
+fn set_sky_checks_the_sky_and_colours_a_grey_scene_for_an_rgb_one() {
+    let dir = maps();
+    let sun = "[[light]]\nkind = \"directional\"\ndirection = [0.0, -1.0, 0.0]\nirradiance = 2.0";
+    let mut s = parse_in(&with_lights(sun), &dir).unwrap();
+    assert!(s.colours.is_none());
+    // A grey sky keeps the scene grey.
+    s.set_sky(crate::sky::Sky::constant([0.5; 3])).unwrap();
+    assert!(s.colours.is_none() && s.sky.is_some());
+    // An RGB sky colours it: the medium and the sun the same in every channel.
+    s.set_sky(crate::sky::Sky::constant([0.5, 0.25, 0.1]))
+        .unwrap();
+    let col = s.colours.as_ref().unwrap();
+    assert_eq!(col.sigma_t_scale, [2.0; 3]);
+    assert_eq!(col.albedo, None);
+    assert_eq!(col.light_strength, vec![[2.0; 3]]);
+    // A black sky, and a sky once cut into lights, are refused.
+    let e = s.set_sky(crate::sky::Sky::constant([0.0; 3])).unwrap_err();
+    assert!(format!("{e:#}").contains("the sky is black"), "{e:#}");
+    let mut cut = s.with_sky_lights();
+    let e = cut
+        .set_sky(crate::sky::Sky::constant([1.0; 3]))
+        .unwrap_err();
+    assert!(format!("{e:#}").contains("already cut"), "{e:#}");
+}

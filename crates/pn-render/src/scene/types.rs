@@ -432,6 +432,25 @@ impl RenderScene {
         s
     }
 
+    /// Replaces the scene's sky (the Python package's numpy map): checks it
+    /// ([`Sky::validate`]) and makes a grey scene coloured when the sky is RGB (its grey
+    /// values in every channel). Refused once the sky is cut into lights.
+    pub fn set_sky(&mut self, sky: Sky) -> anyhow::Result<()> {
+        if self.sky_lights.is_some() {
+            bail!("the sky is already cut into directional lights");
+        }
+        sky.validate()?;
+        if sky.is_rgb() && self.colours.is_none() {
+            self.colours = Some(Colours {
+                sigma_t_scale: [self.medium.sigma_t_scale; 3],
+                albedo: None,
+                light_strength: self.lights.iter().map(|l| [l.strength(); 3]).collect(),
+            });
+        }
+        self.sky = Some(sky);
+        Ok(())
+    }
+
     /// This scene with its sky cut into directional lights ([`crate::sky::Sky::lights`]),
     /// appended to its lights (per channel for a coloured scene), and [`Self::sky_lights`]
     /// set; a scene without a sky, or whose sky is already cut, as it is.
