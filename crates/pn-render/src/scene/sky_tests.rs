@@ -32,9 +32,10 @@ fn err_in(s: &str, dir: &Path) -> String {
     format!("{:#}", parse_in(s, dir).unwrap_err())
 }
 
-/// A folder with EXR maps: good (8 × 4), square, with a NaN, with a negative texel.
-fn maps() -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("pn-render-sky-{}", std::process::id()));
+/// A folder of its own (`tag`: the test, which run in parallel) with EXR maps: good (8 × 4),
+/// square, with a NaN, with a negative texel.
+fn maps(tag: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("pn-render-sky-{tag}-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let write = |name: &str, w: usize, h: usize, bad: Option<f32>| {
         let mut v: Vec<f32> = (0..w * h).map(|i| 0.5 + (i % 7) as f32 * 0.1).collect();
@@ -53,7 +54,7 @@ fn maps() -> PathBuf {
 
 #[test]
 fn sky_lights_are_read_with_their_keys() {
-    let dir = maps();
+    let dir = maps("sky_lights_are_read_with_their_keys");
     let s = parse_in(
         &with_lights(
             "[[light]]\nkind = \"constant\"\nradiance = [0.2, 0.4, 0.6]\ndirections = 16\n\
@@ -100,7 +101,7 @@ fn sky_lights_are_read_with_their_keys() {
 
 #[test]
 fn bad_skies_are_refused_with_the_file_or_key() {
-    let dir = maps();
+    let dir = maps("bad_skies_are_refused_with_the_file_or_key");
     let env = |extra: &str| with_lights(&format!("[[light]]\nkind = \"envmap\"\n{extra}"));
     let cases: Vec<(String, &str)> = vec![
         (env("file = \"square.exr\""), "twice as wide"),
@@ -155,7 +156,7 @@ fn bad_skies_are_refused_with_the_file_or_key() {
 
 #[test]
 fn set_sky_checks_the_sky_and_colours_a_grey_scene_for_an_rgb_one() {
-    let dir = maps();
+    let dir = maps("set_sky_checks_the_sky_and_colours_a_grey_scene_for_an_rgb_one");
     let sun = "[[light]]\nkind = \"directional\"\ndirection = [0.0, -1.0, 0.0]\nirradiance = 2.0";
     let mut s = parse_in(&with_lights(sun), &dir).unwrap();
     assert!(s.colours.is_none());
