@@ -265,7 +265,12 @@ impl<'a> Marcher<'a> {
             return self.light_ext.optical_depth(x, back, distance);
         }
         let s = self.near.min(distance);
-        let near = self.light_ext.optical_depth(x, back, s);
+        // (NEAR_VOXELS = 0 by default: no traversal of an empty segment per light and step.)
+        let near = if s > 0.0 {
+            self.light_ext.optical_depth(x, back, s)
+        } else {
+            0.0
+        };
         if s >= distance {
             return near;
         }
