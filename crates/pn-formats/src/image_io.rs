@@ -64,8 +64,15 @@ pub fn write_exr_rgb(
 /// Reads an image file's R, G and B channels: `(width, height, [r, g, b])`, each row-major
 /// from the top-left.
 pub fn read_exr_rgb(path: &Path) -> anyhow::Result<(usize, usize, [Vec<f32>; 3])> {
-    let img = image::ImageReader::open(path)
-        .with_context(|| format!("cannot open {}", path.display()))?
+    // A regular file only (a stream such as /dev/zero is refused at once); the decoder
+    // reads the header first and refuses an image larger than its memory limit (512 MiB).
+    let (file, _) = crate::input::open_regular(path)
+        .with_context(|| format!("cannot open {}", path.display()))?;
+    let mut reader = image::ImageReader::new(std::io::BufReader::new(file));
+    if let Ok(format) = image::ImageFormat::from_path(path) {
+        reader.set_format(format);
+    }
+    let img = reader
         .with_guessed_format()
         .with_context(|| format!("cannot read {}", path.display()))?
         .decode()
