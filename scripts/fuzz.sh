@@ -49,11 +49,14 @@ for t in "${targets[@]}"; do
     -artifact_prefix="$art/" -print_final_stats=1 >"$log" 2>&1
   rc=$?
   set -e
-  execs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$log" | grep -o '[0-9]*$' | tail -1)
+  # (No final statistics when the target died of a signal libFuzzer cannot catch, such as
+  # a stack overflow: then the log's last progress line counts.)
+  execs=$({ grep -o 'stat::number_of_executed_units: *[0-9]*' "$log" || grep -o '^#[0-9]*' "$log" || true; } | grep -o '[0-9]*$' | tail -1)
   units=$(ls "$work" | wc -l)
   if [ "$rc" -ne 0 ]; then
     found=1
     status="FOUND SOMETHING (exit $rc; see $log and $art)"
+    [ "$rc" -ge 128 ] && status="$status: killed by signal $((rc - 128)), no input saved (a stack overflow?)"
     tail -40 "$log"
   else
     status="no crash, timeout or out-of-memory"

@@ -411,3 +411,53 @@ fn export_mitsuba_writes_all_or_nothing() {
     );
     assert!(!file.join("sub").exists());
 }
+
+/// Found by the fuzzer: definitions substituted into each other multiplied the nesting (64
+/// `let`s of 95 signs each overflowed the stack), and nested derivatives made the
+/// discretization's terms double each time (`dx` 30 deep never finished). Both are refused
+/// with their position; just under the nesting limit still solves.
+#[test]
+fn definitions_and_derivatives_cannot_nest_without_bound() {
+    let d = work_dir("bounded-lets");
+    let chain = |wrap: &dyn Fn(&str) -> String, n: usize| {
+        let mut s = String::from("unknown u = L(0,0)\nlet a0 = 2\n");
+        for i in 1..n {
+            s += &format!("let a{i} = {}\n", wrap(&format!("a{}", i - 1)));
+        }
+        s + &format!(
+            "equation u: -lap(u) + sigma_a*u*a{}*a{} = Q(0,0)\n",
+            n - 1,
+            n - 1
+        )
+    };
+    let signs = |x: &str| format!("{}{x}", "-".repeat(95));
+    let calls = |x: &str| format!("{}{x}{}", "abs(".repeat(95), ")".repeat(95));
+    for (name, src) in [("signs", chain(&signs, 64)), ("calls", chain(&calls, 64))] {
+        let f = write(&d, &format!("{name}.pde"), &src);
+        refused(
+            &solve_pde("pointsource", &f, &d.join("out")),
+            &[&format!("{name}.pde:"), "nests more than 200 levels deep"],
+        );
+    }
+    let f = write(
+        &d,
+        "dx.pde",
+        &format!(
+            "unknown u = L(0,0)\nequation u: -lap(u) + sigma_a*u + 0.001*{}u{} = Q(0,0)\n",
+            "dx(".repeat(30),
+            ")".repeat(30)
+        ),
+    );
+    let t = Instant::now();
+    refused(
+        &solve_pde("pointsource", &f, &d.join("out")),
+        &[
+            "dx.pde:2:",
+            "derivatives nested 9 deep, more than the 8 supported",
+        ],
+    );
+    assert!(t.elapsed() < Duration::from_secs(10), "{:?}", t.elapsed());
+    // Two definitions of 95 levels each: 190 levels, under the limit, solve.
+    let f = write(&d, "near.pde", &chain(&calls, 3));
+    ok(&pn(&solve_pde("pointsource", &f, &d.join("near"))));
+}

@@ -4,7 +4,7 @@
 use cas::{Axis, Expr, FieldName, Surd};
 use num_rational::Rational64;
 
-use super::{Lowerer, Scope, Val, MAX_DEPTH, MAX_ITER, MAX_NODES};
+use super::{Lowerer, Scope, Val, MAX_DEPTH, MAX_DERIVATIVES, MAX_ITER, MAX_LEVELS, MAX_NODES};
 use crate::discretize::math;
 use crate::text::lex::Pos;
 use crate::text::parse::{Ast, BinOp};
@@ -85,6 +85,23 @@ impl Lowerer {
     }
 
     fn value(&self, e: &Ast, scope: &Scope, depth: usize) -> Result<Val, PdeTextError> {
+        let level = self.levels.get() + 1;
+        if level > MAX_LEVELS {
+            return Err(PdeTextError::at(
+                e.pos(),
+                format!(
+                    "with its definitions substituted, the expression nests more than \
+                     {MAX_LEVELS} levels deep"
+                ),
+            ));
+        }
+        self.levels.set(level);
+        let v = self.value_at_level(e, scope, depth);
+        self.levels.set(level - 1);
+        v
+    }
+
+    fn value_at_level(&self, e: &Ast, scope: &Scope, depth: usize) -> Result<Val, PdeTextError> {
         if depth > MAX_DEPTH {
             return Err(PdeTextError::at(
                 e.pos(),
@@ -247,10 +264,13 @@ impl Lowerer {
         }
         let deriv = |axis: Axis| -> Result<Val, PdeTextError> {
             arity(1)?;
-            Ok(Val::S(self.scalar(&args[0], scope, depth)?.deriv(axis)))
+            let u = self.scalar(&args[0], scope, depth)?;
+            check_derivatives(&u, pos)?;
+            Ok(Val::S(u.deriv(axis)))
         };
         let grad = |e: &Ast| -> Result<[Expr; 3], PdeTextError> {
             let u = self.scalar(e, scope, depth)?;
+            check_derivatives(&u, pos)?;
             Ok([Axis::X, Axis::Y, Axis::Z].map(|a| u.clone().deriv(a)))
         };
         let div = |v: [Expr; 3]| -> Expr {
@@ -357,6 +377,26 @@ impl Lowerer {
             }
         })
     }
+}
+
+/// Most derivatives nested along one path of `e`.
+fn derivative_depth(e: &Expr) -> usize {
+    let mut d = 0;
+    e.for_each_child(&mut |c| d = d.max(derivative_depth(c)));
+    d + usize::from(matches!(e, Expr::Deriv(..)))
+}
+
+/// Refuses to differentiate `e` once more when that nests more than [`MAX_DERIVATIVES`]
+/// derivatives.
+fn check_derivatives(e: &Expr, pos: Pos) -> Result<(), PdeTextError> {
+    let d = derivative_depth(e) + 1;
+    if d > MAX_DERIVATIVES {
+        return Err(PdeTextError::at(
+            pos,
+            format!("derivatives nested {d} deep, more than the {MAX_DERIVATIVES} supported"),
+        ));
+    }
+    Ok(())
 }
 
 /// A chain `a op b op c …` of one precedence level, gathered into one n-ary `cas` sum or

@@ -28,6 +28,13 @@ const MAX_ITER: i64 = 10_000;
 /// loops expanded): bounds the work of nested loops and of definitions that double at each
 /// level (`let b = a + a`, `let c = b + b`, …), which the per-level limits do not.
 const MAX_NODES: usize = 5_000_000;
+/// Deepest recursion of the lowering: expression nesting (at most the parser's 100 levels)
+/// times the definitions substituted into each other (each `let` may nest again). Beyond it
+/// the lowering, and the `cas` passes after it, would overflow the stack.
+const MAX_LEVELS: usize = 200;
+/// Most derivatives nested along one path of an expression (`lap(lap(u))` is 4): the
+/// discretization's terms double with each, so `dx` nested 30 times would never finish.
+const MAX_DERIVATIVES: usize = 8;
 /// Largest number of statements run, loops expanded (nested loops multiply their ranges).
 const MAX_STATEMENTS: usize = 1_000_000;
 
@@ -108,6 +115,8 @@ struct Lowerer {
     labels: HashMap<String, (i64, i64)>,
     /// Expression nodes lowered so far (see [`MAX_NODES`]).
     nodes: std::cell::Cell<usize>,
+    /// The current recursion depth of the lowering (see [`MAX_LEVELS`]).
+    levels: std::cell::Cell<usize>,
     /// Statements run so far (see [`MAX_STATEMENTS`]).
     statements: usize,
 }
