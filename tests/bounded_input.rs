@@ -461,3 +461,25 @@ fn definitions_and_derivatives_cannot_nest_without_bound() {
     let f = write(&d, "near.pde", &chain(&calls, 3));
     ok(&pn(&solve_pde("pointsource", &f, &d.join("near"))));
 }
+
+/// Found by the fuzzer: a 410-byte EXR whose data window is 2¹⁸ times wider than its display
+/// window took 3.4 GB and 16 s to decode; its header is checked first now.
+#[test]
+fn an_exr_data_window_is_checked_before_decoding() {
+    let exr =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("fuzz/regressions/exr/huge-data-window.exr");
+    let d = work_dir("bounded-exr");
+    let t = Instant::now();
+    refused(
+        &[
+            "compare",
+            exr.to_str().unwrap(),
+            exr.to_str().unwrap(),
+            "--out",
+            d.join("out").to_str().unwrap(),
+        ],
+        &["an EXR data window of -218103807×2 pixels"],
+    );
+    assert!(t.elapsed() < Duration::from_secs(3), "{:?}", t.elapsed());
+    assert!(!d.join("out").exists());
+}

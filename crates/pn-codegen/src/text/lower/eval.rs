@@ -265,12 +265,10 @@ impl Lowerer {
         let deriv = |axis: Axis| -> Result<Val, PdeTextError> {
             arity(1)?;
             let u = self.scalar(&args[0], scope, depth)?;
-            check_derivatives(&u, pos)?;
-            Ok(Val::S(u.deriv(axis)))
+            Ok(Val::S(check_derivatives(u, pos)?.deriv(axis)))
         };
         let grad = |e: &Ast| -> Result<[Expr; 3], PdeTextError> {
-            let u = self.scalar(e, scope, depth)?;
-            check_derivatives(&u, pos)?;
+            let u = check_derivatives(self.scalar(e, scope, depth)?, pos)?;
             Ok([Axis::X, Axis::Y, Axis::Z].map(|a| u.clone().deriv(a)))
         };
         let div = |v: [Expr; 3]| -> Expr {
@@ -386,17 +384,17 @@ fn derivative_depth(e: &Expr) -> usize {
     d + usize::from(matches!(e, Expr::Deriv(..)))
 }
 
-/// Refuses to differentiate `e` once more when that nests more than [`MAX_DERIVATIVES`]
-/// derivatives.
-fn check_derivatives(e: &Expr, pos: Pos) -> Result<(), PdeTextError> {
-    let d = derivative_depth(e) + 1;
+/// `e`, to be differentiated once more; refused when that nests more than
+/// [`MAX_DERIVATIVES`] derivatives.
+fn check_derivatives(e: Expr, pos: Pos) -> Result<Expr, PdeTextError> {
+    let d = derivative_depth(&e) + 1;
     if d > MAX_DERIVATIVES {
         return Err(PdeTextError::at(
             pos,
             format!("derivatives nested {d} deep, more than the {MAX_DERIVATIVES} supported"),
         ));
     }
-    Ok(())
+    Ok(e)
 }
 
 /// A chain `a op b op c …` of one precedence level, gathered into one n-ary `cas` sum or
