@@ -51,7 +51,7 @@ pub struct FigureArgs {
     #[arg(long)]
     pub python: Option<PathBuf>,
     /// Worker threads (default: all cores).
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(long, allow_negative_numbers = true, value_parser = super::parse_threads)]
     pub threads: Option<usize>,
     /// Override a key of the scene's TOML before it is checked, as `pn render --set`
     /// (repeatable): `--set solve.margin=8`.

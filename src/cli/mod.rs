@@ -42,3 +42,13 @@ impl Env {
             .or_else(|| self.mitsuba_python.clone())
     }
 }
+
+/// `--threads N`: a whole number from 1 to what the machine can use
+/// ([`pn_runtime::max_threads`]), checked before anything is read or started.
+pub fn parse_threads(s: &str) -> Result<usize, String> {
+    let n: usize = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("--threads must be a whole number of at least 1, not {s:?}"))?;
+    pn_runtime::check_threads(n).map_err(|e| e.to_string())
+}

@@ -77,7 +77,7 @@ pub struct RaceArgs {
     #[arg(long)]
     pub quick: bool,
     /// Worker threads of the pn renders (default: all cores).
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(long, allow_negative_numbers = true, value_parser = super::parse_threads)]
     pub threads: Option<usize>,
     /// Time every Mitsuba and pn point K times and keep the run with the median wall time
     /// (the images are the same each time): steadier numbers on a shared machine.

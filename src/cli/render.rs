@@ -81,7 +81,7 @@ pub struct RenderArgs {
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Worker threads (default: all cores).
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(long, allow_negative_numbers = true, value_parser = super::parse_threads)]
     pub threads: Option<usize>,
     /// Print the unknowns with and without cropping and at the density resolution.
     #[arg(long)]

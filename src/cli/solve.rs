@@ -104,7 +104,7 @@ pub struct SolveFlags {
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Worker threads (default: all cores).
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(long, allow_negative_numbers = true, value_parser = super::parse_threads)]
     pub threads: Option<usize>,
     /// Use the collocated stencil (all moments at cell centres; oscillates).
     #[arg(long)]

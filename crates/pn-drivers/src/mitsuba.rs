@@ -32,22 +32,19 @@ pub struct Exported {
 /// `dir/render_mitsuba.py` for `scene` ([`pn_render::mitsuba::export_files`]); creates `dir`.
 pub fn export(scene: &RenderScene, dir: &Path, opts: &ExportOptions) -> anyhow::Result<Exported> {
     let files = export_files(scene, opts)?;
-    pn_formats::files::create_dir_all(dir)?;
     let density = dir.join(DENSITY_FILE);
-    pn_formats::files::write(&density, &files.density)?;
-    let albedo = match &files.albedo {
-        None => None,
-        Some(bytes) => {
-            let path = dir.join(ALBEDO_FILE);
-            pn_formats::files::write(&path, bytes)?;
-            Some(path)
-        }
-    };
-    if let Some(bytes) = &files.sky {
-        pn_formats::files::write(&dir.join(SKY_FILE), bytes)?;
-    }
+    let albedo = files.albedo.as_ref().map(|_| dir.join(ALBEDO_FILE));
     let script = dir.join(SCRIPT_FILE);
-    pn_formats::files::write(&script, &files.script)?;
+    // All or none: a script that cannot be written leaves no density.vol behind.
+    let mut out: Vec<(&str, &[u8])> = vec![(DENSITY_FILE, &files.density)];
+    if let Some(bytes) = &files.albedo {
+        out.push((ALBEDO_FILE, bytes));
+    }
+    if let Some(bytes) = &files.sky {
+        out.push((SKY_FILE, bytes));
+    }
+    out.push((SCRIPT_FILE, files.script.as_bytes()));
+    pn_formats::files::write_all_or_none(dir, &out)?;
     Ok(Exported {
         dir: dir.to_path_buf(),
         script,

@@ -14,6 +14,51 @@ pub fn write(path: &Path, contents: impl AsRef<[u8]>) -> anyhow::Result<()> {
     std::fs::write(path, contents).with_context(|| format!("cannot write {}", path.display()))
 }
 
+/// Writes the files `(name, contents)` into `dir` all or none: each first to a temporary
+/// name beside its place, then renamed once every one is written. On an error nothing is
+/// left behind: the temporary files go, and so does `dir` (with the parents this call
+/// created) where it did not exist before.
+pub fn write_all_or_none(dir: &Path, files: &[(&str, &[u8])]) -> anyhow::Result<()> {
+    let missing: Vec<&Path> = dir
+        .ancestors()
+        .take_while(|a| !a.as_os_str().is_empty() && !a.exists())
+        .collect();
+    let mut temps: Vec<std::path::PathBuf> = Vec::new();
+    let result = (|| -> anyhow::Result<()> {
+        create_dir_all(dir)?;
+        for (name, _) in files {
+            let path = dir.join(name);
+            anyhow::ensure!(
+                !path.is_dir(),
+                "cannot write {}: a folder of that name is in the way",
+                path.display()
+            );
+        }
+        for (name, bytes) in files {
+            let temp = dir.join(format!(".{name}.partial-{}", std::process::id()));
+            temps.push(temp.clone());
+            std::fs::write(&temp, bytes)
+                .with_context(|| format!("cannot write {}", dir.join(name).display()))?;
+        }
+        for ((name, _), temp) in files.iter().zip(&temps) {
+            let path = dir.join(name);
+            std::fs::rename(temp, &path)
+                .with_context(|| format!("cannot write {}", path.display()))?;
+        }
+        Ok(())
+    })();
+    if result.is_err() {
+        for t in &temps {
+            let _ = std::fs::remove_file(t);
+        }
+        // Only folders this call made, and only while empty.
+        for d in &missing {
+            let _ = std::fs::remove_dir(d);
+        }
+    }
+    result
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -27,6 +72,25 @@ mod tests {
         assert_eq!(std::fs::read(sub.join("x.txt")).unwrap(), b"hello\n");
         let e = write(&dir.join("missing/x.txt"), [1u8, 2]).unwrap_err();
         assert!(format!("{e:#}").contains("cannot write"));
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn all_or_none_leaves_nothing_on_refusal() {
+        let dir = std::env::temp_dir().join(format!("pn-files-aon-{}", std::process::id()));
+        let out = dir.join("new/export");
+        write_all_or_none(&out, &[("a.bin", b"1"), ("b.txt", b"2")]).unwrap();
+        assert_eq!(std::fs::read(out.join("b.txt")).unwrap(), b"2");
+        // A folder where the second file goes: the first is not written either.
+        let out2 = dir.join("fresh/export");
+        std::fs::create_dir_all(out2.join("b.txt")).unwrap();
+        let e = write_all_or_none(&out2, &[("a.bin", b"1"), ("b.txt", b"2")]).unwrap_err();
+        assert!(format!("{e:#}").contains("b.txt"), "{e:#}");
+        let left: Vec<_> = std::fs::read_dir(&out2).unwrap().collect();
+        assert_eq!(left.len(), 1, "{left:?}");
+        // A parent that is a file: no folder made.
+        std::fs::write(dir.join("file"), b"x").unwrap();
+        assert!(write_all_or_none(&dir.join("file/sub"), &[("a.bin", b"1")]).is_err());
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }

@@ -17,6 +17,8 @@
 //! * The files of a solve: [`write_outputs`] (the [`OUTPUT_FILES`], written atomically;
 //!   [`cell_shape`]) and its report types ([`Report`], [`RunInfo`], [`SolveReport`],
 //!   [`ErrorEstimate`], [`VacuumMeasurements`], [`FldSection`]).
+//! * [`read_text`]: a text input (scene, PDE), bounded ([`MAX_TEXT_BYTES`], regular files
+//!   only).
 //! * [`files`]: plain writes of bytes and folders (the Mitsuba export's files).
 //! * [`write_atomic`]: every JSON report, written atomically (a file appears only when
 //!   complete).
@@ -27,6 +29,7 @@
 
 pub mod files;
 mod image_io;
+mod input;
 mod json;
 mod npy;
 mod output;
@@ -40,6 +43,7 @@ pub use image_io::{
     channel_mean, encode_exr_rgb, exposure, image_dimensions, read_exr_gray, read_exr_rgb, srgb8,
     write_exr_gray, write_exr_rgb, write_png_tonemapped, write_png_tonemapped_rgb,
 };
+pub use input::{read_text, MAX_TEXT_BYTES};
 pub use json::write_atomic;
 pub use npy::{decode_npy, encode_npy, read_npy, write_npy, NpyArray};
 pub use output::report::{

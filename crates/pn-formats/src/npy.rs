@@ -52,14 +52,28 @@ pub fn encode_npy(shape: &[usize], data: &[f64]) -> anyhow::Result<Vec<u8>> {
     Ok(out)
 }
 
-/// Reads a `.npy` file of little-endian float64 or float32 in C order.
+/// The longest header read (NumPy writes a few hundred bytes at most).
+const MAX_HEADER: usize = 1 << 20;
+
+/// Reads a `.npy` file of little-endian float64 or float32 in C order: the header first,
+/// its shape checked against the file's length, then the data.
 pub fn read_npy(path: &Path) -> anyhow::Result<NpyArray> {
-    let bytes = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
-    decode_npy(&bytes).with_context(|| format!("invalid .npy file {}", path.display()))
+    let (mut file, len) = crate::input::open_regular(path)?;
+    let invalid = || format!("invalid .npy file {}", path.display());
+    let mut head = crate::input::read_up_to(&mut file, 12).with_context(invalid)?;
+    let (start, hlen) = header_span(&head).with_context(invalid)?;
+    let more =
+        crate::input::read_up_to(&mut file, (start + hlen).saturating_sub(head.len()) as u64)
+            .with_context(invalid)?;
+    head.extend(more);
+    let h = header(&head).with_context(invalid)?;
+    h.check_len(len).with_context(invalid)?;
+    let bytes = crate::input::read_rest(&mut file, head, len).with_context(invalid)?;
+    decode_npy(&bytes).with_context(invalid)
 }
 
-/// Decodes a `.npy` file held in memory.
-pub fn decode_npy(bytes: &[u8]) -> anyhow::Result<NpyArray> {
+/// Where the header dict starts and its length, from the first 10 or 12 bytes.
+fn header_span(bytes: &[u8]) -> anyhow::Result<(usize, usize)> {
     ensure!(
         bytes.len() >= 10 && &bytes[..6] == b"\x93NUMPY",
         "missing the \\x93NUMPY magic"
@@ -76,6 +90,41 @@ pub fn decode_npy(bytes: &[u8]) -> anyhow::Result<NpyArray> {
         }
         v => bail!("unsupported .npy version {v}"),
     };
+    ensure!(
+        hlen <= MAX_HEADER,
+        "the header declares {hlen} bytes, more than the {MAX_HEADER} this reader accepts"
+    );
+    Ok((start, hlen))
+}
+
+/// What a `.npy` header says.
+struct Header {
+    /// Where the data starts.
+    data: usize,
+    shape: Vec<usize>,
+    /// Bytes per value (8 or 4).
+    width: usize,
+    /// Values (the shape's product).
+    n: usize,
+}
+
+impl Header {
+    /// The file's length must be the header's and the data's.
+    fn check_len(&self, len: u64) -> anyhow::Result<()> {
+        ensure!(
+            len.checked_sub(self.data as u64) == Some((self.n * self.width) as u64),
+            "shape {:?} needs {} bytes of data, the file has {}",
+            self.shape,
+            self.n * self.width,
+            len.saturating_sub(self.data as u64)
+        );
+        Ok(())
+    }
+}
+
+/// Parses the header (`bytes` holds at least all of it).
+fn header(bytes: &[u8]) -> anyhow::Result<Header> {
+    let (start, hlen) = header_span(bytes)?;
     ensure!(bytes.len() >= start + hlen, "truncated header");
     let header = std::str::from_utf8(&bytes[start..start + hlen]).context("header is not text")?;
     let descr = dict_value(header, "descr").context("header has no 'descr'")?;
@@ -112,13 +161,22 @@ pub fn decode_npy(bytes: &[u8]) -> anyhow::Result<NpyArray> {
         .try_fold(1usize, |acc, &d| acc.checked_mul(d))
         .filter(|n| n.checked_mul(width).is_some())
         .with_context(|| format!("shape {shape:?} is too large"))?;
-    let payload = &bytes[start + hlen..];
-    ensure!(
-        payload.len() == n * width,
-        "shape {shape:?} needs {} bytes of data, the file has {}",
-        n * width,
-        payload.len()
-    );
+    Ok(Header {
+        data: start + hlen,
+        shape,
+        width,
+        n,
+    })
+}
+
+/// Decodes a `.npy` file held in memory.
+pub fn decode_npy(bytes: &[u8]) -> anyhow::Result<NpyArray> {
+    let h = header(bytes)?;
+    h.check_len(bytes.len() as u64)?;
+    let Header {
+        data, shape, width, ..
+    } = h;
+    let payload = &bytes[data..];
     let data = if width == 8 {
         payload
             .chunks_exact(8)

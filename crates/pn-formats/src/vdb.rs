@@ -124,6 +124,11 @@ pub fn read_vdb(path: &Path, name: Option<&str>) -> anyhow::Result<VdbGrid> {
 
 fn read_vdb_inner(path: &Path, name: Option<&str>) -> anyhow::Result<VdbGrid> {
     let file = std::fs::File::open(path).context("cannot open the file")?;
+    // A stream (`/dev/zero`), device or folder is refused before the reader sees it.
+    anyhow::ensure!(
+        file.metadata().context("cannot open the file")?.is_file(),
+        "not a regular file (a folder, device or stream)"
+    );
     let grid = catch_reader_panic(move || -> anyhow::Result<VdbGrid> {
         let mut reader = vdb_rs::VdbReader::new(BufReader::new(file))
             .map_err(|e| anyhow::anyhow!("not a readable VDB file ({})", describe(&e)))?;

@@ -7,14 +7,43 @@ use std::path::Path;
 
 const HEADER: usize = 3 + 1 + 4 + 12 + 4 + 24;
 
-/// Reads a single-channel `.vol` file into a [`VoxelGrid`] (reordered to x slowest).
+/// Reads a single-channel `.vol` file into a [`VoxelGrid`] (reordered to x slowest): the
+/// header first, its declared size checked against the file's length, then the data.
 pub fn read_vol(path: &Path) -> anyhow::Result<VoxelGrid> {
-    let bytes = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
-    decode_vol(&bytes).with_context(|| format!("invalid .vol file {}", path.display()))
+    let (mut file, len) = crate::input::open_regular(path)?;
+    let invalid = || format!("invalid .vol file {}", path.display());
+    let head = crate::input::read_up_to(&mut file, HEADER as u64).with_context(invalid)?;
+    let h = header(&head).with_context(invalid)?;
+    h.check_len(len).with_context(invalid)?;
+    let bytes = crate::input::read_rest(&mut file, head, len).with_context(invalid)?;
+    decode_vol(&bytes).with_context(invalid)
 }
 
-/// Decodes a `.vol` file held in memory.
-pub fn decode_vol(bytes: &[u8]) -> anyhow::Result<VoxelGrid> {
+/// What a `.vol` header says.
+struct Header {
+    dims: [usize; 3],
+    min: [f64; 3],
+    max: [f64; 3],
+    /// Values (`dims`' product).
+    n: usize,
+}
+
+impl Header {
+    /// The file's length must be the header's and the data's.
+    fn check_len(&self, len: u64) -> anyhow::Result<()> {
+        let [nx, ny, nz] = self.dims;
+        let data = len.saturating_sub(HEADER as u64);
+        ensure!(
+            len == (HEADER + 4 * self.n) as u64,
+            "header says {nx}×{ny}×{nz} float32 values ({} bytes of data) but the file has {data} bytes of data",
+            4 * self.n,
+        );
+        Ok(())
+    }
+}
+
+/// Parses the 48-byte header (`bytes` may go on with the data).
+fn header(bytes: &[u8]) -> anyhow::Result<Header> {
     ensure!(
         bytes.len() >= HEADER,
         "file is {} bytes, shorter than the 48-byte header",
@@ -43,20 +72,36 @@ pub fn decode_vol(bytes: &[u8]) -> anyhow::Result<VoxelGrid> {
         "{ch} channels; only single-channel grids are supported"
     );
     let (nx, ny, nz) = (nx as usize, ny as usize, nz as usize);
-    let min = [f32_at(24), f32_at(28), f32_at(32)];
-    let max = [f32_at(36), f32_at(40), f32_at(44)];
     // Checked: the header's dimensions are untrusted (up to 2³¹ each).
     let n = nx
         .checked_mul(ny)
         .and_then(|v| v.checked_mul(nz))
-        .filter(|n| n.checked_mul(4).is_some())
+        .filter(|n| {
+            n.checked_mul(4)
+                .and_then(|b| b.checked_add(HEADER))
+                .is_some()
+        })
         .with_context(|| format!("resolution {nx}×{ny}×{nz} is too large"))?;
-    ensure!(
-        bytes.len() == HEADER + 4 * n,
-        "header says {nx}×{ny}×{nz} float32 values ({} bytes of data) but the file has {} bytes of data",
-        4 * n,
-        bytes.len() - HEADER
-    );
+    Ok(Header {
+        dims: [nx, ny, nz],
+        min: [f32_at(24), f32_at(28), f32_at(32)],
+        max: [f32_at(36), f32_at(40), f32_at(44)],
+        n,
+    })
+}
+
+/// Decodes a `.vol` file held in memory.
+pub fn decode_vol(bytes: &[u8]) -> anyhow::Result<VoxelGrid> {
+    let h = header(bytes)?;
+    h.check_len(bytes.len() as u64)?;
+    let Header {
+        dims: [nx, ny, nz],
+        min,
+        max,
+        n,
+    } = h;
+    let f32_at =
+        |o: usize| f32::from_le_bytes([bytes[o], bytes[o + 1], bytes[o + 2], bytes[o + 3]]) as f64;
     let mut data = vec![0.0; n];
     for z in 0..nz {
         for y in 0..ny {

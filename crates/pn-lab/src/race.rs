@@ -86,12 +86,21 @@ pub fn run(req: &RaceRequest, stdout: &mut dyn Write) -> Result<()> {
         // Before anything renders: a bad --set or a repeated flag fails now, not hours later.
         study.check(&req.scenes, &req.render_args)?;
     }
-    std::fs::create_dir_all(&req.out)
-        .with_context(|| format!("cannot create {}", req.out.display()))?;
+    check_inputs(req, &plan)?;
+    let created = create_out(&req.out)?;
     let scratch = req.temp_dir.join(format!("pn-race-{}", std::process::id()));
     let mitsuba = Mitsuba::find(req.python.as_deref(), &scratch);
     let _ = std::fs::remove_dir_all(&scratch);
-    let mitsuba = mitsuba?;
+    let mitsuba = match mitsuba {
+        Ok(m) => m,
+        Err(e) => {
+            // A refusal leaves no output folder behind (only the empty ones made here go).
+            for d in created.iter().rev() {
+                let _ = std::fs::remove_dir(d);
+            }
+            return Err(e);
+        }
+    };
     writeln!(
         stdout,
         "pn race: Mitsuba {} ({}), reference {} spp, Mitsuba spp {:?}, {} pn points, \
@@ -139,4 +148,39 @@ pub fn run(req: &RaceRequest, stdout: &mut dyn Write) -> Result<()> {
         md.display()
     )?;
     Ok(())
+}
+
+/// Everything the race reads, checked before Mitsuba is looked for (with Mitsuba, the
+/// references come first and take minutes): every scene loads, and every text-PDE point's
+/// file parses with its parameters and discretizes.
+fn check_inputs(req: &RaceRequest, plan: &Plan) -> Result<()> {
+    for s in &req.scenes {
+        pn_render::RenderScene::load(s).with_context(|| format!("race on {s}"))?;
+    }
+    for p in plan.pn_points.iter().chain(req.turntable_point.as_ref()) {
+        if let Some(pde) = &p.pde {
+            pn_render::pde_kernel::PdeKernel::load(&pde.path, &pde.params)
+                .with_context(|| format!("pn point {:?}", p.label()))?;
+        }
+    }
+    Ok(())
+}
+
+/// Creates the output folder; returns the folders it made, outermost first, so that a
+/// refusal can take them away again.
+fn create_out(out: &std::path::Path) -> Result<Vec<PathBuf>> {
+    let mut missing: Vec<PathBuf> = out
+        .ancestors()
+        .take_while(|a| !a.as_os_str().is_empty() && !a.exists())
+        .map(std::path::Path::to_path_buf)
+        .collect();
+    missing.reverse();
+    if let Err(e) = std::fs::create_dir_all(out) {
+        for d in missing.iter().rev() {
+            let _ = std::fs::remove_dir(d);
+        }
+        return Err(e).with_context(|| format!("cannot create {}", out.display()));
+    }
+    ensure!(out.is_dir(), "--out {} is not a folder", out.display());
+    Ok(missing)
 }

@@ -9,7 +9,7 @@ use std::path::Path;
 /// Reads and parses the PDE file `path` with the `NAME=VALUE` overrides `params`. Errors
 /// read `FILE:LINE:COLUMN: reason`.
 pub fn load(path: &Path, params: &[(String, String)]) -> anyhow::Result<TextPde> {
-    let src = std::fs::read_to_string(path)
+    let src = pn_formats::read_text(path)
         .with_context(|| format!("reading the PDE file {}", path.display()))?;
     parse_pde(&src, params).map_err(|e| {
         if e.line == 0 {

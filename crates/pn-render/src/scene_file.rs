@@ -94,7 +94,7 @@ struct SceneSpec {
 
 /// Reads and checks a scene file.
 pub fn load_scene(path: &Path) -> anyhow::Result<Scene> {
-    let text = std::fs::read_to_string(path)
+    let text = pn_formats::read_text(path)
         .with_context(|| format!("cannot read scene file {}", path.display()))?;
     let spec: SceneSpec = toml::from_str(&text).map_err(|e| {
         let (line, col) = e.span().map(|s| line_col(&text, s.start)).unwrap_or((0, 0));

@@ -87,5 +87,5 @@ pub use memory::peak_memory_bytes;
 pub use pipeline::{solve_problem, Solution};
 pub use problem::Problem;
 pub use robin::RobinFaces;
-pub use threads::{effective_threads, with_threads};
+pub use threads::{check_threads, effective_threads, max_threads, with_threads};
 pub use unstagger::{unstagger, CellMoments};

@@ -14,8 +14,8 @@ pub fn with_threads<R: Send>(
     match threads {
         None if rayon::current_thread_index().is_some() => Ok(f()),
         None => Ok(rayon::scope(|_| f())),
-        Some(0) => anyhow::bail!("--threads must be at least 1"),
         Some(n) => {
+            check_threads(n)?;
             let pool = rayon::ThreadPoolBuilder::new()
                 .num_threads(n)
                 .build()
@@ -23,6 +23,36 @@ pub fn with_threads<R: Send>(
             Ok(pool.install(f))
         }
     }
+}
+
+/// Worker threads allowed per core (oversubscription helps no solve; the bound keeps a
+/// typo such as `--threads 1000000` from spending minutes starting threads).
+pub const THREADS_PER_CORE: usize = 16;
+
+/// The cores (hardware threads) this process may use; 1 where unknown.
+fn cores() -> usize {
+    std::thread::available_parallelism().map_or(1, usize::from)
+}
+
+/// The largest `--threads` accepted: [`THREADS_PER_CORE`] per core.
+pub fn max_threads() -> usize {
+    THREADS_PER_CORE * cores()
+}
+
+/// Checks a `--threads` value against the machine: at least 1, at most [`max_threads`].
+pub fn check_threads(n: usize) -> anyhow::Result<usize> {
+    if n == 0 {
+        anyhow::bail!("--threads must be at least 1");
+    }
+    if n > max_threads() {
+        anyhow::bail!(
+            "--threads {n} is more than this machine can use: at most {} ({THREADS_PER_CORE} \
+             per core of its {})",
+            max_threads(),
+            cores()
+        );
+    }
+    Ok(n)
 }
 
 /// Number of worker threads `with_threads(threads, ..)` uses.

@@ -32,6 +32,10 @@ pub enum Ast {
     Neg(Box<Ast>, Pos),
     /// `a op b`.
     Bin(BinOp, Box<Ast>, Box<Ast>, Pos),
+    /// A flat chain `a op b op c …` of one precedence level (`+ -` or `* /`), evaluated
+    /// left to right: the first operand, then each operator with its operand and position.
+    /// Kept as a list so that a sum of 100,000 terms is no tree 100,000 levels deep.
+    Chain(Box<Ast>, Vec<(BinOp, Ast, Pos)>),
     /// `sum(k = lo..hi, body)`.
     Sum {
         /// The index.
@@ -48,11 +52,13 @@ pub enum Ast {
 }
 
 impl Ast {
-    /// Where the expression starts (for operators: the operator).
+    /// Where the expression starts (for operators: the operator; for a chain: its last).
     pub fn pos(&self) -> Pos {
         match self {
             Ast::Num(_, p) | Ast::Ident(_, p) | Ast::Call(_, _, p) | Ast::Neg(_, p) => *p,
             Ast::Bin(_, _, _, p) => *p,
+            // The last operator, as for the left-nested tree the chain stands for.
+            Ast::Chain(first, rest) => rest.last().map_or_else(|| first.pos(), |(_, _, p)| *p),
             Ast::Sum { pos, .. } => *pos,
         }
     }
@@ -114,9 +120,18 @@ pub enum Stmt {
     For(Vec<(String, Ast, Ast)>, Box<Stmt>, Pos),
 }
 
+/// The deepest nesting the parser accepts: parentheses, function calls, unary signs, powers
+/// and `for` statements, each one level. The parser and the lowering recurse once per level;
+/// this bound keeps them far from the stack's end (no PDE needs more than a handful).
+pub const MAX_NESTING: usize = 100;
+
 /// Parses the token stream into statements.
 pub fn parse(tokens: &[Token]) -> Result<Vec<Stmt>, PdeTextError> {
-    let mut p = Parser { tokens, i: 0 };
+    let mut p = Parser {
+        tokens,
+        i: 0,
+        depth: 0,
+    };
     let mut out = Vec::new();
     while p.i < tokens.len() {
         if p.peek_is_end() {
@@ -133,6 +148,8 @@ pub fn parse(tokens: &[Token]) -> Result<Vec<Stmt>, PdeTextError> {
 struct Parser<'a> {
     tokens: &'a [Token],
     i: usize,
+    /// The current nesting (see [`MAX_NESTING`]).
+    depth: usize,
 }
 
 const KEYWORDS: [&str; 10] = [
@@ -218,11 +235,33 @@ impl Parser<'_> {
             )),
         }
     }
+    /// Enters one nesting level; an error at the current token past [`MAX_NESTING`].
+    fn enter(&mut self) -> Result<(), PdeTextError> {
+        self.depth += 1;
+        if self.depth > MAX_NESTING {
+            return Err(PdeTextError::at(
+                self.pos(),
+                format!(
+                    "nested more than {MAX_NESTING} levels deep (parentheses, function calls, \
+                     signs, powers or for statements)"
+                ),
+            ));
+        }
+        Ok(())
+    }
+
     fn is_ident(&self, name: &str) -> bool {
         matches!(&self.peek().tok, Tok::Ident(s) if s == name)
     }
 
     fn statement(&mut self) -> Result<Stmt, PdeTextError> {
+        self.enter()?;
+        let s = self.statement_inner();
+        self.depth -= 1;
+        s
+    }
+
+    fn statement_inner(&mut self) -> Result<Stmt, PdeTextError> {
         let (kw, pos) = self.ident(
             "a statement (pde, param, let, unknown, equation, add, boundary, eliminate, include, for)",
         )?;
@@ -381,40 +420,57 @@ impl Parser<'_> {
 
     /// expr := term (('+' | '-') term)*
     fn expr(&mut self) -> Result<Ast, PdeTextError> {
-        let mut a = self.term()?;
-        loop {
-            let pos = self.pos();
-            let op = if self.eat_op("+") {
-                BinOp::Add
-            } else if self.eat_op("-") {
-                BinOp::Sub
-            } else {
-                return Ok(a);
-            };
-            let b = self.term()?;
-            a = Ast::Bin(op, Box::new(a), Box::new(b), pos);
-        }
+        self.chain(Self::term, |op| match op {
+            "+" => Some(BinOp::Add),
+            "-" => Some(BinOp::Sub),
+            _ => None,
+        })
     }
 
     /// term := unary (('*' | '/') unary)*
     fn term(&mut self) -> Result<Ast, PdeTextError> {
-        let mut a = self.unary()?;
+        self.chain(Self::unary, |op| match op {
+            "*" => Some(BinOp::Mul),
+            "/" => Some(BinOp::Div),
+            _ => None,
+        })
+    }
+
+    /// `operand (op operand)*` as one [`Ast::Chain`] (a lone operand as itself).
+    fn chain(
+        &mut self,
+        operand: fn(&mut Self) -> Result<Ast, PdeTextError>,
+        op_of: fn(&str) -> Option<BinOp>,
+    ) -> Result<Ast, PdeTextError> {
+        let first = operand(self)?;
+        let mut rest = Vec::new();
         loop {
             let pos = self.pos();
-            let op = if self.eat_op("*") {
-                BinOp::Mul
-            } else if self.eat_op("/") {
-                BinOp::Div
-            } else {
-                return Ok(a);
+            let op = match self.peek().tok {
+                Tok::Op(o) => op_of(o),
+                _ => None,
             };
-            let b = self.unary()?;
-            a = Ast::Bin(op, Box::new(a), Box::new(b), pos);
+            let Some(op) = op else {
+                return Ok(if rest.is_empty() {
+                    first
+                } else {
+                    Ast::Chain(Box::new(first), rest)
+                });
+            };
+            self.i += 1;
+            rest.push((op, operand(self)?, pos));
         }
     }
 
-    /// unary := '-' unary | power
+    /// unary := '-' unary | power   (each sign, like each '(' and call, is one nesting level)
     fn unary(&mut self) -> Result<Ast, PdeTextError> {
+        self.enter()?;
+        let a = self.unary_inner();
+        self.depth -= 1;
+        a
+    }
+
+    fn unary_inner(&mut self) -> Result<Ast, PdeTextError> {
         let pos = self.pos();
         if self.eat_op("-") {
             return Ok(Ast::Neg(Box::new(self.unary()?), pos));

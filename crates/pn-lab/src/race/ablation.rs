@@ -134,7 +134,7 @@ impl Study {
 
     /// Reads a study file.
     pub fn from_file(path: &Path) -> Result<Self> {
-        let text = std::fs::read_to_string(path)
+        let text = pn_formats::read_text(path)
             .with_context(|| format!("cannot read ablation study {}", path.display()))?;
         Self::parse(&text, &path.display().to_string())
     }

@@ -142,7 +142,7 @@ impl RenderScene {
         path: &Path,
         overrides: &[SceneOverride],
     ) -> anyhow::Result<RenderScene> {
-        let text = std::fs::read_to_string(path)
+        let text = pn_formats::read_text(path)
             .with_context(|| format!("cannot read scene file {}", path.display()))?;
         let base = path.parent().unwrap_or(Path::new("."));
         let mut scene =

@@ -4,7 +4,7 @@
 use cas::{Axis, Expr, FieldName, Surd};
 use num_rational::Rational64;
 
-use super::{Lowerer, Scope, Val, MAX_DEPTH, MAX_ITER};
+use super::{Lowerer, Scope, Val, MAX_DEPTH, MAX_DERIVATIVES, MAX_ITER, MAX_LEVELS, MAX_NODES};
 use crate::discretize::math;
 use crate::text::lex::Pos;
 use crate::text::parse::{Ast, BinOp};
@@ -85,10 +85,38 @@ impl Lowerer {
     }
 
     fn value(&self, e: &Ast, scope: &Scope, depth: usize) -> Result<Val, PdeTextError> {
+        let level = self.levels.get() + 1;
+        if level > MAX_LEVELS {
+            return Err(PdeTextError::at(
+                e.pos(),
+                format!(
+                    "with its definitions substituted, the expression nests more than \
+                     {MAX_LEVELS} levels deep"
+                ),
+            ));
+        }
+        self.levels.set(level);
+        let v = self.value_at_level(e, scope, depth);
+        self.levels.set(level - 1);
+        v
+    }
+
+    fn value_at_level(&self, e: &Ast, scope: &Scope, depth: usize) -> Result<Val, PdeTextError> {
         if depth > MAX_DEPTH {
             return Err(PdeTextError::at(
                 e.pos(),
                 "definitions nest too deeply (a definition that uses itself?)",
+            ));
+        }
+        let nodes = self.nodes.get() + 1;
+        self.nodes.set(nodes);
+        if nodes > MAX_NODES {
+            return Err(PdeTextError::at(
+                e.pos(),
+                format!(
+                    "the PDE expands to more than {MAX_NODES} expression nodes (definitions \
+                     substituted, sums and loops expanded)"
+                ),
             ));
         }
         Ok(match e {
@@ -101,6 +129,13 @@ impl Lowerer {
             Ast::Bin(op, a, b, pos) => {
                 let (x, y) = (self.value(a, scope, depth)?, self.value(b, scope, depth)?);
                 binary(*op, x, y, *pos)?
+            }
+            Ast::Chain(first, rest) => {
+                let mut acc = Chain::new(self.value(first, scope, depth)?);
+                for (op, e, pos) in rest {
+                    acc.push(*op, self.value(e, scope, depth)?, *pos)?;
+                }
+                acc.finish()
             }
             Ast::Sum {
                 var,
@@ -116,19 +151,19 @@ impl Lowerer {
                         format!("the sum over {a}..{b} has more than {MAX_ITER} terms"),
                     ));
                 }
-                let mut acc: Option<Val> = None;
+                let mut acc: Option<Chain> = None;
                 for v in a..=b {
                     let mut inner = scope.clone();
                     inner
                         .vars
                         .insert(var.clone(), Val::S(Expr::Num(Surd::from_int(v))));
                     let t = self.value(body, &inner, depth + 1)?;
-                    acc = Some(match acc {
-                        None => t,
-                        Some(s) => binary(BinOp::Add, s, t, *pos)?,
-                    });
+                    match acc.as_mut() {
+                        None => acc = Some(Chain::new(t)),
+                        Some(c) => c.push(BinOp::Add, t, *pos)?,
+                    }
                 }
-                acc.unwrap_or(Val::S(Expr::int(0)))
+                acc.map_or(Val::S(Expr::int(0)), Chain::finish)
             }
             Ast::Call(name, args, pos) => self.call(name, args, *pos, scope, depth)?,
         })
@@ -229,10 +264,11 @@ impl Lowerer {
         }
         let deriv = |axis: Axis| -> Result<Val, PdeTextError> {
             arity(1)?;
-            Ok(Val::S(self.scalar(&args[0], scope, depth)?.deriv(axis)))
+            let u = self.scalar(&args[0], scope, depth)?;
+            Ok(Val::S(check_derivatives(u, pos)?.deriv(axis)))
         };
         let grad = |e: &Ast| -> Result<[Expr; 3], PdeTextError> {
-            let u = self.scalar(e, scope, depth)?;
+            let u = check_derivatives(self.scalar(e, scope, depth)?, pos)?;
             Ok([Axis::X, Axis::Y, Axis::Z].map(|a| u.clone().deriv(a)))
         };
         let div = |v: [Expr; 3]| -> Expr {
@@ -268,6 +304,12 @@ impl Lowerer {
                 let l = self.int(&args[0], scope)?;
                 if l < 0 {
                     return Err(PdeTextError::at(args[0].pos(), format!("phase({l}): the band must be ≥ 0")));
+                }
+                if l > pn_stencil::MAX_ORDER as i64 {
+                    return Err(PdeTextError::at(
+                        args[0].pos(),
+                        format!("phase({l}): the band is above the largest supported order, {}", pn_stencil::MAX_ORDER),
+                    ));
                 }
                 Val::S(Expr::field(FieldName::PhaseMoment(Box::new(Expr::Int(l)))))
             }
@@ -332,6 +374,113 @@ impl Lowerer {
                 ))
             }
         })
+    }
+}
+
+/// Most derivatives nested along one path of `e`.
+fn derivative_depth(e: &Expr) -> usize {
+    let mut d = 0;
+    e.for_each_child(&mut |c| d = d.max(derivative_depth(c)));
+    d + usize::from(matches!(e, Expr::Deriv(..)))
+}
+
+/// `e`, to be differentiated once more; refused when that nests more than
+/// [`MAX_DERIVATIVES`] derivatives.
+fn check_derivatives(e: Expr, pos: Pos) -> Result<Expr, PdeTextError> {
+    let d = derivative_depth(&e) + 1;
+    if d > MAX_DERIVATIVES {
+        return Err(PdeTextError::at(
+            pos,
+            format!("derivatives nested {d} deep, more than the {MAX_DERIVATIVES} supported"),
+        ));
+    }
+    Ok(e)
+}
+
+/// A chain `a op b op c …` of one precedence level, gathered into one n-ary `cas` sum or
+/// product (no expression nested once per term): the scalar terms or factors, and for a
+/// vector the three components' terms (a sum) or the vector factor (a product).
+struct Chain {
+    scalars: Vec<Expr>,
+    vector: Option<[Vec<Expr>; 3]>,
+    /// Whether this is a product (`* /`), else a sum (`+ -`); set by the first operator.
+    product: Option<bool>,
+}
+
+impl Chain {
+    fn new(first: Val) -> Chain {
+        match first {
+            Val::S(x) => Chain {
+                scalars: vec![x],
+                vector: None,
+                product: None,
+            },
+            Val::V([a, b, c]) => Chain {
+                scalars: Vec::new(),
+                vector: Some([vec![a], vec![b], vec![c]]),
+                product: None,
+            },
+        }
+    }
+
+    fn push(&mut self, op: BinOp, y: Val, pos: Pos) -> Result<(), PdeTextError> {
+        let bad = |what: &str| Err(PdeTextError::at(pos, what.to_string()));
+        let product = matches!(op, BinOp::Mul | BinOp::Div);
+        if *self.product.get_or_insert(product) != product || op == BinOp::Pow {
+            // The parser never mixes precedence levels in one chain.
+            return bad("internal: mixed operators in one chain");
+        }
+        match (op, y, self.vector.as_mut()) {
+            (BinOp::Add, Val::S(b), None) => self.scalars.push(b),
+            (BinOp::Sub, Val::S(b), None) => self.scalars.push(b.neg()),
+            (BinOp::Add | BinOp::Sub, Val::V(v), Some(acc)) => {
+                for (t, c) in acc.iter_mut().zip(v) {
+                    t.push(if op == BinOp::Sub { c.neg() } else { c });
+                }
+            }
+            (BinOp::Add | BinOp::Sub, _, _) => return bad("cannot add a vector and a scalar"),
+            (BinOp::Mul, Val::S(b), _) => self.scalars.push(b),
+            (BinOp::Div, Val::S(b), _) => self.scalars.push(b.recip()),
+            (BinOp::Mul, Val::V(v), None) => self.vector = Some(v.map(|c| vec![c])),
+            (BinOp::Mul, Val::V(_), Some(_)) => return bad(
+                "the product of two vectors is not defined (write the components with dx, dy, dz)",
+            ),
+            (BinOp::Div | BinOp::Pow, Val::V(_), _) => return bad("cannot divide by a vector"),
+            (BinOp::Pow, Val::S(_), _) => return bad("internal: a power in a chain"),
+        }
+        Ok(())
+    }
+
+    fn finish(self) -> Val {
+        let product = self.product == Some(true);
+        let join = |terms: Vec<Expr>| {
+            if product {
+                Expr::mul(terms)
+            } else {
+                Expr::add(terms)
+            }
+        };
+        match self.vector {
+            None if self.scalars.len() == 1 => Val::S(
+                self.scalars
+                    .into_iter()
+                    .next()
+                    .unwrap_or_else(|| Expr::int(0)),
+            ),
+            None => Val::S(join(self.scalars)),
+            Some(v) if product => Val::V(v.map(|c| {
+                let mut f = self.scalars.clone();
+                f.extend(c);
+                Expr::mul(f)
+            })),
+            Some(v) => Val::V(v.map(|c| {
+                if c.len() == 1 {
+                    c.into_iter().next().unwrap_or_else(|| Expr::int(0))
+                } else {
+                    Expr::add(c)
+                }
+            })),
+        }
     }
 }
 

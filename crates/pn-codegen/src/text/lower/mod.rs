@@ -24,6 +24,19 @@ use eval::{const_value, parse_decimal};
 const MAX_DEPTH: usize = 64;
 /// Largest number of loop iterations or sum terms (catches typos such as `0..1000000`).
 const MAX_ITER: i64 = 10_000;
+/// Largest number of expression nodes lowered in all (definitions substituted, sums and
+/// loops expanded): bounds the work of nested loops and of definitions that double at each
+/// level (`let b = a + a`, `let c = b + b`, …), which the per-level limits do not.
+const MAX_NODES: usize = 5_000_000;
+/// Deepest recursion of the lowering: expression nesting (at most the parser's 100 levels)
+/// times the definitions substituted into each other (each `let` may nest again). Beyond it
+/// the lowering, and the `cas` passes after it, would overflow the stack.
+const MAX_LEVELS: usize = 200;
+/// Most derivatives nested along one path of an expression (`lap(lap(u))` is 4): the
+/// discretization's terms double with each, so `dx` nested 30 times would never finish.
+const MAX_DERIVATIVES: usize = 8;
+/// Largest number of statements run, loops expanded (nested loops multiply their ranges).
+const MAX_STATEMENTS: usize = 1_000_000;
 
 /// A lowered value: a scalar expression or a vector (from `grad`).
 #[derive(Clone, Debug)]
@@ -100,6 +113,12 @@ struct Lowerer {
     eliminations: Vec<(ResolvedTarget, Pos)>,
     /// Labels of every unknown, by name (filled after the first pass).
     labels: HashMap<String, (i64, i64)>,
+    /// Expression nodes lowered so far (see [`MAX_NODES`]).
+    nodes: std::cell::Cell<usize>,
+    /// The current recursion depth of the lowering (see [`MAX_LEVELS`]).
+    levels: std::cell::Cell<usize>,
+    /// Statements run so far (see [`MAX_STATEMENTS`]).
+    statements: usize,
 }
 
 /// Names the syntax gives a meaning to.
@@ -146,6 +165,23 @@ impl Lowerer {
         scope: &Scope,
         overrides: &mut Vec<&(String, String)>,
     ) -> Result<(), PdeTextError> {
+        self.statements += 1;
+        if self.statements > MAX_STATEMENTS {
+            let (Stmt::Pde(_, pos)
+            | Stmt::Param(_, _, pos)
+            | Stmt::Let(_, _, _, pos)
+            | Stmt::Unknown { pos, .. }
+            | Stmt::Equation(_, _, _, pos)
+            | Stmt::AddTerm(_, _, pos)
+            | Stmt::Eliminate(_, pos)
+            | Stmt::IncludePn(_, pos)
+            | Stmt::Boundary { pos, .. }
+            | Stmt::For(_, _, pos)) = s;
+            return Err(PdeTextError::at(
+                *pos,
+                format!("the loops run more than {MAX_STATEMENTS} statements"),
+            ));
+        }
         match s {
             Stmt::Pde(name, pos) => {
                 if self.name.is_some() {
@@ -408,6 +444,15 @@ impl Lowerer {
             return Err(PdeTextError::at(
                 l.pos(),
                 format!("L({lv}, {mv}) is not a moment: l ≥ 0 and −l ≤ m ≤ l"),
+            ));
+        }
+        if lv > pn_stencil::MAX_ORDER as i64 {
+            return Err(PdeTextError::at(
+                l.pos(),
+                format!(
+                    "L({lv}, {mv}): the order l = {lv} is above the largest supported, {}",
+                    pn_stencil::MAX_ORDER
+                ),
             ));
         }
         Ok((lv, mv))
