@@ -125,7 +125,11 @@ fn check_exr_windows(path: &Path) -> anyhow::Result<()> {
     }
     let key = b"dataWindow\0box2i\0";
     let mut at = 0;
-    while let Some(i) = head[at..].windows(key.len()).position(|w| w == key) {
+    // `at` stays within `head`: a key at the very end must not move it past (fuzzer finding).
+    while let Some(i) = head
+        .get(at..)
+        .and_then(|rest| rest.windows(key.len()).position(|w| w == key))
+    {
         let v = at + i + key.len() + 4;
         let int = |k: usize| {
             head.get(v + 4 * k..v + 4 * k + 4)
@@ -139,7 +143,7 @@ fn check_exr_windows(path: &Path) -> anyhow::Result<()> {
                 path.display()
             );
         }
-        at = v;
+        at += i + key.len();
     }
     Ok(())
 }
