@@ -41,6 +41,22 @@ pub fn channel_mean([r, g, b]: &[Vec<f32>; 3]) -> Vec<f32> {
         .collect()
 }
 
+/// Three channel images (R, G, B; each row-major from the top-left) interleaved into one
+/// RGB f32 image, each checked against the size.
+fn rgb_image(
+    width: usize,
+    height: usize,
+    channels: [&[f32]; 3],
+) -> anyhow::Result<image::Rgb32FImage> {
+    for c in channels {
+        check_size(width, height, c)?;
+    }
+    let rgb: Vec<f32> = (0..width * height)
+        .flat_map(|i| channels.map(|c| c[i]))
+        .collect();
+    image::Rgb32FImage::from_raw(width as u32, height as u32, rgb).context("image buffer size")
+}
+
 /// Writes three channel images (R, G, B; each row-major from the top-left) as one linear f32
 /// RGB OpenEXR file.
 pub fn write_exr_rgb(
@@ -49,15 +65,8 @@ pub fn write_exr_rgb(
     height: usize,
     channels: [&[f32]; 3],
 ) -> anyhow::Result<()> {
-    for c in channels {
-        check_size(width, height, c)?;
-    }
-    let rgb: Vec<f32> = (0..width * height)
-        .flat_map(|i| channels.map(|c| c[i]))
-        .collect();
-    let img = image::Rgb32FImage::from_raw(width as u32, height as u32, rgb)
-        .context("image buffer size")?;
-    img.save_with_format(path, image::ImageFormat::OpenExr)
+    rgb_image(width, height, channels)?
+        .save_with_format(path, image::ImageFormat::OpenExr)
         .with_context(|| format!("cannot write {}", path.display()))
 }
 
@@ -100,16 +109,9 @@ pub fn encode_exr_rgb(
     height: usize,
     channels: [&[f32]; 3],
 ) -> anyhow::Result<Vec<u8>> {
-    for c in channels {
-        check_size(width, height, c)?;
-    }
-    let rgb: Vec<f32> = (0..width * height)
-        .flat_map(|i| channels.map(|c| c[i]))
-        .collect();
-    let img = image::Rgb32FImage::from_raw(width as u32, height as u32, rgb)
-        .context("image buffer size")?;
     let mut bytes = std::io::Cursor::new(Vec::new());
-    img.write_to(&mut bytes, image::ImageFormat::OpenExr)
+    rgb_image(width, height, channels)?
+        .write_to(&mut bytes, image::ImageFormat::OpenExr)
         .context("cannot encode the image as OpenEXR")?;
     Ok(bytes.into_inner())
 }

@@ -37,6 +37,7 @@
 //! −0.7 % / +0.1 % with the cone at K = 64 / 256; docs/sky.md.) Both tend to p and Y_l^m(d)
 //! as the regions shrink.
 
+use crate::camera::norm;
 use anyhow::{bail, ensure, Context};
 use pn_runtime::problem::Phase;
 use std::f64::consts::PI;
@@ -187,7 +188,7 @@ pub const IDENTITY: [[f64; 3]; 3] = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0
 /// The rotation taking +Y to the unit vector `up` by the shortest arc (Rodrigues), for a
 /// sky's `up` key.
 pub fn rotation_to_up(up: [f64; 3]) -> anyhow::Result<[[f64; 3]; 3]> {
-    let n = (up[0] * up[0] + up[1] * up[1] + up[2] * up[2]).sqrt();
+    let n = norm(up);
     ensure!(
         n.is_finite() && n > 0.0,
         "up must be a finite non-zero vector, got {up:?}"
@@ -518,7 +519,7 @@ impl SkyGrid {
                 }
             }
         }
-        let n = (mean[0] * mean[0] + mean[1] * mean[1] + mean[2] * mean[2]).sqrt();
+        let n = norm(mean);
         let look = if n > 0.0 {
             mean.map(|c| c / n)
         } else {
@@ -554,7 +555,7 @@ impl SkyGrid {
                         }
                     }
                 }
-                let n = (mean[0] * mean[0] + mean[1] * mean[1] + mean[2] * mean[2]).sqrt();
+                let n = norm(mean);
                 if p > 0.0 && n > 0.0 {
                     let look = mat_vec(&sky.to_world, mean.map(|c| c / n));
                     out.push((look.map(|c| -c), p / r.power));
@@ -792,7 +793,7 @@ mod tests {
         ] {
             let r = rotation_to_up(up).unwrap();
             check_rotation(&r).unwrap();
-            let n = (up[0] * up[0] + up[1] * up[1] + up[2] * up[2]).sqrt();
+            let n = norm(up);
             let y = mat_vec(&r, [0.0, 1.0, 0.0]);
             for c in 0..3 {
                 assert!((y[c] - up[c] / n).abs() < 1e-12, "{up:?}: {y:?}");
