@@ -12,7 +12,8 @@
 # and whether it found anything; exits 1 if any target did.
 #
 # Environment: PN_FUZZ_TARGET_DIR (default fuzz/target), PN_FUZZ_JOBS (cargo's -j,
-# default 1), PN_FUZZ_RSS_MB (default 2048: more is an out-of-memory finding).
+# default 1), PN_FUZZ_RSS_MB (default 2048: more is an out-of-memory finding), PN_FUZZ_RUNS
+# (stop a target after this many executions if that comes before SECONDS; default: no limit).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 seconds="${1:-60}"
@@ -22,6 +23,7 @@ targets=("$@")
 [ ${#targets[@]} -eq 0 ] && targets=("${all[@]}")
 target_dir="${PN_FUZZ_TARGET_DIR:-$PWD/fuzz/target}"
 rss="${PN_FUZZ_RSS_MB:-2048}"
+runs="${PN_FUZZ_RUNS:--1}"
 
 export RUSTFLAGS="-Cpasses=sancov-module -Cllvm-args=-sanitizer-coverage-level=4 \
 -Cllvm-args=-sanitizer-coverage-inline-8bit-counters -Cllvm-args=-sanitizer-coverage-pc-table \
@@ -44,10 +46,12 @@ for t in "${targets[@]}"; do
   log="fuzz/work/$t.log"
   echo "fuzz: $t for ${seconds} s"
   set +e
+  start=$(date +%s)
   "$bin_dir/$t" "$work" "fuzz/corpus/$t" "fuzz/regressions/$t" \
-    -max_total_time="$seconds" -max_len="$max_len" -timeout=10 -rss_limit_mb="$rss" \
+    -max_total_time="$seconds" -runs="$runs" -max_len="$max_len" -timeout=10 -rss_limit_mb="$rss" \
     -artifact_prefix="$art/" -print_final_stats=1 >"$log" 2>&1
   rc=$?
+  elapsed=$(($(date +%s) - start))
   set -e
   # (No final statistics when the target died of a signal libFuzzer cannot catch, such as
   # a stack overflow: then the log's last progress line counts.)
@@ -61,7 +65,7 @@ for t in "${targets[@]}"; do
   else
     status="no crash, timeout or out-of-memory"
   fi
-  summary+=("$t: ${execs:-?} executions in ${seconds} s, working corpus $units inputs: $status")
+  summary+=("$t: ${execs:-?} executions in ${elapsed} s, working corpus $units inputs: $status")
 done
 echo "fuzz summary ($(date -u +%Y-%m-%d), $(nproc) cores):"
 printf '  %s\n' "${summary[@]}"
