@@ -52,5 +52,5 @@ pub use output::report::{
 pub use output::{cell_shape, write_outputs, OUTPUT_FILES};
 pub use png::{write_png, Slice};
 pub use table::{num, Align, Table};
-pub use vdb::{read_vdb, IndexBox, IndexToWorld, VdbGrid};
+pub use vdb::{read_vdb, IndexBox, IndexToWorld, VdbGrid, VdbTile};
 pub use vol::{decode_vol, encode_vol, encode_vol_scaled, read_vol};

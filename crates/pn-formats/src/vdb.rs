@@ -25,9 +25,9 @@ use std::path::Path;
 /// The value type vdb-rs can read as `f32`: OpenVDB's `FloatGrid` saved in full precision.
 const FLOAT_TREE: &str = "Tree_float_5_4_3";
 
-/// The densest grid this reader expands (cells), so that a stray voxel far away cannot ask
-/// for terabytes.
-const MAX_DENSE_CELLS: usize = 1 << 30;
+/// The densest grid this reader expands (cells; 1 GiB of f64), so that a stray voxel or tile
+/// far away cannot ask for terabytes: the render's limit on a medium's voxels (2^27) too.
+const MAX_DENSE_CELLS: usize = 1 << 27;
 
 /// An inclusive box of voxel indices.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -70,8 +70,31 @@ pub struct VdbGrid {
     pub transform: IndexToWorld,
     /// Index bounding box of the active voxels (`None` for a grid with none).
     pub active_box: Option<IndexBox>,
-    /// Active voxels as (index, value); tiles are expanded to their voxels.
+    /// Active leaf voxels as (index, value).
     pub voxels: Vec<([i64; 3], f32)>,
+    /// Active tiles: blocks of voxels with one value, kept as blocks (a damaged file's tile
+    /// could otherwise expand to billions of voxels before any size is checked; fuzzer
+    /// finding, issue 53). [`Self::dense`] fills them in.
+    pub tiles: Vec<VdbTile>,
+}
+
+/// An active tile of a VDB tree: the `size`³ voxels from `origin` on, all `value`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct VdbTile {
+    /// Index of the block's first voxel.
+    pub origin: [i64; 3],
+    /// Voxels per side.
+    pub size: i64,
+    /// The value of every voxel of the block.
+    pub value: f32,
+}
+
+impl VdbTile {
+    /// Index of the block's last voxel (saturating: a damaged file's far-out tile must not
+    /// overflow).
+    pub fn last(&self) -> [i64; 3] {
+        self.origin.map(|c| c.saturating_add(self.size - 1))
+    }
 }
 
 impl VdbGrid {
@@ -91,6 +114,26 @@ impl VdbGrid {
                 )
             })?;
         let mut data = vec![0.0f64; cells];
+        for t in &self.tiles {
+            // The tile's block clipped to the window.
+            let lo = [0, 1, 2].map(|d| t.origin[d].max(window.min[d]));
+            let hi = [0, 1, 2].map(|d| t.last()[d].min(window.max[d]));
+            if (0..3).any(|d| lo[d] > hi[d]) {
+                continue;
+            }
+            for i in lo[0]..=hi[0] {
+                for j in lo[1]..=hi[1] {
+                    let row = ((i - window.min[0]) as usize * dims[1]
+                        + (j - window.min[1]) as usize)
+                        * dims[2];
+                    let (k0, k1) = (
+                        (lo[2] - window.min[2]) as usize,
+                        (hi[2] - window.min[2]) as usize,
+                    );
+                    data[row + k0..=row + k1].fill(f64::from(t.value));
+                }
+            }
+        }
         for &(p, v) in &self.voxels {
             if (0..3).all(|d| (window.min[d]..=window.max[d]).contains(&p[d])) {
                 let [i, j, k] = [0, 1, 2].map(|d| (p[d] - window.min[d]) as usize);
@@ -105,6 +148,16 @@ impl VdbGrid {
             self.transform.apply(hi),
             data,
         )
+    }
+
+    /// Active voxels: the leaf voxels and every voxel of the active tiles.
+    pub fn active_voxel_count(&self) -> u128 {
+        self.voxels.len() as u128
+            + self
+                .tiles
+                .iter()
+                .map(|t| (t.size as u128).pow(3))
+                .sum::<u128>()
     }
 
     /// The dense block over the active bounding box.
@@ -181,38 +234,49 @@ fn read_vdb_inner(path: &Path, name: Option<&str>) -> anyhow::Result<VdbGrid> {
              and translation (mirrored grids are not supported)"
         );
         let mut voxels = Vec::new();
+        let mut tiles = Vec::new();
         for (pos, value, level) in grid.iter() {
             let origin = pos.to_array().map(|c| c.round() as i64);
-            let n = level.scale() as i64;
-            if n == 1 {
+            let size = level.scale() as i64;
+            if size == 1 {
                 voxels.push((origin, value));
-                continue;
-            }
-            // An active tile: the value of every voxel of its n³ block.
-            for i in 0..n {
-                for j in 0..n {
-                    for k in 0..n {
-                        voxels.push(([origin[0] + i, origin[1] + j, origin[2] + k], value));
-                    }
-                }
+            } else {
+                tiles.push(VdbTile {
+                    origin,
+                    size,
+                    value,
+                });
             }
         }
         if let Some((p, v)) = voxels.iter().find(|(_, v)| !v.is_finite()) {
             bail!("grid {name:?}: voxel {p:?} holds {v}, not a finite number");
         }
-        let active_box = voxels.first().map(|&(p, _)| {
-            voxels
-                .iter()
-                .fold(IndexBox { min: p, max: p }, |b, &(q, _)| IndexBox {
+        if let Some(t) = tiles.iter().find(|t| !t.value.is_finite()) {
+            bail!(
+                "grid {name:?}: the tile at {:?} holds {}, not a finite number",
+                t.origin,
+                t.value
+            );
+        }
+        let corners = voxels
+            .iter()
+            .flat_map(|&(p, _)| [p, p])
+            .chain(tiles.iter().flat_map(|t| [t.origin, t.last()]));
+        let active_box = corners.fold(None, |b: Option<IndexBox>, q| {
+            Some(match b {
+                None => IndexBox { min: q, max: q },
+                Some(b) => IndexBox {
                     min: [0, 1, 2].map(|d| b.min[d].min(q[d])),
                     max: [0, 1, 2].map(|d| b.max[d].max(q[d])),
-                })
+                },
+            })
         });
         Ok(VdbGrid {
             name,
             transform,
             active_box,
             voxels,
+            tiles,
         })
     })?;
     Ok(grid)

@@ -82,7 +82,8 @@ fn an_offset_scaled_translated_grid_keeps_its_placement() {
 fn active_tiles_fill_their_blocks() {
     // 6145 active voxels: 11 tiles of 8³, one leaf split off a tile, one isolated voxel.
     let g = read_vdb(&fixture("tiles.vdb"), None).unwrap();
-    assert_eq!(g.voxels.len(), 6145);
+    assert_eq!(g.active_voxel_count(), 6145);
+    assert_eq!(g.tiles.len(), 11);
     check_against_openvdb("tiles");
 }
 
@@ -94,8 +95,8 @@ fn a_file_with_several_grids_needs_the_name_and_reads_each() {
     assert!(e.contains("grid"), "{e}");
     let smoke = read_vdb(&path, Some("smoke")).unwrap();
     let albedo = read_vdb(&path, Some("albedo")).unwrap();
-    assert_eq!(smoke.voxels.len(), 912);
-    assert_eq!(albedo.voxels.len(), 512);
+    assert_eq!(smoke.active_voxel_count(), 912);
+    assert_eq!(albedo.active_voxel_count(), 512);
     // The albedo read over the smoke's box: 0.9 on (2..=9)³, inactive (0) elsewhere.
     let a = albedo.dense(smoke.active_box.unwrap()).unwrap();
     assert_eq!(a.dims, [12, 12, 12]);
@@ -161,4 +162,32 @@ fn damaged_files_never_panic() {
         let _ = read_vdb(&path, None);
     }
     std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A damaged file (a fuzzer finding) whose active tiles, expanded voxel by voxel, took 5 GB
+/// and 12 s: tiles stay blocks, and the dense block is checked against its limit first.
+#[test]
+fn a_damaged_files_tiles_stay_blocks() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../fuzz/regressions/vdb/tile-expands-to-gigabytes");
+    let g = read_vdb(&path, None).unwrap();
+    assert!(
+        g.voxels.len() + g.tiles.len() < 100_000,
+        "{}",
+        g.voxels.len()
+    );
+    eprintln!(
+        "{} voxels, {} tiles, {} active, box {:?}",
+        g.voxels.len(),
+        g.tiles.len(),
+        g.active_voxel_count(),
+        g.active_box
+    );
+    match g.dense_active() {
+        Ok(d) => assert!(d.data.len() <= 1 << 27),
+        Err(e) => assert!(
+            format!("{e:#}").contains("too large to read densely"),
+            "{e:#}"
+        ),
+    }
 }
