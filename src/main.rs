@@ -51,10 +51,40 @@ enum Command {
     Race(Box<cli::race::RaceArgs>),
 }
 
+impl Command {
+    /// The folders named on the command line that the command will write into (`--out`, the
+    /// race's `--cache`), checked before any work starts.
+    fn output_folders(&self) -> Vec<&std::path::Path> {
+        fn explicit(o: &Option<std::path::PathBuf>) -> Vec<&std::path::Path> {
+            o.as_deref().into_iter().collect()
+        }
+        match self {
+            Command::Latex(_) | Command::Equations(_) | Command::Stencil(_) => Vec::new(),
+            Command::Supplemental(a) => vec![a.out.as_path()],
+            Command::Solve(a) => explicit(&a.flags.out),
+            Command::Converge(a) => explicit(&a.flags.out),
+            Command::Bench(a) => vec![a.out.as_path()],
+            Command::Tradeoff(a) => vec![a.out.as_path()],
+            Command::Render(a) => explicit(&a.out),
+            Command::Figure(a) => explicit(&a.out),
+            Command::ExportMitsuba(a) => vec![a.out.as_path()],
+            Command::Compare(a) => explicit(&a.out),
+            Command::Race(a) => {
+                let mut v = vec![a.out.as_path()];
+                v.extend(a.cache.as_deref());
+                v
+            }
+        }
+    }
+}
+
 /// Runs `command`, printing to `out`.
 fn run(command: &Command, env: &cli::Env, out: &mut dyn Write) -> anyhow::Result<()> {
     use pn_drivers as d;
     use pn_lab as lab;
+    for dir in command.output_folders() {
+        pn_formats::files::check_output_dir(dir)?;
+    }
     match command {
         Command::Latex(a) => d::derive_cmds::latex(&a.request(), out),
         Command::Equations(a) => d::derive_cmds::equations(&a.request(), out),

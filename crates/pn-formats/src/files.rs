@@ -9,6 +9,33 @@ pub fn create_dir_all(dir: &Path) -> anyhow::Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))
 }
 
+/// Checks, without creating anything, that `dir` can become an output folder: it is a folder
+/// already, or the nearest part of its path that exists is a folder (so that
+/// [`create_dir_all`] can make the rest). Commands call it before any expensive work, so that
+/// a typing error in `--out` costs nothing (issue 53).
+pub fn check_output_dir(dir: &Path) -> anyhow::Result<()> {
+    let Some(existing) = dir
+        .ancestors()
+        .find(|a| a.as_os_str().is_empty() || a.symlink_metadata().is_ok())
+    else {
+        return Ok(());
+    };
+    if existing.as_os_str().is_empty() || existing.is_dir() {
+        return Ok(());
+    }
+    if existing == dir {
+        anyhow::bail!(
+            "cannot create the output folder {}: a file of that name is in the way",
+            dir.display()
+        );
+    }
+    anyhow::bail!(
+        "cannot create the output folder {}: {} is not a folder",
+        dir.display(),
+        existing.display()
+    )
+}
+
 /// Writes `contents` to `path`, replacing it (`cannot write <path>` on error).
 pub fn write(path: &Path, contents: impl AsRef<[u8]>) -> anyhow::Result<()> {
     std::fs::write(path, contents).with_context(|| format!("cannot write {}", path.display()))
@@ -62,6 +89,25 @@ pub fn write_all_or_none(dir: &Path, files: &[(&str, &[u8])]) -> anyhow::Result<
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn output_folders_are_checked_without_creating_anything() {
+        let dir = std::env::temp_dir().join(format!("pn-outcheck-{}", std::process::id()));
+        create_dir_all(&dir).unwrap();
+        // A folder, a missing folder under a folder, a relative path: fine, nothing made.
+        check_output_dir(&dir).unwrap();
+        check_output_dir(&dir.join("new/deeper")).unwrap();
+        assert!(!dir.join("new").exists());
+        check_output_dir(Path::new("some-relative-folder-that-is-not-there")).unwrap();
+        // A file in the way, as the folder itself or as a parent.
+        let file = dir.join("afile");
+        write(&file, "x").unwrap();
+        let e = format!("{:#}", check_output_dir(&file).unwrap_err());
+        assert!(e.contains("a file of that name is in the way"), "{e}");
+        let e = format!("{:#}", check_output_dir(&file.join("x/y")).unwrap_err());
+        assert!(e.contains("afile is not a folder"), "{e}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 
     #[test]
     fn writes_into_a_created_folder_and_names_the_path_on_error() {

@@ -94,12 +94,11 @@ fn checkerboard_rows(args: &BenchRequest, rows: &mut Vec<Row>) -> anyhow::Result
     let opts = BuiltinOptions::default();
     for &order in orders {
         let reference = match order {
-            1 | 5 => pn_runtime::reference::starmap::read_csv(
+            1 | 5 => Some(pn_runtime::reference::starmap::read_csv(
                 &args
                     .reference
                     .join(format!("checkerboard/starmap_p{order}_n71.csv")),
-            )
-            .ok(),
+            )?),
             _ => None,
         };
         let start = rows.len();
@@ -653,8 +652,36 @@ fn roofline_section(rows: &[Row], bw: &pn_runtime::bandwidth::Bandwidth) -> anyh
     Ok(md)
 }
 
+/// The largest `--pointsource-res`: 256³ cells at P_5 is about 600 M unknowns, beyond any
+/// machine this suite is meant for (80, the paper's, is the default).
+const MAX_POINTSOURCE_RES: usize = 256;
+
+/// Everything `pn bench` can refuse, refused before the first measurement (issue 53): the
+/// point-source resolution and the StaRMAP reference files the error columns need.
+fn check_request(args: &BenchRequest) -> anyhow::Result<()> {
+    if let Some(n) = args.pointsource_res {
+        anyhow::ensure!(
+            (8..=MAX_POINTSOURCE_RES).contains(&n),
+            "--pointsource-res must be in 8..={MAX_POINTSOURCE_RES}, got {n}"
+        );
+    }
+    for order in [1, 5] {
+        let file = args
+            .reference
+            .join(format!("checkerboard/starmap_p{order}_n71.csv"));
+        anyhow::ensure!(
+            file.is_file(),
+            "the reference data {} is missing (pass the folder holding \
+             checkerboard/starmap_p1_n71.csv with --reference; the repository's is tests/data)",
+            file.display()
+        );
+    }
+    Ok(())
+}
+
 /// Runs `pn bench`: writes `bench.csv` and `bench.md` and prints the Markdown to `stdout`.
 pub fn run(args: &BenchRequest, stdout: &mut dyn std::io::Write) -> anyhow::Result<()> {
+    check_request(args)?;
     // Once per run, before the solves, while the memory is free.
     let bandwidth = pn_runtime::bandwidth::measure_default();
     eprintln!("bench: memory bandwidth {}", bandwidth.describe());

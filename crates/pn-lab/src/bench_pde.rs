@@ -108,10 +108,9 @@ pub(crate) fn pde_rows(
         checkerboard.push(("fpn.pde N=5", FPN, &[("N", "5")]));
         checkerboard.push(("dpn.pde N=3", DPN, &[]));
     }
-    let starmap = pn_runtime::reference::starmap::read_csv(
+    let starmap = Some(pn_runtime::reference::starmap::read_csv(
         &reference.join("checkerboard/starmap_p5_n71.csv"),
-    )
-    .ok();
+    )?);
     let scene = builtin("checkerboard", &BuiltinOptions::default())?;
     for v in checkerboard {
         let (sol, res) = solve_variant("checkerboard", &scene, v, 1e-10, tuning)?;

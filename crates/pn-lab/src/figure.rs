@@ -139,32 +139,67 @@ pub fn run(a: &FigureRequest, stdout: &mut dyn std::io::Write) -> Result<()> {
         .out
         .clone()
         .unwrap_or_else(|| PathBuf::from("out").join(format!("figure-{}", scene.name)));
+    // What can fail cheaply fails before the folder exists: the reference named on the
+    // command line, and the Python that would render one.
+    pn_formats::files::check_output_dir(&out)?;
+    let given_reference = match &a.reference {
+        Some(p) => Some(read_reference(p, &scene)?),
+        None => None,
+    };
+    let python = if a.mitsuba {
+        let python = pn_drivers::mitsuba::find_python(a.python.as_deref())?;
+        pn_drivers::mitsuba::check_python(&python)?;
+        Some(python)
+    } else {
+        None
+    };
+    let created = !out.exists();
     std::fs::create_dir_all(&out).with_context(|| format!("cannot create {}", out.display()))?;
+    let result = render_all(a, &scene, &out, given_reference, python.as_deref(), stdout);
+    if result.is_err() && created {
+        // A failed figure leaves no half-written folder behind (issue 53).
+        let _ = std::fs::remove_dir_all(&out);
+    }
+    result
+}
 
-    if a.mitsuba {
-        render_reference(&scene, &out, a)?;
+/// Reads a reference image and checks it has the scene's size.
+fn read_reference(p: &Path, scene: &RenderScene) -> Result<GrayImage> {
+    let (w, h, data) = read_exr_gray(p)?;
+    ensure!(
+        (w, h) == (scene.camera.width, scene.camera.height),
+        "the reference {} is {w}×{h}, the scene renders {}×{}",
+        p.display(),
+        scene.camera.width,
+        scene.camera.height
+    );
+    Ok(GrayImage {
+        width: w,
+        height: h,
+        data: data.into_iter().map(f64::from).collect(),
+    })
+}
+
+/// Renders every method into `out` (which exists), with the figure and the tables.
+fn render_all(
+    a: &FigureRequest,
+    scene: &RenderScene,
+    out: &Path,
+    given_reference: Option<GrayImage>,
+    python: Option<&Path>,
+    stdout: &mut dyn std::io::Write,
+) -> Result<()> {
+    if let Some(python) = python {
+        render_reference(scene, out, a, python)?;
     }
     let ref_path = a
         .reference
         .clone()
         .or_else(|| Some(out.join("mitsuba.exr")).filter(|p| p.is_file()));
-    let reference = match &ref_path {
-        Some(p) => {
-            let (w, h, data) = read_exr_gray(p)?;
-            ensure!(
-                (w, h) == (scene.camera.width, scene.camera.height),
-                "the reference {} is {w}×{h}, the scene renders {}×{}",
-                p.display(),
-                scene.camera.width,
-                scene.camera.height
-            );
-            Some(GrayImage {
-                width: w,
-                height: h,
-                data: data.into_iter().map(f64::from).collect(),
-            })
-        }
-        None => None,
+    let reference = match (given_reference, &ref_path) {
+        (Some(r), _) => Some(r),
+        (None, Some(p)) => Some(read_reference(p, scene)?),
+        (None, None) => None,
     };
 
     let mut entries = Vec::new();
@@ -203,7 +238,7 @@ pub fn run(a: &FigureRequest, stdout: &mut dyn std::io::Write) -> Result<()> {
             metrics: m,
         });
     }
-    write_tables(&out, &entries, ref_path.as_deref())?;
+    write_tables(out, &entries, ref_path.as_deref())?;
     write_figure(&out.join("figure.png"), &entries, reference.as_ref())?;
     write!(stdout, "{}", std::fs::read_to_string(out.join("table.md"))?)?;
     writeln!(stdout, "-> {}", out.display())?;
@@ -211,7 +246,12 @@ pub fn run(a: &FigureRequest, stdout: &mut dyn std::io::Write) -> Result<()> {
 }
 
 /// Exports the scene and renders `<out>/mitsuba.exr` with Mitsuba (full transport).
-fn render_reference(scene: &RenderScene, out: &Path, a: &FigureRequest) -> Result<()> {
+fn render_reference(
+    scene: &RenderScene,
+    out: &Path,
+    a: &FigureRequest,
+    python: &Path,
+) -> Result<()> {
     use pn_drivers::mitsuba;
     use pn_render::mitsuba::ExportOptions;
     let dir = out.join("mitsuba");
@@ -220,14 +260,13 @@ fn render_reference(scene: &RenderScene, out: &Path, a: &FigureRequest) -> Resul
         ..ExportOptions::from_scene(scene)
     };
     mitsuba::export(scene, &dir, &opts)?;
-    let python = mitsuba::find_python(a.python.as_deref())?;
     eprintln!(
         "rendering the Mitsuba reference ({} spp) ...",
         a.mitsuba_spp
     );
     let run = mitsuba::run_mitsuba_with(
         &dir,
-        &python,
+        python,
         &mitsuba::RunOptions {
             out: Some(out.join("mitsuba.exr")),
             ..Default::default()
