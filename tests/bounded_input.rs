@@ -483,3 +483,31 @@ fn an_exr_data_window_is_checked_before_decoding() {
     assert!(t.elapsed() < Duration::from_secs(3), "{:?}", t.elapsed());
     assert!(!d.join("out").exists());
 }
+
+/// A procedural medium whose optical-depth grids would not fit is refused with their size
+/// before a ray is traced (the estimate is the lattices' exact size; docs/stability.md).
+#[test]
+fn optical_depth_grids_beyond_the_memory_limit_are_refused_with_their_size() {
+    let out = work_dir("bounded_light_depth");
+    let err = refused(
+        &[
+            "render",
+            "cloud",
+            "--set",
+            "medium.resolution=[256,256,256]",
+            "--set",
+            "solve.resolution=[8,8,8]",
+            "--max-memory",
+            "100M",
+            "--out",
+            out.to_str().unwrap(),
+        ],
+        &[
+            "optical depth to the 1 light over the 256×256×256 medium voxels needs about",
+            "GiB",
+            "100.00 MiB",
+        ],
+    );
+    assert!(err.starts_with("error: "), "{err}");
+    assert!(!out.exists());
+}

@@ -90,7 +90,8 @@ pub struct RenderArgs {
     /// solve-cell centres (last axis l(l+1)+m), with its grid in report.json's `unknowns`.
     #[arg(long)]
     pub save_moments: bool,
-    /// Refuse solves whose estimated memory exceeds this (bytes, or with K/M/G/T).
+    /// Refuse solves and optical-depth grids whose estimated memory exceeds this (bytes, or
+    /// with K/M/G/T; default: most of the physical memory).
     #[arg(long, value_parser = memory_estimate::parse_size)]
     pub max_memory: Option<u64>,
     /// Override any key of the scene's TOML before it is checked (repeatable, applied in

@@ -100,26 +100,25 @@ pub struct PlaneDepth {
     coarse: bool,
 }
 
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+/// The light-frame lattice of a [`PlaneDepth`]: its axes, origin, spacings and point counts
+/// (known before anything is traced, so that its memory can be checked first).
+struct Lattice {
+    e1: [f64; 3],
+    e2: [f64; 3],
+    u0: f64,
+    v0: f64,
+    s0: f64,
+    hu: f64,
+    ds: f64,
+    nu: usize,
+    nv: usize,
+    ns: usize,
 }
 
-impl PlaneDepth {
-    /// Traces the columns of a light travelling along the unit vector `d` through the
-    /// support of `ext`'s density (`None` for an empty medium).
-    pub fn compute(ext: &Extinction, d: [f64; 3]) -> Option<Self> {
-        Self::compute_spaced(ext, d, PLANE_SPACING, false)
-    }
-
-    /// [`Self::compute`] with a transverse lattice of `spacing` smallest voxel sides;
-    /// `coarse` lookups interpolate between planes instead of tracing back to one.
-    pub fn compute_spaced(
-        ext: &Extinction,
-        d: [f64; 3],
-        spacing: f64,
-        coarse: bool,
-    ) -> Option<Self> {
-        let g = ext.grid;
+impl Lattice {
+    /// The lattice of a light along the unit vector `d` over the support of `g`'s density
+    /// (`None` for an empty medium), `spacing` smallest voxel sides across the light.
+    fn new(g: &DensityGrid, d: [f64; 3], spacing: f64, coarse: bool) -> Option<Self> {
         let (lo, hi) = g.support()?;
         // e1 ⟂ d from the axis least aligned with d, e2 = d × e1.
         let axis = (0..3)
@@ -162,7 +161,58 @@ impl PlaneDepth {
         };
         let (hu, ds) = (spacing * hmin, if coarse { spacing * hmin } else { hmin });
         let (nu, nv, ns) = (count(0, hu), count(1, hu), count(2, ds));
-        let (u0, v0, s0) = (ext_min[0], ext_min[1], ext_min[2]);
+        Some(Self {
+            e1,
+            e2,
+            u0: ext_min[0],
+            v0: ext_min[1],
+            s0: ext_min[2],
+            hu,
+            ds,
+            nu,
+            nv,
+            ns,
+        })
+    }
+
+    /// Peak bytes while the planes are built: the columns and the assembled `tau` (f32 each).
+    fn peak_bytes(&self) -> u64 {
+        let points = (self.nu as u64) * (self.nv as u64) * (self.ns as u64);
+        2 * 4 * points + 24 * (self.nu as u64) * (self.nv as u64)
+    }
+}
+
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+impl PlaneDepth {
+    /// Traces the columns of a light travelling along the unit vector `d` through the
+    /// support of `ext`'s density (`None` for an empty medium).
+    pub fn compute(ext: &Extinction, d: [f64; 3]) -> Option<Self> {
+        Self::compute_spaced(ext, d, PLANE_SPACING, false)
+    }
+
+    /// [`Self::compute`] with a transverse lattice of `spacing` smallest voxel sides;
+    /// `coarse` lookups interpolate between planes instead of tracing back to one.
+    pub fn compute_spaced(
+        ext: &Extinction,
+        d: [f64; 3],
+        spacing: f64,
+        coarse: bool,
+    ) -> Option<Self> {
+        let Lattice {
+            e1,
+            e2,
+            u0,
+            v0,
+            s0,
+            hu,
+            ds,
+            nu,
+            nv,
+            ns,
+        } = Lattice::new(ext.grid, d, spacing, coarse)?;
         // Columns in parallel: column (i, j) walks the planes k = 0, 1, … downstream; the
         // planes k ≥ 1 lie at k·ds from plane 0.
         let marks: Vec<f64> = (1..ns).map(|k| k as f64 * ds).collect();
@@ -332,6 +382,40 @@ impl LightDepth {
         let mut ld = Self::compute_voxel_centres_where(ext, lights, point, |c| near[c]);
         ld.planes = Self::planes(ext, lights, sky_from.unwrap_or(usize::MAX));
         ld
+    }
+
+    /// The peak bytes [`Self::compute_with_sky`] allocates for `lights` over `g`'s density,
+    /// computed from the lattices' sizes without tracing anything: per directional light
+    /// its planes (the columns and the assembled grid, f32 each), per point light a value
+    /// per voxel (f64) and the near-medium mask. The render checks it against its memory
+    /// limit before the grids are made (issue 53).
+    pub fn estimate_bytes(g: &DensityGrid, lights: &[Light], sky_from: Option<usize>) -> u64 {
+        let voxels: u64 = g.res.iter().map(|&n| n as u64).product();
+        let sky_from = sky_from.unwrap_or(usize::MAX);
+        let mut bytes = 0u64;
+        let mut any_point = false;
+        for (i, l) in lights.iter().enumerate() {
+            match l {
+                Light::Directional { direction, .. } => {
+                    let n = dot(*direction, *direction).sqrt();
+                    let d = direction.map(|c| c / n);
+                    let lattice = if i >= sky_from {
+                        Lattice::new(g, d, SKY_PLANE_SPACING, true)
+                    } else {
+                        Lattice::new(g, d, PLANE_SPACING, false)
+                    };
+                    bytes += lattice.map_or(0, |l| l.peak_bytes());
+                }
+                Light::Point { .. } => {
+                    any_point = true;
+                    bytes += 8 * voxels;
+                }
+            }
+        }
+        if any_point {
+            bytes += voxels;
+        }
+        bytes
     }
 
     /// Light-frame planes of the directional lights (`None` for point lights); the lights

@@ -36,6 +36,9 @@ pub(super) fn render_grey_views(
     let t_all = Instant::now();
     let t0 = Instant::now();
     let density = scene.density_grid()?;
+    if shared.light_depth.is_none() {
+        check_light_depth_memory(scene, &density, options)?;
+    }
     let mut timings = Timings {
         density: t0.elapsed().as_secs_f64(),
         ..Timings::default()
@@ -157,6 +160,36 @@ pub(super) fn render_grey_views(
         report,
         notes,
     })
+}
+
+/// Refuses a render whose optical-depth grids ([`LightDepth`]) would exceed the memory
+/// limit, with their size, before anything is traced (issue 53). They are the largest
+/// allocation of a finely voxelised medium: on the built-in cloud at 128³–512³ about 100
+/// bytes per medium voxel for its one directional light, within 4 % of the whole process's
+/// measured peak.
+fn check_light_depth_memory(
+    scene: &RenderScene,
+    density: &DensityGrid,
+    options: &RenderOptions,
+) -> Result<()> {
+    use pn_runtime::memory_estimate::{default_limit_bytes, human_bytes};
+    let sky_from = scene.sky_lights.as_ref().map(|s| s.first);
+    let bytes = LightDepth::estimate_bytes(density, &scene.lights, sky_from);
+    let limit = options.max_memory.unwrap_or_else(default_limit_bytes);
+    ensure!(
+        bytes <= limit,
+        "the optical depth to the {} light{} over the {}×{}×{} medium voxels needs about {}, \
+         more than the memory limit of {} (raise it with --max-memory, or lower the medium's \
+         resolution)",
+        scene.lights.len(),
+        if scene.lights.len() == 1 { "" } else { "s" },
+        density.res[0],
+        density.res[1],
+        density.res[2],
+        human_bytes(u128::from(bytes)),
+        human_bytes(u128::from(limit))
+    );
+    Ok(())
 }
 
 /// The optical depth to the lights of a render without a solve.
