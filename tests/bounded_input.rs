@@ -511,3 +511,88 @@ fn optical_depth_grids_beyond_the_memory_limit_are_refused_with_their_size() {
     assert!(err.starts_with("error: "), "{err}");
     assert!(!out.exists());
 }
+
+/// A file of `len` bytes that takes no disk (sparse): a huge input for the size checks.
+fn sparse_file(path: &Path, len: u64) {
+    std::fs::File::create(path).unwrap().set_len(len).unwrap();
+}
+
+/// Per parser, deep nesting and a huge input: scene TOML (render and solve scenes, from a
+/// file and through `--set`), text PDEs, `.npy` headers and images (the volume files' huge
+/// and streamed inputs are `streams_and_lying_headers_are_refused_at_once`'s, the text
+/// PDEs' deep nesting `deep_nesting_in_a_text_pde_is_a_clear_error`'s). Each refused at
+/// once with its cause, never a stack overflow or a read of the whole input.
+#[test]
+fn every_parser_refuses_deep_nesting_and_huge_input() {
+    let d = work_dir("bounded-per-parser");
+    std::fs::create_dir_all(&d).unwrap();
+    let out = d.join("out");
+    let o = out.to_str().unwrap();
+    let t = Instant::now();
+    // Scene TOML: 100,000 nested arrays, and 100,000 nested inline tables.
+    let n = 100_000;
+    let arrays = write(
+        &d,
+        "arrays.toml",
+        &format!("[medium]\nx = {}{}\n", "[".repeat(n), "]".repeat(n)),
+    );
+    let tables = write(
+        &d,
+        "tables.toml",
+        &format!("a = {}1{}\n", "{b=".repeat(n), "}".repeat(n)),
+    );
+    for scene in [&arrays, &tables] {
+        let s = scene.to_str().unwrap();
+        refused(&["render", s, "--out", o], &["recursion limit exceeded"]);
+        refused(&["solve", s, "--out", o], &["recursion limit exceeded"]);
+    }
+    // `--set` values are TOML too.
+    let deep = format!("medium.x={}{}", "[".repeat(20_000), "]".repeat(20_000));
+    refused(
+        &["render", "cloud", "--set", &deep, "--out", o],
+        &["is not valid TOML: recursion limit exceeded"],
+    );
+    // Scene and PDE files beyond the text inputs' 64 MiB, refused by their size.
+    let huge_scene = d.join("huge.toml");
+    sparse_file(&huge_scene, (64 << 20) + 1);
+    let huge_pde = d.join("huge.pde");
+    sparse_file(&huge_pde, (64 << 20) + 1);
+    refused(
+        &["render", huge_scene.to_str().unwrap(), "--out", o],
+        &["more than the 64 MiB a text input may have"],
+    );
+    refused(
+        &["solve", huge_scene.to_str().unwrap(), "--out", o],
+        &["more than the 64 MiB a text input may have"],
+    );
+    refused(
+        &solve_pde("pointsource", &huge_pde, &out),
+        &["more than the 64 MiB a text input may have"],
+    );
+    // An .npy header of 100,000 nested parentheses.
+    let header = format!(
+        "{{'descr': '<f8', 'fortran_order': False, 'shape': {}{}, }}",
+        "(".repeat(n),
+        ")".repeat(n)
+    );
+    let mut npy = b"\x93NUMPY\x02\x00".to_vec();
+    npy.extend((header.len() as u32).to_le_bytes());
+    npy.extend(header.as_bytes());
+    std::fs::write(d.join("deep.npy"), &npy).unwrap();
+    let scene = grid_scene(&d, "deep-npy.toml", d.join("deep.npy").to_str().unwrap());
+    refused(
+        &["render", scene.to_str().unwrap(), "--out", o],
+        &["invalid .npy file"],
+    );
+    // Images (`pn compare`, environment maps): a stream, and a huge file that is no image.
+    let zero = d.join("zero.exr");
+    std::os::unix::fs::symlink("/dev/zero", &zero).unwrap();
+    let z = zero.to_str().unwrap();
+    refused(&["compare", z, z], &["not a regular file"]);
+    let huge_exr = d.join("huge.exr");
+    sparse_file(&huge_exr, 1 << 40);
+    let h = huge_exr.to_str().unwrap();
+    refused(&["compare", h, h], &["cannot decode", "as an image"]);
+    assert!(t.elapsed() < Duration::from_secs(20), "{:?}", t.elapsed());
+    assert!(!out.exists());
+}
