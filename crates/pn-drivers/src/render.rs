@@ -238,8 +238,15 @@ fn solver_line(s: &SolverReport) -> String {
 
 /// Writes `image.exr`, `image.png` and `report.json` into `dir` (a turntable:
 /// `view_000.exr`, `view_000.png`, … instead of `image.*`).
+/// The files appear together once all are written (a failure leaves none).
 pub fn write_run(dir: &Path, run: &RenderRun) -> Result<()> {
-    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    let stage = pn_formats::files::StagedDir::new(dir)?;
+    write_run_files(stage.path(), run)?;
+    stage.commit()
+}
+
+/// [`write_run`]'s files, written into the folder `dir`.
+fn write_run_files(dir: &Path, run: &RenderRun) -> Result<()> {
     if let Some(rgb) = &run.rgb {
         write_rgb(dir, rgb)?;
     } else if run.views.is_empty() {
@@ -300,12 +307,15 @@ pub fn run(a: &RenderRequest, stdout: &mut dyn Write) -> Result<()> {
         None if a.save_moments => bail!("--save-moments: no solution to write (an empty medium?)"),
         _ => None,
     };
-    write_run(&out, &run)?;
+    // Every file at once, only when all are written (issue 53).
+    let stage = pn_formats::files::StagedDir::new(&out)?;
+    write_run_files(stage.path(), &run)?;
     if let Some(ms) = save {
         let m = &ms.moments;
-        let path = out.join("moments.npy");
+        let path = stage.path().join("moments.npy");
         pn_formats::write_npy(&path, &[m.res[0], m.res[1], m.res[2], m.per_cell], &m.data)?;
     }
+    stage.commit()?;
     write_summary(stdout, &run.report, &out, a.stats)
 }
 

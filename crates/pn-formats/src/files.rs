@@ -2,7 +2,7 @@
 //! Mitsuba export's `.vol` volumes and Python script, whose contents `pn-render` returns).
 
 use anyhow::Context;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// Creates `dir` and its missing parents (`cannot create <dir>` on error).
 pub fn create_dir_all(dir: &Path) -> anyhow::Result<()> {
@@ -34,6 +34,81 @@ pub fn check_output_dir(dir: &Path) -> anyhow::Result<()> {
         dir.display(),
         existing.display()
     )
+}
+
+/// A folder's files, written into a temporary folder beside it and moved into it together
+/// by [`StagedDir::commit`]. A failure before that (the value dropped without a commit)
+/// leaves nothing behind: neither the temporary folder nor the parents it needed (issue 53).
+pub struct StagedDir {
+    dir: PathBuf,
+    temp: PathBuf,
+    /// Parents of `dir` this value created, deepest first.
+    made: Vec<PathBuf>,
+    committed: bool,
+}
+
+impl StagedDir {
+    /// Creates the temporary folder `.<name>.partial-<pid>` beside `dir`.
+    pub fn new(dir: &Path) -> anyhow::Result<Self> {
+        let parent = match dir.parent() {
+            Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+            _ => PathBuf::from("."),
+        };
+        let made: Vec<PathBuf> = parent
+            .ancestors()
+            .take_while(|a| !a.as_os_str().is_empty() && !a.exists())
+            .map(Path::to_path_buf)
+            .collect();
+        let leaf = dir.file_name().and_then(|n| n.to_str()).unwrap_or("out");
+        let mut staged = Self {
+            dir: dir.to_path_buf(),
+            temp: parent.join(format!(".{leaf}.partial-{}", std::process::id())),
+            made,
+            committed: false,
+        };
+        create_dir_all(&parent)?;
+        let _ = std::fs::remove_dir_all(&staged.temp);
+        if let Err(e) = std::fs::create_dir(&staged.temp) {
+            staged.temp = PathBuf::new();
+            return Err(e).with_context(|| format!("cannot create {}", dir.display()));
+        }
+        Ok(staged)
+    }
+
+    /// Where the files are written.
+    pub fn path(&self) -> &Path {
+        &self.temp
+    }
+
+    /// Moves every file written into the folder (created if missing; files of the same
+    /// names replaced).
+    pub fn commit(mut self) -> anyhow::Result<()> {
+        create_dir_all(&self.dir)?;
+        let entries = std::fs::read_dir(&self.temp)
+            .with_context(|| format!("cannot read {}", self.temp.display()))?;
+        for entry in entries {
+            let entry = entry.with_context(|| format!("cannot read {}", self.temp.display()))?;
+            let to = self.dir.join(entry.file_name());
+            std::fs::rename(entry.path(), &to)
+                .with_context(|| format!("cannot write {}", to.display()))?;
+        }
+        self.committed = true;
+        Ok(())
+    }
+}
+
+impl Drop for StagedDir {
+    fn drop(&mut self) {
+        if !self.temp.as_os_str().is_empty() {
+            let _ = std::fs::remove_dir_all(&self.temp);
+        }
+        if !self.committed {
+            // Only folders this value made, and only while empty.
+            for d in &self.made {
+                let _ = std::fs::remove_dir(d);
+            }
+        }
+    }
 }
 
 /// Writes `contents` to `path`, replacing it (`cannot write <path>` on error).
@@ -107,6 +182,36 @@ mod tests {
         let e = format!("{:#}", check_output_dir(&file.join("x/y")).unwrap_err());
         assert!(e.contains("afile is not a folder"), "{e}");
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn a_staged_folder_appears_whole_or_not_at_all() {
+        let root = std::env::temp_dir().join(format!("pn-staged-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&root);
+        let dir = root.join("a/b/out");
+        // Dropped without a commit: nothing is left, not even the parents it made.
+        {
+            let s = StagedDir::new(&dir).unwrap();
+            write(&s.path().join("x.txt"), "1").unwrap();
+        }
+        assert!(!root.exists());
+        // Committed: the files and only them, into a folder that may hold others.
+        let s = StagedDir::new(&dir).unwrap();
+        write(&s.path().join("x.txt"), "1").unwrap();
+        write(&s.path().join("y.txt"), "2").unwrap();
+        s.commit().unwrap();
+        let s = StagedDir::new(&dir).unwrap();
+        write(&s.path().join("x.txt"), "3").unwrap();
+        s.commit().unwrap();
+        let mut names: Vec<String> = std::fs::read_dir(dir.parent().unwrap())
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        names.sort();
+        assert_eq!(names, ["out"]);
+        assert_eq!(std::fs::read_to_string(dir.join("x.txt")).unwrap(), "3");
+        assert_eq!(std::fs::read_to_string(dir.join("y.txt")).unwrap(), "2");
+        std::fs::remove_dir_all(&root).unwrap();
     }
 
     #[test]

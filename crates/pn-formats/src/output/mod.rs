@@ -7,25 +7,16 @@ pub mod report;
 
 use crate::npy::write_npy;
 use crate::png;
-use anyhow::Context;
 use pn_runtime::pipeline::Solution;
 use pn_runtime::problem::Grid;
 use pn_stencil::Dim;
 use report::SolveReport;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// Names of the files [`write_outputs`] produces.
 pub const OUTPUT_FILES: [&str; 4] = ["fluence.npy", "moments.npy", "fluence.png", "report.json"];
 
 /// Removes the temporary directory unless it was consumed.
-struct TempDir(PathBuf);
-
-impl Drop for TempDir {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
-}
-
 /// Shape of a per-cell array: `(nx, ny)` in 2D, `(nx, ny, nz)` in 3D.
 pub fn cell_shape(grid: &Grid) -> Vec<usize> {
     match grid.dim {
@@ -43,23 +34,15 @@ pub fn write_outputs(
     sol: &Solution,
     report: &SolveReport,
 ) -> anyhow::Result<()> {
-    let parent = match dir.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    std::fs::create_dir_all(&parent)
-        .with_context(|| format!("cannot create {}", parent.display()))?;
-    let leaf = dir.file_name().and_then(|n| n.to_str()).unwrap_or("out");
-    let tmp = TempDir(parent.join(format!(".{leaf}.tmp-{}", std::process::id())));
-    let _ = std::fs::remove_dir_all(&tmp.0);
-    std::fs::create_dir(&tmp.0).with_context(|| format!("cannot create {}", tmp.0.display()))?;
+    let stage = crate::files::StagedDir::new(dir)?;
+    let tmp = stage.path();
 
     let shape = cell_shape(grid);
     let l00 = sol.l00();
-    write_npy(&tmp.0.join("fluence.npy"), &shape, &l00)?;
+    write_npy(&tmp.join("fluence.npy"), &shape, &l00)?;
     let mut mshape = shape.clone();
     mshape.push(sol.moments.per_cell);
-    write_npy(&tmp.0.join("moments.npy"), &mshape, &sol.moments.data)?;
+    write_npy(&tmp.join("moments.npy"), &mshape, &sol.moments.data)?;
 
     // 3D: the z-slice through the middle.
     let [nx, ny, nz] = grid.res;
@@ -77,7 +60,7 @@ pub fn write_outputs(
         ),
     };
     png::write_png(
-        &tmp.0.join("fluence.png"),
+        &tmp.join("fluence.png"),
         &png::Slice {
             nx,
             ny,
@@ -87,13 +70,8 @@ pub fn write_outputs(
             title,
         },
     )?;
-    crate::json::write_atomic(&tmp.0.join("report.json"), report)?;
+    crate::json::write_atomic(&tmp.join("report.json"), report)?;
 
-    std::fs::create_dir_all(dir)
-        .with_context(|| format!("cannot create output directory {}", dir.display()))?;
-    for name in OUTPUT_FILES {
-        std::fs::rename(tmp.0.join(name), dir.join(name))
-            .with_context(|| format!("cannot move {name} into {}", dir.display()))?;
-    }
+    stage.commit()?;
     Ok(())
 }
