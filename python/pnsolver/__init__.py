@@ -31,7 +31,7 @@ progress-bar options; `callback=f` calls f(iteration, relative_residual) for eve
 the P_N/CDA solve, on the calling thread while the solve runs (an exception in f ends the
 call). Ctrl-C raises KeyboardInterrupt at once; the interrupted solve finishes in the
 background and its result is dropped. Bad input raises ValueError with the message `pn render`
-prints. `real_sh(lmax, directions)` gives the real spherical harmonics of the moments'
+prints, naming the key, the array or the figure (docs/python.md, "Errors"). `real_sh(lmax, directions)` gives the real spherical harmonics of the moments'
 convention, shape (n, (lmax+1)**2).
 
 Phase functions are dictionaries with the keys of the scene format's `[phase]` table:

@@ -54,7 +54,9 @@ only), `order` (3),
 (1e-4), `margin`, `absorber_width`, `absorbing_layer`, `sweeps` (the `[solve]` keys of a pn render
 scene; defaults as there: 2 transport sweeps after the solve), `threads` (default: all cores),
 `hide_emitters` (false: as volpath's), `surface_light` (true; false leaves the surfaces'
-light out of the medium: to measure what it does).
+light out of the medium: to measure what it does). They are checked when Mitsuba creates the
+integrator (types, and the ranges of a pn scene's `[solve]` table by its own check): the
+ValueError reaches the user inside the RuntimeError of Mitsuba's loader.
 """
 
 from __future__ import annotations
@@ -72,6 +74,7 @@ except ImportError as e:  # pragma: no cover - the message is the point
     ) from e
 
 from . import Scene, phase_moments, phase_value, solve
+from ._pnsolver import _check_solve_settings
 from . import _mitsuba_sky as _sky
 
 __all__ = ["register", "integrator_class", "PnIntegrator", "Solution", "scene_settings",
@@ -472,7 +475,16 @@ def scene_inputs(scene, solve_settings: dict | None = None, sensor=None,
             f"{grid.shape}"
         )
     density = np.ascontiguousarray(np.transpose(grid[..., 0], (2, 1, 0)))
+    # Checked before the grid is compared with Mitsuba's reading of it (which a NaN spoils);
+    # pnsolver checks the array again, and the albedo grid.
+    bad = ~np.isfinite(density) | (density < 0)
+    if np.any(bad):
+        x, y, z = (int(v) for v in np.argwhere(bad)[0])
+        raise ValueError(f"the medium's sigma_t grid must be finite and non-negative: voxel "
+                         f"(x, y, z) = ({x}, {y}, {z}) is {density[x, y, z]}")
     scale = _scalar(params["scale"])
+    if not (math.isfinite(scale) and scale >= 0):
+        raise ValueError(f"the medium's scale must be finite and non-negative, got {scale}")
     lo, hi = _grid_box(medium, cube_lo, cube_hi)
     tol = 1e-5 * max(1.0, float(np.max(hi - lo)))
     if np.any(cube_lo > lo + tol) or np.any(cube_hi < hi - tol):
@@ -615,6 +627,45 @@ class Solution:
         return out
 
 
+def _integer(v) -> int:
+    """An integer property value: an int, an integral float or a string of an int; otherwise
+    ValueError."""
+    if isinstance(v, bool):
+        raise ValueError(v)
+    if isinstance(v, (int, np.integer)):
+        return int(v)
+    if isinstance(v, (float, np.floating)) and float(v).is_integer():
+        return int(v)
+    if isinstance(v, str):
+        return int(v.strip())
+    raise ValueError(v)
+
+
+def _prop(props, key, kind, default):
+    """The integrator property `key` as `kind` (int, float or bool), `default` without it; a
+    string spelling such a value is taken ("3", "1e-4", "true"). Anything else raises a
+    ValueError naming the key (no silent int(2.5) == 2 or bool("false") == True)."""
+    if key not in props:
+        return default
+    v = props[key]
+    try:
+        if kind is int:
+            return _integer(v)
+        if kind is float and not isinstance(v, bool):
+            if isinstance(v, str):
+                return float(v.strip())
+            return float(v)
+        if kind is bool:
+            if isinstance(v, (bool, np.bool_)):
+                return bool(v)
+            if isinstance(v, str) and v.strip().lower() in ("true", "false"):
+                return v.strip().lower() == "true"
+    except (TypeError, ValueError):
+        pass
+    what = {int: "an integer", float: "a number", bool: "true or false"}[kind]
+    raise ValueError(f"pn integrator: {key} must be {what}, got {v!r}")
+
+
 class PnIntegrator:
     """Single scattering by Mitsuba's next-event estimation plus the multiple scattering of
     a pnsolver solve, at the first collision of each camera path (module docs). The methods
@@ -630,28 +681,34 @@ class PnIntegrator:
                 f"pn integrator: method must be pn, cda, fld or none, got "
                 f"{solve_settings['method']!r}"
             )
-        solve_settings["order"] = int(props.get("order", 3))
+        solve_settings["order"] = _prop(props, "order", int, 3)
         res = props.get("resolution", 32)
-        if isinstance(res, str):
-            try:
-                res = [int(v) for v in res.split(",")]
-            except ValueError:
-                raise ValueError(f"pn integrator: resolution {res!r}: an integer or 'nx,ny,nz'")
-            if len(res) == 1:
-                res = res * 3
-        else:
-            res = [int(res)] * 3
-        solve_settings["resolution"] = res
-        solve_settings["tolerance"] = float(props.get("tolerance", 1e-4))
+        try:
+            res = ([_integer(v) for v in res.split(",")] if isinstance(res, str)
+                   else [_integer(res)])
+        except ValueError:
+            res = []
+        if len(res) not in (1, 3):
+            raise ValueError(f"pn integrator: resolution must be an integer or 'nx,ny,nz', got "
+                             f"{props.get('resolution')!r}")
+        solve_settings["resolution"] = res * 3 if len(res) == 1 else res
+        solve_settings["tolerance"] = _prop(props, "tolerance", float, 1e-4)
         for key in ("margin", "absorbing_layer", "sweeps"):
             if key in props:
-                solve_settings[key] = int(props[key])
+                solve_settings[key] = _prop(props, key, int, None)
         if "absorber_width" in props:
-            solve_settings["absorber_width"] = float(props["absorber_width"])
+            solve_settings["absorber_width"] = _prop(props, "absorber_width", float, None)
+        # The checks of a scene's [solve] table, now rather than at the first render.
+        try:
+            _check_solve_settings(solve_settings)
+        except ValueError as e:
+            raise ValueError(f"pn integrator: {e}") from None
         self.solve_settings = solve_settings
-        self.threads = int(props["threads"]) if "threads" in props else None
-        self.hide_emitters = bool(props.get("hide_emitters", False))
-        self.surface_light = bool(props.get("surface_light", True))
+        self.threads = _prop(props, "threads", int, None)
+        if self.threads is not None and self.threads < 1:
+            raise ValueError(f"pn integrator: threads must be at least 1, got {self.threads}")
+        self.hide_emitters = _prop(props, "hide_emitters", bool, False)
+        self.surface_light = _prop(props, "surface_light", bool, True)
         self._solutions = {}
 
     # Many views from one solve: the solution is kept per scene.

@@ -472,18 +472,8 @@ impl Procedural {
         bbox_max: [f64; 3],
         seed: u64,
     ) -> anyhow::Result<DensityGrid> {
-        ensure!(
-            res.iter().all(|&n| n > 0),
-            "medium resolution must be positive on every axis, got {res:?}"
-        );
+        let n = check_procedural_resolution(res)?;
         check_box(bbox_min, bbox_max)?;
-        let n = res[0]
-            .checked_mul(res[1])
-            .and_then(|v| v.checked_mul(res[2]))
-            .filter(|&n| n <= MAX_PROCEDURAL_VOXELS)
-            .with_context(|| {
-                format!("medium resolution {res:?} exceeds {MAX_PROCEDURAL_VOXELS} voxels")
-            })?;
         let mut data = vec![0.0f32; n];
         // Each voxel is a function of its centre and the seed alone: parallel, same values.
         data.par_iter_mut().enumerate().for_each(|(idx, v)| {
@@ -502,6 +492,26 @@ impl Procedural {
 
 /// Largest procedural grid (512³): bounds memory from a typo in the resolution.
 pub const MAX_PROCEDURAL_VOXELS: usize = 512 * 512 * 512;
+
+/// Checks a procedural medium's `medium.resolution` before its grid is made: positive on
+/// every axis and at most [`MAX_PROCEDURAL_VOXELS`] voxels, the refusal giving the memory the
+/// grid would take (4 bytes a voxel). Returns the voxel count. The scene parser checks it as
+/// it reads the scene, [`Procedural::grid`] again.
+pub fn check_procedural_resolution(res: [usize; 3]) -> anyhow::Result<usize> {
+    ensure!(
+        res.iter().all(|&n| n > 0),
+        "medium.resolution must be positive on every axis, got {res:?}"
+    );
+    let n: u128 = res.iter().map(|&v| v as u128).product();
+    ensure!(
+        n <= MAX_PROCEDURAL_VOXELS as u128,
+        "medium.resolution {res:?} is {n} voxels, about {} as float32; a procedural medium \
+         has at most 512³ = {MAX_PROCEDURAL_VOXELS} voxels ({})",
+        pn_runtime::memory_estimate::human_bytes(n.saturating_mul(4)),
+        pn_runtime::memory_estimate::human_bytes(MAX_PROCEDURAL_VOXELS as u128 * 4)
+    );
+    Ok(n as usize)
+}
 
 /// Hermite smoothstep of `x` between `a` and `b`.
 fn smoothstep(a: f64, b: f64, x: f64) -> f64 {

@@ -74,12 +74,7 @@ impl EnvMap {
             height >= 3,
             "an environment map needs at least 3 rows (6 × 3 texels), got {width} × {height}"
         );
-        ensure!(
-            width * height <= MAX_ENVMAP_TEXELS,
-            "an environment map of {width} × {height} texels would take {:.1} GB; the \
-             largest accepted is 4096 × 2048 (downsample it)",
-            (width * height * 12) as f64 / 1e9
-        );
+        check_envmap_size(width, height)?;
         ensure!(
             texels.len() == width * height,
             "an environment map of {width} × {height} needs {} texels, got {}",
@@ -680,17 +675,26 @@ impl SkyLights {
     }
 }
 
+/// Refuses an environment map of `width` × `height` texels larger than
+/// [`MAX_ENVMAP_TEXELS`], with the memory it would take (12 bytes a texel): checked from a
+/// map file's header before it is decoded, and by the Python binding from a numpy array's
+/// shape before it is copied.
+pub fn check_envmap_size(width: usize, height: usize) -> anyhow::Result<()> {
+    let texels = width as u128 * height as u128;
+    ensure!(
+        texels <= MAX_ENVMAP_TEXELS as u128,
+        "an environment map of {width} × {height} texels would take {:.1} GB; the largest \
+         accepted is 4096 × 2048 (downsample it)",
+        (texels * 12) as f64 / 1e9
+    );
+    Ok(())
+}
+
 /// Reads an environment map file (OpenEXR, or any image format `pn_formats` reads) into
 /// an [`EnvMap`], checking its size before decoding it.
 pub fn read_envmap(path: &std::path::Path) -> anyhow::Result<EnvMap> {
     let (w, h) = pn_formats::image_dimensions(path)?;
-    ensure!(
-        w * h <= MAX_ENVMAP_TEXELS,
-        "{}: an environment map of {w} × {h} texels would take {:.1} GB; the largest \
-         accepted is 4096 × 2048 (downsample it)",
-        path.display(),
-        (w * h * 12) as f64 / 1e9
-    );
+    check_envmap_size(w, h).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
     let (w, h, [r, g, b]) = pn_formats::read_exr_rgb(path)?;
     let texels = (0..w * h).map(|i| [r[i], g[i], b[i]]).collect();
     EnvMap::new(w, h, texels).with_context(|| format!("{}", path.display()))

@@ -5,15 +5,19 @@
 //! name or a settings dictionary with numpy density and albedo arrays; [`render`] and
 //! [`solve`], which call [`pn_render::render_views`] with the interpreter lock
 //! released and return numpy arrays and the report as a dictionary. Errors are `ValueError`s
-//! with the messages of `pn render`.
+//! with the messages of `pn render` (the scene parser's checks), naming the dictionary key,
+//! the array or the figure (`input`: arrays are checked for dtype, shape and size before
+//! anything is copied).
 
-use numpy::{PyArray1, PyArrayMethods, PyReadonlyArrayDyn, PyUntypedArrayMethods};
+use input::{count, shape3, toml_error, FloatArray};
+use numpy::{PyArray1, PyArrayMethods, PyUntypedArrayMethods};
 use pn_render::RenderScene;
 use pn_render::{render_views, ProgressCallback, RenderOptions, RenderRun};
 use pyo3::exceptions::{PyImportError, PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
+mod input;
 mod phase;
 
 /// An anyhow error as a Python `ValueError` with the whole chain of context.
@@ -28,33 +32,6 @@ struct Scene {
     inner: RenderScene,
 }
 
-/// A float array of rank 3 as (shape, values in C order), from float64 or float32.
-fn array3(name: &str, a: &Bound<'_, PyAny>) -> PyResult<([usize; 3], Vec<f64>)> {
-    let (shape, data): (Vec<usize>, Vec<f64>) =
-        if let Ok(x) = a.extract::<PyReadonlyArrayDyn<'_, f64>>() {
-            (x.shape().to_vec(), x.as_array().iter().copied().collect())
-        } else if let Ok(x) = a.extract::<PyReadonlyArrayDyn<'_, f32>>() {
-            (
-                x.shape().to_vec(),
-                x.as_array().iter().map(|v| f64::from(*v)).collect(),
-            )
-        } else {
-            let ty = a
-                .getattr("dtype")
-                .map(|d| d.to_string())
-                .unwrap_or_else(|_| a.get_type().to_string());
-            return Err(PyValueError::new_err(format!(
-                "{name} must be a numpy array of float64 or float32, got {ty}"
-            )));
-        };
-    let dims: [usize; 3] = shape.as_slice().try_into().map_err(|_| {
-        PyValueError::new_err(format!(
-            "{name} must have shape (nx, ny, nz) (x first), got shape {shape:?}"
-        ))
-    })?;
-    Ok((dims, data))
-}
-
 /// An environment map from a numpy array (height, width, 3) or (height, width), float64 or
 /// float32, row 0 = +Y (Mitsuba's orientation); shape and size checked before copying.
 fn envmap_array(a: &Bound<'_, PyAny>) -> PyResult<pn_render::sky::EnvMap> {
@@ -63,6 +40,7 @@ fn envmap_array(a: &Bound<'_, PyAny>) -> PyResult<pn_render::sky::EnvMap> {
         .getattr("shape")
         .and_then(|s| s.extract())
         .map_err(|_| bad(format!("must be a numpy array, got {}", a.get_type())))?;
+    let array = FloatArray::of("envmap", a)?;
     let (h, w) = match shape.as_slice() {
         [h, w] | [h, w, 3] => (*h, *w),
         _ => {
@@ -71,26 +49,8 @@ fn envmap_array(a: &Bound<'_, PyAny>) -> PyResult<pn_render::sky::EnvMap> {
             )))
         }
     };
-    if h * w > pn_render::sky::MAX_ENVMAP_TEXELS {
-        return Err(bad(format!(
-            "{w} × {h} texels would take {:.1} GB; the largest accepted is 4096 × 2048 \
-             (downsample it)",
-            (w * h * 12) as f64 / 1e9
-        )));
-    }
-    let values: Vec<f32> = if let Ok(x) = a.extract::<PyReadonlyArrayDyn<'_, f32>>() {
-        x.as_array().iter().copied().collect()
-    } else if let Ok(x) = a.extract::<PyReadonlyArrayDyn<'_, f64>>() {
-        x.as_array().iter().map(|v| *v as f32).collect()
-    } else {
-        let ty = a
-            .getattr("dtype")
-            .map(|d| d.to_string())
-            .unwrap_or_else(|_| a.get_type().to_string());
-        return Err(bad(format!(
-            "must be an array of float64 or float32, got {ty}"
-        )));
-    };
+    pn_render::sky::check_envmap_size(w, h).map_err(|e| bad(format!("{e:#}")))?;
+    let values: Vec<f32> = array.to_vec(|v| v as f32);
     let texels: Vec<[f32; 3]> = if shape.len() == 2 {
         values.iter().map(|v| [*v; 3]).collect()
     } else {
@@ -135,27 +95,113 @@ fn envmap_placeholder(table: &mut toml::Table) -> PyResult<usize> {
     })
 }
 
+/// The density array (and the albedo array) of `Scene(settings, density=…, albedo=…)`,
+/// checked before they are copied (float64 or float32, rank 3, the same shape, no
+/// zero-length axis, the copy within the memory limit), and the settings' medium made ready
+/// for them: `medium.kind` left out or "grid", no file keys, `bbox_min` and `bbox_max`
+/// given, `medium.resolution` left out or the array's shape; a placeholder procedural medium
+/// of the array's size, which [`RenderScene::set_density_arrays`] replaces. Returns (shape,
+/// density, albedo) in C order.
+fn density_arrays(
+    table: &mut toml::Table,
+    density: &Bound<'_, PyAny>,
+    albedo: Option<&Bound<'_, PyAny>>,
+) -> PyResult<DensityArrays> {
+    let d = FloatArray::of("density", density)?;
+    let dims = shape3("density", &d)?;
+    let a = albedo.map(|a| FloatArray::of("albedo", a)).transpose()?;
+    if let Some(a) = &a {
+        let adims = shape3("albedo", a)?;
+        if adims != dims {
+            return Err(PyValueError::new_err(format!(
+                "albedo has shape {adims:?}, the density {dims:?}"
+            )));
+        }
+    }
+    input::check_size("density", dims, if a.is_some() { 2 } else { 1 })?;
+    let medium = table
+        .get_mut("medium")
+        .and_then(|m| m.as_table_mut())
+        .ok_or_else(|| PyValueError::new_err("settings need a \"medium\" section"))?;
+    for key in ["file", "grid", "seed", "albedo_file", "albedo_grid"] {
+        if medium.contains_key(key) {
+            return Err(PyValueError::new_err(format!(
+                "medium.{key} does not apply to a density array"
+            )));
+        }
+    }
+    for key in ["bbox_min", "bbox_max"] {
+        if !medium.contains_key(key) {
+            return Err(PyValueError::new_err(format!(
+                "a density array needs medium.{key} (the box it covers)"
+            )));
+        }
+    }
+    if let Some(kind) = medium.get("kind").and_then(|k| k.as_str()) {
+        if kind != "grid" {
+            return Err(PyValueError::new_err(format!(
+                "medium.kind {kind:?} with a density array: leave it out or say \"grid\""
+            )));
+        }
+    }
+    let res = toml::Value::Array(dims.map(|n| toml::Value::Integer(n as i64)).to_vec());
+    if let Some(given) = medium.get("resolution") {
+        if *given != res {
+            return Err(PyValueError::new_err(format!(
+                "medium.resolution {given} disagrees with the density array's shape {dims:?}; \
+                 leave it out"
+            )));
+        }
+    }
+    if a.is_some() && !medium.contains_key("albedo") {
+        // The array replaces it; the TOML check needs a value.
+        medium.insert("albedo".into(), toml::Value::Float(0.0));
+    }
+    medium.insert("kind".into(), toml::Value::String("box".into()));
+    medium.insert("resolution".into(), res);
+    Ok((dims, d.to_vec(|v| v), a.map(|a| a.to_vec(|v| v))))
+}
+
+/// (shape, density, albedo) of [`density_arrays`].
+type DensityArrays = ([usize; 3], Vec<f64>, Option<Vec<f64>>);
+
 #[pymethods]
 impl Scene {
-    /// `Scene(settings, density=None, albedo=None)`: `settings` is the TOML scene as a
-    /// dictionary (`{"medium": {...}, "phase": {...}, "light": [{...}], "camera": {...},
-    /// "solve": {...}, "render": {...}}`, keys as in the README). With `density` (a numpy
-    /// array of shape (nx, ny, nz), x first, covering `medium.bbox_min`..`bbox_max`, which are
-    /// then required) the medium is that array; `albedo` (same shape) replaces
-    /// `medium.albedo`. With `envmap` (a numpy array (height, width, 3) or (height, width),
-    /// 2:1, row 0 = +Y as Mitsuba's `envmap`) the map of the scene's `kind = "envmap"` light,
-    /// which then has no `file`. Values may be numpy arrays and scalars (the phase's
-    /// `values`, …).
+    /// `Scene(settings, density=None, albedo=None, envmap=None)`: `settings` is the TOML
+    /// scene as a dictionary (`{"medium": {...}, "phase": {...}, "light": [{...}],
+    /// "camera": {...}, "solve": {...}, "render": {...}}`, keys as in the README). With
+    /// `density` (a numpy array of shape (nx, ny, nz), x first, covering
+    /// `medium.bbox_min`..`bbox_max`, which are then required) the medium is that array;
+    /// `albedo` (same shape) replaces `medium.albedo`. With `envmap` (a numpy array (height,
+    /// width, 3) or (height, width), 2:1, row 0 = +Y as Mitsuba's `envmap`) the map of the
+    /// scene's `kind = "envmap"` light, which then has no `file`. Values may be numpy arrays
+    /// and scalars (the phase's `values`, …). Bad input is a `ValueError` naming the key (as
+    /// a path, `settings.solve.order`), the array or the figure.
     #[new]
     #[pyo3(signature = (settings, density = None, albedo = None, envmap = None))]
     fn new(
-        settings: &Bound<'_, PyDict>,
+        settings: &Bound<'_, PyAny>,
         density: Option<&Bound<'_, PyAny>>,
         albedo: Option<&Bound<'_, PyAny>>,
         envmap: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
-        let toml::Value::Table(mut table) = phase::to_toml(settings.as_any(), "settings")? else {
-            return Err(PyValueError::new_err("settings must be a dictionary"));
+        let not_a_dict = || {
+            let hint = if settings.is_instance_of::<pyo3::types::PyString>() {
+                " (Scene.load reads a built-in scene or a TOML file)"
+            } else {
+                ""
+            };
+            PyValueError::new_err(format!(
+                "settings must be a dictionary of the scene's sections ({{\"medium\": {{...}}, \
+                 \"camera\": {{...}}, ...}}), got {}{hint}",
+                settings.get_type()
+            ))
+        };
+        if !settings.is_instance_of::<PyDict>() {
+            return Err(not_a_dict());
+        }
+        let toml::Value::Table(mut table) = phase::to_toml(settings, "settings")? else {
+            return Err(not_a_dict());
         };
         let envmap = envmap.map(envmap_array).transpose()?;
         let placeholder = match envmap {
@@ -163,63 +209,20 @@ impl Scene {
             None => None,
         };
         let arrays = match density {
-            None => {
-                if albedo.is_some() {
-                    return Err(PyValueError::new_err(
-                        "an albedo array needs a density array",
-                    ));
-                }
-                None
+            None if albedo.is_some() => {
+                return Err(PyValueError::new_err(
+                    "an albedo array needs a density array",
+                ))
             }
-            Some(d) => {
-                let (dims, data) = array3("density", d)?;
-                let albedo = albedo.map(|a| array3("albedo", a)).transpose()?;
-                if let Some((adims, _)) = &albedo {
-                    if *adims != dims {
-                        return Err(PyValueError::new_err(format!(
-                            "albedo has shape {adims:?}, the density {dims:?}"
-                        )));
-                    }
-                }
-                let medium = table
-                    .get_mut("medium")
-                    .and_then(|m| m.as_table_mut())
-                    .ok_or_else(|| PyValueError::new_err("settings need a \"medium\" section"))?;
-                for key in ["file", "grid", "seed", "albedo_file", "albedo_grid"] {
-                    if medium.contains_key(key) {
-                        return Err(PyValueError::new_err(format!(
-                            "medium.{key} does not apply to a density array"
-                        )));
-                    }
-                }
-                for key in ["bbox_min", "bbox_max"] {
-                    if !medium.contains_key(key) {
-                        return Err(PyValueError::new_err(format!(
-                            "a density array needs medium.{key} (the box it covers)"
-                        )));
-                    }
-                }
-                if let Some(kind) = medium.get("kind").and_then(|k| k.as_str()) {
-                    if kind != "grid" {
-                        return Err(PyValueError::new_err(format!(
-                            "medium.kind {kind:?} with a density array: leave it out or say \"grid\""
-                        )));
-                    }
-                }
-                if albedo.is_some() && !medium.contains_key("albedo") {
-                    // The array replaces it; the TOML check needs a value.
-                    medium.insert("albedo".into(), toml::Value::Float(0.0));
-                }
-                // A placeholder procedural medium of the array's size, replaced below.
-                medium.insert("kind".into(), toml::Value::String("box".into()));
-                let res = dims.map(|n| toml::Value::Integer(n as i64));
-                medium.insert("resolution".into(), toml::Value::Array(res.to_vec()));
-                Some((dims, data, albedo.map(|(_, a)| a)))
-            }
+            None => None,
+            Some(d) => Some(density_arrays(&mut table, d, albedo)?),
         };
         let text = toml::to_string(&table).map_err(|e| PyValueError::new_err(e.to_string()))?;
         let mut inner =
             RenderScene::from_toml_str(&text, std::path::Path::new(".")).map_err(|e| {
+                if let Some(msg) = toml_error(&text, &e, "settings") {
+                    return PyValueError::new_err(msg);
+                }
                 let mut msg = format!("{e:#}");
                 if let Some(n) = placeholder {
                     // The parser saw the placeholder: name the light as the user wrote it.
@@ -260,12 +263,13 @@ impl Scene {
 
     /// The grey scene of channel `c` (0, 1, 2 = R, G, B) of a coloured scene; a grey scene
     /// is its own channel.
-    fn channel(&self, c: usize) -> PyResult<Self> {
-        if c > 2 {
+    fn channel(&self, c: i64) -> PyResult<Self> {
+        if !(0..=2).contains(&c) {
             return Err(PyValueError::new_err(format!(
                 "channel must be 0, 1 or 2 (R, G, B), got {c}"
             )));
         }
+        let c = c as usize;
         Ok(Scene {
             inner: self.inner.channel(c),
         })
@@ -379,13 +383,28 @@ fn write_notes(py: Python<'_>, notes: &[String]) -> PyResult<()> {
     Ok(())
 }
 
-fn options(threads: Option<usize>, progress: bool) -> RenderOptions {
-    RenderOptions {
-        threads,
+/// The options of `render` and `solve`, checked: `threads` in 1..=`pn_runtime`'s
+/// `max_threads` (the bound of `pn --threads`), `callback` callable.
+fn options(
+    threads: Option<i64>,
+    progress: bool,
+    callback: Option<&Bound<'_, PyAny>>,
+) -> PyResult<RenderOptions> {
+    if let Some(cb) = callback.filter(|cb| !cb.is_callable()) {
+        return Err(PyValueError::new_err(format!(
+            "callback must be callable as callback(iteration, relative_residual), got {}",
+            cb.get_type()
+        )));
+    }
+    let max_threads = pn_runtime::max_threads() as i64;
+    Ok(RenderOptions {
+        threads: threads
+            .map(|t| count("threads", t, 1, Some(max_threads)))
+            .transpose()?,
         progress,
         rows: progress.then(row_progress_bar),
         ..Default::default()
-    }
+    })
 }
 
 /// A progress bar over the image rows ("image rows"), one per image, hidden unless stderr
@@ -483,14 +502,14 @@ fn result_dict<'py>(py: Python<'py>, run: &RenderRun, image: bool) -> PyResult<B
 fn render<'py>(
     py: Python<'py>,
     scene: &Scene,
-    threads: Option<usize>,
+    threads: Option<i64>,
     progress: bool,
     callback: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let run = run_interruptible(
         py,
         scene.inner.clone(),
-        options(threads, progress),
+        options(threads, progress, callback)?,
         callback,
     )?;
     result_dict(py, &run, true)
@@ -507,7 +526,7 @@ fn render<'py>(
 fn solve<'py>(
     py: Python<'py>,
     scene: &Scene,
-    threads: Option<usize>,
+    threads: Option<i64>,
     progress: bool,
     callback: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
@@ -520,33 +539,31 @@ fn solve<'py>(
     // One pixel: the render step costs nothing.
     s.camera.width = 1;
     s.camera.height = 1;
-    let run = run_interruptible(py, s, options(threads, progress), callback)?;
+    let run = run_interruptible(py, s, options(threads, progress, callback)?, callback)?;
     result_dict(py, &run, false)
 }
 
 /// The real spherical harmonics Y_l^m (docs/design.md §2; `pn_stencil::quadrature::real_sh`)
-/// of `directions` (float64, shape (n, 3), unit vectors) for l ≤ `lmax`: float64, shape
+/// of `directions` (real numbers, shape (n, 3), unit vectors) for l ≤ `lmax`: float64, shape
 /// (n, (lmax+1)²), column l(l+1)+m. The reference the Mitsuba integrator's own evaluation is
 /// tested against.
 #[pyfunction]
 fn real_sh<'py>(
     py: Python<'py>,
-    lmax: usize,
-    directions: PyReadonlyArrayDyn<'py, f64>,
+    lmax: i64,
+    directions: &Bound<'py, PyAny>,
 ) -> PyResult<Bound<'py, PyAny>> {
+    let lmax = count("lmax", lmax, 0, Some(64))?;
+    let directions = input::real_array(directions, "directions")?.readonly();
     let shape = directions.shape().to_vec();
     if shape.len() != 2 || shape[1] != 3 {
         return Err(PyValueError::new_err(format!(
             "directions must have shape (n, 3), got {shape:?}"
         )));
     }
-    if lmax > 64 {
-        return Err(PyValueError::new_err(format!(
-            "lmax must be at most 64, got {lmax}"
-        )));
-    }
     let d = directions.as_array();
     let per = (lmax + 1) * (lmax + 1);
+    input::check_result_size("the result", shape[0] as u128 * per as u128)?;
     let mut out = Vec::with_capacity(shape[0] * per);
     for row in d.outer_iter() {
         let (x, y, z) = (row[0], row[1], row[2]);
@@ -568,6 +585,30 @@ fn real_sh<'py>(
         .into_any())
 }
 
+/// `_check_solve_settings(settings)`: checks a dictionary of `[solve]` keys as a scene's
+/// `[solve]` table is checked (`pn_render::scene::solve_from_toml_str`: unknown keys, types,
+/// ranges); a `ValueError` names the key. The Mitsuba integrator checks its properties with it
+/// when it is created.
+#[pyfunction]
+#[pyo3(name = "_check_solve_settings")]
+fn check_solve_settings(settings: &Bound<'_, PyAny>) -> PyResult<()> {
+    if !settings.is_instance_of::<PyDict>() {
+        return Err(PyValueError::new_err(
+            "the solve settings must be a dictionary",
+        ));
+    }
+    let toml::Value::Table(table) = phase::to_toml(settings, "solve")? else {
+        return Err(PyValueError::new_err(
+            "the solve settings must be a dictionary",
+        ));
+    };
+    let text = toml::to_string(&table).map_err(|e| PyValueError::new_err(e.to_string()))?;
+    pn_render::scene::solve_from_toml_str(&text).map_err(|e| {
+        PyValueError::new_err(toml_error(&text, &e, "").unwrap_or_else(|| format!("{e:#}")))
+    })?;
+    Ok(())
+}
+
 /// The names of the built-in render scenes.
 #[pyfunction]
 fn builtin_scenes<'py>(py: Python<'py>) -> PyResult<Bound<'py, PyList>> {
@@ -585,6 +626,7 @@ fn _pnsolver(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(solve, m)?)?;
     m.add_function(wrap_pyfunction!(builtin_scenes, m)?)?;
     m.add_function(wrap_pyfunction!(real_sh, m)?)?;
+    m.add_function(wrap_pyfunction!(check_solve_settings, m)?)?;
     m.add_function(wrap_pyfunction!(phase::phase_moments, m)?)?;
     m.add_function(wrap_pyfunction!(phase::phase_value, m)?)?;
     m.add_function(wrap_pyfunction!(phase::mitsuba_phase_dict, m)?)?;

@@ -2,7 +2,7 @@
 //! and the phase functions of the scene format from Python: `phase_moments`, `phase_value`
 //! and `mitsuba_phase_dict`.
 
-use numpy::{PyArray1, PyArrayMethods, PyReadonlyArrayDyn, PyUntypedArrayMethods};
+use numpy::{PyArray1, PyArrayMethods, PyUntypedArrayMethods};
 use pn_runtime::problem::Phase;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
@@ -89,13 +89,9 @@ pub(crate) fn phase_of(phase: &Bound<'_, PyAny>) -> PyResult<Phase> {
 pub(crate) fn phase_moments<'py>(
     py: Python<'py>,
     phase: &Bound<'py, PyAny>,
-    lmax: usize,
+    lmax: i64,
 ) -> PyResult<Bound<'py, PyArray1<f64>>> {
-    if lmax > MAX_LMAX {
-        return Err(PyValueError::new_err(format!(
-            "lmax must be at most {MAX_LMAX}, got {lmax}"
-        )));
-    }
+    let lmax = crate::input::count("lmax", lmax, 0, Some(MAX_LMAX as i64))?;
     let p = phase_of(phase)?;
     let m: Vec<f64> = (0..=lmax as u32).map(|l| p.moment(l)).collect();
     Ok(PyArray1::from_vec(py, m))
@@ -111,11 +107,9 @@ pub(crate) fn phase_value<'py>(
     mu: &Bound<'py, PyAny>,
 ) -> PyResult<Bound<'py, PyAny>> {
     let p = phase_of(phase)?;
-    let a = py
-        .import("numpy")?
-        .call_method1("asarray", (mu, "float64"))?;
-    let a: PyReadonlyArrayDyn<'py, f64> = a.extract()?;
+    let a = crate::input::real_array(mu, "mu")?.readonly();
     let shape = a.shape().to_vec();
+    crate::input::check_result_size("the result", a.len() as u128)?;
     let values = a
         .as_array()
         .iter()

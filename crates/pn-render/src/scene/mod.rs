@@ -23,8 +23,9 @@ mod validate;
 mod voxels;
 
 pub use builtin::builtin_names;
-pub use parse::phase_from_table;
+pub use parse::{phase_from_table, solve_from_toml_str};
 pub use types::*;
+pub use voxels::{check_array_shape, ARRAY_BYTES_PER_VOXEL};
 
 #[cfg(test)]
 mod sky_tests;

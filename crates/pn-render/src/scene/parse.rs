@@ -8,7 +8,9 @@ use super::*;
 use crate::camera::{norm, Camera};
 use crate::colour::{Colours, GreyOrRgb};
 use crate::lights::Light;
-use crate::medium::{check_box, DensityFilter, DensityGrid, Procedural};
+use crate::medium::{
+    check_box, check_procedural_resolution, DensityFilter, DensityGrid, Procedural,
+};
 use crate::scene_override::SceneOverride;
 use crate::sky::{rotation_to_up, Sky, SkyRadiance};
 use anyhow::{bail, ensure, Context};
@@ -90,7 +92,7 @@ struct CameraToml {
     height: usize,
 }
 
-#[derive(Deserialize, Debug)]
+#[derive(Deserialize, Debug, Default)]
 #[serde(deny_unknown_fields)]
 struct SolveToml {
     method: Option<RenderMethod>,
@@ -115,7 +117,7 @@ struct SolveToml {
     sweep_bands: Option<usize>,
 }
 
-#[derive(Deserialize, Debug)]
+#[derive(Deserialize, Debug, Default)]
 #[serde(deny_unknown_fields)]
 struct RenderToml {
     renderer: Option<RendererKind>,
@@ -179,8 +181,10 @@ impl RenderScene {
         base_dir: &Path,
         overrides: &[SceneOverride],
     ) -> anyhow::Result<RenderScene> {
-        // toml's Display names the line and column and quotes the offending line.
-        let t: SceneToml = toml::from_str(s).map_err(|e| anyhow::anyhow!("{e}"))?;
+        // toml's Display names the line and column and quotes the offending line; the error
+        // keeps its type (`toml::de::Error`, with the span) for callers that name the key
+        // instead (the Python binding, whose TOML text the user never saw).
+        let t: SceneToml = toml::from_str(s)?;
         if overrides.is_empty() {
             return build(t, base_dir);
         }
@@ -436,6 +440,42 @@ fn build_phase(p: PhaseToml) -> anyhow::Result<Phase> {
     })
 }
 
+/// The `[solve]` settings from the keys of a `[solve]` table written as a TOML document
+/// (`order = 3` …, defaults for the keys left out), checked as in a scene file: unknown keys,
+/// wrong types ([`toml::de::Error`], with the span) and values out of range are refused. The
+/// Python binding checks the Mitsuba integrator's properties with it.
+pub fn solve_from_toml_str(s: &str) -> anyhow::Result<SolveSettings> {
+    build_solve(toml::from_str(s)?)
+}
+
+/// The `[solve]` table's settings, defaults filled in, checked ([`SolveSettings::validate`]).
+fn build_solve(s: SolveToml) -> anyhow::Result<SolveSettings> {
+    let solve = SolveSettings {
+        method: s.method.unwrap_or(RenderMethod::Pn),
+        order: s.order.unwrap_or(3),
+        resolution: s.resolution.unwrap_or([32; 3]),
+        margin: s.margin.unwrap_or(DEFAULT_MARGIN),
+        absorber_width: s.absorber_width.unwrap_or(DEFAULT_ABSORBER_WIDTH),
+        absorbing_layer: s.absorbing_layer,
+        absorber: s.absorber.unwrap_or_default(),
+        boundary: s.boundary.unwrap_or_default(),
+        tolerance: s.tolerance.unwrap_or(DEFAULT_RENDER_TOLERANCE),
+        sigma_t_min: s.sigma_t_min.filter(|v| *v != 0.0),
+        fld_solver: s.fld_solver.unwrap_or_default(),
+        pop_resolution: s.pop_resolution.unwrap_or(POP_DEFAULT_RESOLUTION),
+        pop_iterations: s.pop_iterations.unwrap_or(POP_DEFAULT_ITERATIONS),
+        pop_residuum: s.pop_residuum.unwrap_or(false),
+        pop_epsilon_a: s.pop_epsilon_a.unwrap_or(POP_DEFAULT_EPSILON_A),
+        pop_epsilon_l: s.pop_epsilon_l.unwrap_or(POP_DEFAULT_EPSILON_L),
+        sweeps: s.sweeps.unwrap_or(DEFAULT_SWEEPS),
+        sweep_quadrature: s.sweep_quadrature.unwrap_or(DEFAULT_SWEEP_QUADRATURE),
+        delta_m: s.delta_m.unwrap_or(true),
+        sweep_bands: s.sweep_bands,
+    };
+    solve.validate()?;
+    Ok(solve)
+}
+
 pub(super) fn build(t: SceneToml, base: &Path) -> anyhow::Result<RenderScene> {
     let (sigma_t_scale, albedo) = (t.medium.sigma_t_scale, t.medium.albedo);
     let medium = build_medium(t.medium, base).context("[medium]")?;
@@ -477,62 +517,8 @@ pub(super) fn build(t: SceneToml, base: &Path) -> anyhow::Result<RenderScene> {
         height: c.height,
     };
     camera.validate().context("[camera]")?;
-    let s = t.solve.unwrap_or(SolveToml {
-        method: None,
-        order: None,
-        resolution: None,
-        margin: None,
-        absorbing_layer: None,
-        absorber_width: None,
-        absorber: None,
-        boundary: None,
-        tolerance: None,
-        sigma_t_min: None,
-        fld_solver: None,
-        pop_resolution: None,
-        pop_iterations: None,
-        pop_residuum: None,
-        pop_epsilon_a: None,
-        pop_epsilon_l: None,
-        sweeps: None,
-        sweep_quadrature: None,
-        delta_m: None,
-        sweep_bands: None,
-    });
-    let solve = SolveSettings {
-        method: s.method.unwrap_or(RenderMethod::Pn),
-        order: s.order.unwrap_or(3),
-        resolution: s.resolution.unwrap_or([32; 3]),
-        margin: s.margin.unwrap_or(DEFAULT_MARGIN),
-        absorber_width: s.absorber_width.unwrap_or(DEFAULT_ABSORBER_WIDTH),
-        absorbing_layer: s.absorbing_layer,
-        absorber: s.absorber.unwrap_or_default(),
-        boundary: s.boundary.unwrap_or_default(),
-        tolerance: s.tolerance.unwrap_or(DEFAULT_RENDER_TOLERANCE),
-        sigma_t_min: s.sigma_t_min.filter(|v| *v != 0.0),
-        fld_solver: s.fld_solver.unwrap_or_default(),
-        pop_resolution: s.pop_resolution.unwrap_or(POP_DEFAULT_RESOLUTION),
-        pop_iterations: s.pop_iterations.unwrap_or(POP_DEFAULT_ITERATIONS),
-        pop_residuum: s.pop_residuum.unwrap_or(false),
-        pop_epsilon_a: s.pop_epsilon_a.unwrap_or(POP_DEFAULT_EPSILON_A),
-        pop_epsilon_l: s.pop_epsilon_l.unwrap_or(POP_DEFAULT_EPSILON_L),
-        sweeps: s.sweeps.unwrap_or(DEFAULT_SWEEPS),
-        sweep_quadrature: s.sweep_quadrature.unwrap_or(DEFAULT_SWEEP_QUADRATURE),
-        delta_m: s.delta_m.unwrap_or(true),
-        sweep_bands: s.sweep_bands,
-    };
-    solve.validate().context("[solve]")?;
-    let r = t.render.unwrap_or(RenderToml {
-        renderer: None,
-        spp: None,
-        seed: None,
-        rays: None,
-        step: None,
-        cutoff: None,
-        exact_transmittance: None,
-        hide_emitters: None,
-        ms_lookup: None,
-    });
+    let solve = build_solve(t.solve.unwrap_or_default()).context("[solve]")?;
+    let r = t.render.unwrap_or_default();
     let render = RenderSettings {
         renderer: r.renderer.unwrap_or_default(),
         spp: r.spp.unwrap_or(64),
@@ -628,10 +614,7 @@ pub(super) fn build_medium(m: MediumToml, base: &Path) -> anyhow::Result<MediumS
                 "medium.file and medium.grid apply to kind = \"grid\" only"
             );
             let res = m.resolution.unwrap_or([64; 3]);
-            ensure!(
-                res.iter().all(|&n| n > 0),
-                "medium.resolution must be positive on every axis, got {res:?}"
-            );
+            check_procedural_resolution(res)?;
             (
                 MediumSource::Procedural(p),
                 res,

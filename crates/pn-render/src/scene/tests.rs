@@ -299,7 +299,10 @@ fn vol_files_are_read_and_bad_ones_refused() {
         "{:#}",
         RenderScene::from_toml_str(&with_albedo.replace("a.npy", "b.npy"), &dir).unwrap_err()
     );
-    assert!(e.contains("exceeds 1"), "{e}");
+    assert!(
+        e.contains("albedo must lie in [0, 1], voxel (1, 0, 0) is 1.5"),
+        "{e}"
+    );
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
@@ -531,4 +534,55 @@ fn phase_tables_outside_scene_files_are_read_and_checked_the_same() {
     let t: toml::Table = toml::from_str("g = 0.5").unwrap();
     let e = format!("{:#}", phase_from_table(t).unwrap_err());
     assert!(e.contains("kind"), "{e}");
+}
+
+#[test]
+fn sizes_are_refused_with_the_memory_they_would_take_before_anything_is_allocated() {
+    // A procedural medium's resolution, as the scene is read (not first at the render).
+    let e = err(&MINIMAL.replace("[8, 8, 8]", "[100000, 100000, 100000]"));
+    assert!(
+        e.contains(
+            "[medium]: medium.resolution [100000, 100000, 100000] is 1000000000000000 \
+                    voxels, about 3.55 PiB as float32"
+        ) && e.contains("512³ = 134217728"),
+        "{e}"
+    );
+    assert!(err(&MINIMAL.replace("[8, 8, 8]", "[0, 8, 8]")).contains("positive on every axis"));
+    // Arrays (the Python binding's check before it copies numpy arrays).
+    let e = format!(
+        "{:#}",
+        check_array_shape("density", [100000; 3], 1, 16 << 30).unwrap_err()
+    );
+    assert!(
+        e.contains("density of shape [100000, 100000, 100000] is 1000000000000000 voxels")
+            && e.contains("about 10.66 PiB, more than the memory limit of 16.00 GiB"),
+        "{e}"
+    );
+    let e = format!(
+        "{:#}",
+        check_array_shape("density", [0, 4, 4], 1, 16 << 30).unwrap_err()
+    );
+    assert!(
+        e.contains("density has a zero-length axis: shape [0, 4, 4]"),
+        "{e}"
+    );
+    check_array_shape("density", [512; 3], 2, 16 << 30).unwrap();
+    assert!(check_array_shape("density", [1024; 3], 2, 16 << 30).is_err());
+}
+
+#[test]
+fn solve_tables_alone_are_read_and_checked_as_in_a_scene() {
+    let s = solve_from_toml_str("order = 5\nresolution = [8, 8, 16]\n").unwrap();
+    assert_eq!(
+        (s.order, s.resolution, s.sweeps),
+        (5, [8, 8, 16], DEFAULT_SWEEPS)
+    );
+    let e = format!("{:#}", solve_from_toml_str("order = 0\n").unwrap_err());
+    assert!(e.contains("order must lie in 1..="), "{e}");
+    // A wrong type keeps toml's error, with its span, for the caller to name the key.
+    let e = solve_from_toml_str("margin = -1\n").unwrap_err();
+    let te = e.downcast_ref::<toml::de::Error>().expect("a toml error");
+    assert_eq!(te.span(), Some(9..11));
+    assert!(te.message().contains("expected usize"), "{}", te.message());
+    assert!(format!("{:#}", solve_from_toml_str("zoom = 2\n").unwrap_err()).contains("zoom"));
 }

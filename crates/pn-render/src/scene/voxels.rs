@@ -10,6 +10,41 @@ use pn_formats::{read_vdb, IndexBox, VdbGrid};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
+/// Bytes a voxel of each array takes while [`RenderScene::set_density_arrays`] builds the
+/// medium from it: the f64 value handed over and the f32 the grid keeps.
+pub const ARRAY_BYTES_PER_VOXEL: u128 = 12;
+
+/// Checks the shape (nx, ny, nz) of `arrays` density or albedo arrays of that shape before
+/// they are copied for [`RenderScene::set_density_arrays`]: no zero-length axis, and their copy
+/// ([`ARRAY_BYTES_PER_VOXEL`] a voxel each) within `limit` bytes, the refusal giving the
+/// figure. The Python binding checks numpy arrays with it (`limit`: the default memory limit
+/// of a solve, [`pn_runtime::memory_estimate::default_limit_bytes`]), so that a huge or
+/// broadcast array is refused before anything is allocated. `name` starts the message.
+pub fn check_array_shape(
+    name: &str,
+    dims: [usize; 3],
+    arrays: u32,
+    limit: u64,
+) -> anyhow::Result<()> {
+    ensure!(
+        dims.iter().all(|&n| n > 0),
+        "{name} has a zero-length axis: shape {dims:?}"
+    );
+    let voxels: u128 = dims.iter().map(|&n| n as u128).product();
+    let bytes = voxels
+        .saturating_mul(ARRAY_BYTES_PER_VOXEL)
+        .saturating_mul(arrays as u128);
+    ensure!(
+        bytes <= limit as u128,
+        "{name} of shape {dims:?} is {voxels} voxels: copying it{} takes about {}, more than \
+         the memory limit of {}",
+        if arrays > 1 { " and the albedo" } else { "" },
+        pn_runtime::memory_estimate::human_bytes(bytes),
+        pn_runtime::memory_estimate::human_bytes(limit as u128)
+    );
+    Ok(())
+}
+
 impl RenderScene {
     /// Replaces the medium's density, and optionally its albedo, by arrays held in memory
     /// (the Python package): `density` and `albedo` in C order of shape `dims` = (nx, ny, nz),
@@ -100,17 +135,22 @@ pub(super) fn read_grid_file(path: &Path, grid: Option<&str>) -> anyhow::Result<
     }
 }
 
-/// A per-voxel albedo on the density's voxels (the box of the medium): finite, non-negative
-/// (the density grid's checks) and at most 1.
+/// A per-voxel albedo on the density's voxels (the box of the medium): every value in
+/// [0, 1], the first other one named by its voxel (i, j, k).
 pub(super) fn albedo_voxels(
     vg: &pn_runtime::field::VoxelGrid,
     bbox_min: [f64; 3],
     bbox_max: [f64; 3],
 ) -> anyhow::Result<Albedo> {
-    let g = DensityGrid::from_voxel_grid(vg, bbox_min, bbox_max)?;
-    if let Some(p) = g.data.iter().position(|v| *v > 1.0) {
-        bail!("value {} at index {p} exceeds 1", g.data[p]);
+    if let Some(p) = vg.data.iter().position(|v| !(0.0..=1.0).contains(v)) {
+        let [_, ny, nz] = vg.dims;
+        let (i, j, k) = (p / (ny * nz), (p / nz) % ny, p % nz);
+        bail!(
+            "albedo must lie in [0, 1], voxel ({i}, {j}, {k}) is {}",
+            vg.data[p]
+        );
     }
+    let g = DensityGrid::from_voxel_grid(vg, bbox_min, bbox_max)?;
     Ok(Albedo::Voxels(Arc::new(g.data)))
 }
 
