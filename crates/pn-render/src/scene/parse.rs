@@ -468,7 +468,7 @@ fn build_solve(s: SolveToml) -> anyhow::Result<SolveSettings> {
         pop_epsilon_a: s.pop_epsilon_a.unwrap_or(POP_DEFAULT_EPSILON_A),
         pop_epsilon_l: s.pop_epsilon_l.unwrap_or(POP_DEFAULT_EPSILON_L),
         sweeps: s.sweeps.unwrap_or(DEFAULT_SWEEPS),
-        sweep_quadrature: s.sweep_quadrature.unwrap_or(DEFAULT_SWEEP_QUADRATURE),
+        sweep_quadrature: s.sweep_quadrature,
         delta_m: s.delta_m.unwrap_or(true),
         sweep_bands: s.sweep_bands,
     };

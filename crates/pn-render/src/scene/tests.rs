@@ -586,3 +586,24 @@ fn solve_tables_alone_are_read_and_checked_as_in_a_scene() {
     assert!(te.message().contains("expected usize"), "{}", te.message());
     assert!(format!("{:#}", solve_from_toml_str("zoom = 2\n").unwrap_err()).contains("zoom"));
 }
+
+#[test]
+fn the_sweep_quadrature_grows_with_the_order_unless_given() {
+    let at = |extra: &str| parse(&format!("{MINIMAL}[solve]\n{extra}\n"));
+    let nodes = |extra: &str| at(extra).unwrap().solve.sweep_nodes();
+    // At least 8 nodes, and N + 1 beyond P_7 (2n − 1 ≥ 2N: SolveSettings::sweep_nodes).
+    assert_eq!(nodes("order = 3"), 8);
+    assert_eq!(nodes("order = 7"), 8);
+    assert_eq!(nodes("order = 9"), 10);
+    assert_eq!(nodes("order = 15"), 16);
+    assert_eq!(nodes("order = 9\nsweep_quadrature = 6"), 6);
+    // sweep_bands is checked against the nodes in use.
+    assert!(at("order = 9\nsweep_bands = 19").is_ok());
+    let e = format!("{:#}", at("order = 5\nsweep_bands = 16").unwrap_err());
+    assert!(
+        e.contains("sweep_bands = 16 needs sweep_quadrature ≥ 9"),
+        "{e}"
+    );
+    let e = format!("{:#}", at("sweep_quadrature = 0").unwrap_err());
+    assert!(e.contains("sweep_quadrature must lie in 1..=64"), "{e}");
+}

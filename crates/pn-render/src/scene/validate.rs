@@ -106,18 +106,19 @@ impl SolveSettings {
             "sweeps must be at most {MAX_SWEEPS}, got {}",
             self.sweeps
         );
-        ensure!(
-            (1..=64).contains(&self.sweep_quadrature),
-            "sweep_quadrature must lie in 1..=64 (Gauss nodes in cos θ), got {}",
-            self.sweep_quadrature
-        );
+        if let Some(n) = self.sweep_quadrature {
+            ensure!(
+                (1..=64).contains(&n),
+                "sweep_quadrature must lie in 1..=64 (Gauss nodes in cos θ), got {n}"
+            );
+        }
         if let Some(b) = self.sweep_bands {
             ensure!(
-                b < 2 * self.sweep_quadrature,
+                b < 2 * self.sweep_nodes(),
                 "sweep_bands = {b} needs sweep_quadrature ≥ {} (the angular rule resolves bands \
                  up to 2 × sweep_quadrature − 1), got {}",
                 b / 2 + 1,
-                self.sweep_quadrature
+                self.sweep_nodes()
             );
         }
         if self.boundary == SolveBoundary::Marshak {

@@ -94,7 +94,7 @@ pub(super) fn solve_on_grid(
                 &moments,
                 SweepSettings {
                     sweeps: s.sweeps,
-                    n_mu: s.sweep_quadrature,
+                    n_mu: s.sweep_nodes(),
                 },
                 s.sweep_bands,
             )
