@@ -78,20 +78,8 @@ pub const TAU_CUTOFF: f64 = 40.0;
 pub struct PlaneDepth {
     /// Unit travel direction d of the light.
     d: [f64; 3],
-    /// Unit vectors spanning the planes (e1 × e2 = d).
-    e1: [f64; 3],
-    e2: [f64; 3],
-    /// Lattice origin in the light frame: (u0, v0) in the plane, s0 = the first plane.
-    u0: f64,
-    v0: f64,
-    s0: f64,
-    /// Transverse spacing and plane distance.
-    hu: f64,
-    ds: f64,
-    /// Lattice points per axis: u, v and planes.
-    nu: usize,
-    nv: usize,
-    ns: usize,
+    /// The light-frame lattice: axes, origin, spacings, point counts.
+    lattice: Lattice,
     /// `tau[(k·nu + i)·nv + j]`: τ at plane k, lattice point (i, j) (f32: 7 digits in τ, an
     /// error of 10⁻⁷ relative in T).
     tau: Vec<f32>,
@@ -102,6 +90,7 @@ pub struct PlaneDepth {
 
 /// The light-frame lattice of a [`PlaneDepth`]: its axes, origin, spacings and point counts
 /// (known before anything is traced, so that its memory can be checked first).
+#[derive(Clone, Copy, Debug)]
 struct Lattice {
     e1: [f64; 3],
     e2: [f64; 3],
@@ -201,6 +190,7 @@ impl PlaneDepth {
         spacing: f64,
         coarse: bool,
     ) -> Option<Self> {
+        let lattice = Lattice::new(ext.grid, d, spacing, coarse)?;
         let Lattice {
             e1,
             e2,
@@ -212,7 +202,7 @@ impl PlaneDepth {
             nu,
             nv,
             ns,
-        } = Lattice::new(ext.grid, d, spacing, coarse)?;
+        } = lattice;
         // Columns in parallel: column (i, j) walks the planes k = 0, 1, … downstream; the
         // planes k ≥ 1 lie at k·ds from plane 0.
         let marks: Vec<f64> = (1..ns).map(|k| k as f64 * ds).collect();
@@ -244,16 +234,7 @@ impl PlaneDepth {
         };
         Some(Self {
             d,
-            e1,
-            e2,
-            u0,
-            v0,
-            s0,
-            hu,
-            ds,
-            nu,
-            nv,
-            ns,
+            lattice,
             tau,
             coarse,
         })
@@ -263,14 +244,14 @@ impl PlaneDepth {
     /// of it plus τ on that plane, bilinear between its lattice points (module docs).
     #[inline]
     pub fn tau(&self, ext: &Extinction, x: [f64; 3]) -> f64 {
-        let s = dot(x, self.d) - self.s0;
+        let s = dot(x, self.d) - self.lattice.s0;
         if s <= 0.0 {
             return 0.0; // upstream of the whole support
         }
-        let k = (floor_fast(s / self.ds) as usize).min(self.ns - 1);
-        let back = s - k as f64 * self.ds;
+        let k = (floor_fast(s / self.lattice.ds) as usize).min(self.lattice.ns - 1);
+        let back = s - k as f64 * self.lattice.ds;
         if self.coarse {
-            return self.between_planes(k, back / self.ds, x);
+            return self.between_planes(k, back / self.lattice.ds, x);
         }
         let near = if back > 0.0 {
             ext.optical_depth(x, self.d.map(|c| -c), back)
@@ -284,15 +265,19 @@ impl PlaneDepth {
     /// cutoff).
     #[inline]
     fn in_plane(&self, k: usize, x: [f64; 3]) -> f64 {
-        let top_u = (self.nu - 1) as f64;
-        let top_v = (self.nv - 1) as f64;
-        let fu = ((dot(x, self.e1) - self.u0) / self.hu).clamp(0.0, top_u);
-        let fv = ((dot(x, self.e2) - self.v0) / self.hu).clamp(0.0, top_v);
+        let top_u = (self.lattice.nu - 1) as f64;
+        let top_v = (self.lattice.nv - 1) as f64;
+        let fu = ((dot(x, self.lattice.e1) - self.lattice.u0) / self.lattice.hu).clamp(0.0, top_u);
+        let fv = ((dot(x, self.lattice.e2) - self.lattice.v0) / self.lattice.hu).clamp(0.0, top_v);
         let (i, j) = (floor_fast(fu) as usize, floor_fast(fv) as usize);
-        let (i1, j1) = ((i + 1).min(self.nu - 1), (j + 1).min(self.nv - 1));
+        let (i1, j1) = (
+            (i + 1).min(self.lattice.nu - 1),
+            (j + 1).min(self.lattice.nv - 1),
+        );
         let (tu, tv) = (fu - i as f64, fv - j as f64);
-        let plane = &self.tau[k * self.nu * self.nv..(k + 1) * self.nu * self.nv];
-        let at = |a: usize, b: usize| plane[a * self.nv + b] as f64;
+        let plane = &self.tau
+            [k * self.lattice.nu * self.lattice.nv..(k + 1) * self.lattice.nu * self.lattice.nv];
+        let at = |a: usize, b: usize| plane[a * self.lattice.nv + b] as f64;
         let (t00, t01, t10, t11) = (at(i, j), at(i, j1), at(i1, j), at(i1, j1));
         if !(t00.is_finite() && t01.is_finite() && t10.is_finite() && t11.is_finite()) {
             return f64::INFINITY;
@@ -305,16 +290,19 @@ impl PlaneDepth {
     /// (`w` of the way to `k + 1`) and their lattice points; +∞ where a value read is.
     #[inline]
     fn between_planes(&self, k: usize, w: f64, x: [f64; 3]) -> f64 {
-        let top_u = (self.nu - 1) as f64;
-        let top_v = (self.nv - 1) as f64;
-        let fu = ((dot(x, self.e1) - self.u0) / self.hu).clamp(0.0, top_u);
-        let fv = ((dot(x, self.e2) - self.v0) / self.hu).clamp(0.0, top_v);
+        let top_u = (self.lattice.nu - 1) as f64;
+        let top_v = (self.lattice.nv - 1) as f64;
+        let fu = ((dot(x, self.lattice.e1) - self.lattice.u0) / self.lattice.hu).clamp(0.0, top_u);
+        let fv = ((dot(x, self.lattice.e2) - self.lattice.v0) / self.lattice.hu).clamp(0.0, top_v);
         let (i, j) = (floor_fast(fu) as usize, floor_fast(fv) as usize);
-        let (i1, j1) = ((i + 1).min(self.nu - 1), (j + 1).min(self.nv - 1));
+        let (i1, j1) = (
+            (i + 1).min(self.lattice.nu - 1),
+            (j + 1).min(self.lattice.nv - 1),
+        );
         let (tu, tv) = (fu - i as f64, fv - j as f64);
-        let k1 = (k + 1).min(self.ns - 1);
+        let k1 = (k + 1).min(self.lattice.ns - 1);
         let at = |a: usize, b: usize| {
-            let col = (a * self.nv + b) * self.ns;
+            let col = (a * self.lattice.nv + b) * self.lattice.ns;
             (self.tau[col + k] as f64, self.tau[col + k1] as f64)
         };
         let (c00, c01, c10, c11) = (at(i, j), at(i, j1), at(i1, j), at(i1, j1));
@@ -731,11 +719,11 @@ mod tests {
         let p = planes.planes[0].as_ref().unwrap();
         let exact = |x: [f64; 3]| ext.optical_depth(x, d.map(|c| -c), f64::INFINITY);
         // A lattice point of plane k, moved downstream by part of a plane interval.
-        let (i, j, k) = (p.nu / 2, p.nv / 2, p.ns / 2);
+        let (i, j, k) = (p.lattice.nu / 2, p.lattice.nv / 2, p.lattice.ns / 2);
         let x = [0, 1, 2].map(|q| {
-            (p.u0 + i as f64 * p.hu) * p.e1[q]
-                + (p.v0 + j as f64 * p.hu) * p.e2[q]
-                + (p.s0 + (k as f64 + 0.4) * p.ds) * p.d[q]
+            (p.lattice.u0 + i as f64 * p.lattice.hu) * p.lattice.e1[q]
+                + (p.lattice.v0 + j as f64 * p.lattice.hu) * p.lattice.e2[q]
+                + (p.lattice.s0 + (k as f64 + 0.4) * p.lattice.ds) * p.d[q]
         });
         assert!(g.contains(x));
         let want = exact(x);
