@@ -75,6 +75,7 @@ LIBRARY_CRATES = [
     "pn-kernels",
     "pn-krylov",
     "pn-runtime",
+    "pn-distributed",
     "pn-formats",
     "pn-render",
     "pnsolver-py",

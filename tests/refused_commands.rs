@@ -29,6 +29,24 @@ const CASES: &[(&[&str], &str)] = &[
         &["solve", "checkerboard", "--out", "FILE"],
         "a file of that name is in the way",
     ),
+    // Without the `distributed` feature: how to build it; with it, outside mpirun: how to
+    // start it.
+    (
+        &["solve", "checkerboard", "--distributed", "--out", "OUT"],
+        "--distributed needs",
+    ),
+    (
+        &[
+            "converge",
+            "checkerboard",
+            "--res",
+            "8,16",
+            "--distributed",
+            "--out",
+            "OUT",
+        ],
+        "pn converge does not run distributed",
+    ),
     (
         &[
             "converge",

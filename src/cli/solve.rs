@@ -182,6 +182,69 @@ pub struct SolveFlags {
     /// Override a `param` of the --pde file (repeatable), e.g. --pde-param sigma_f=2.
     #[arg(long, value_name = "NAME=VALUE", value_parser = pn_drivers::pde_text::parse_param)]
     pub pde_param: Vec<(String, String)>,
+    /// Split the solve over the MPI processes it was started with (`mpirun -np K pn solve …
+    /// --distributed`; needs a build with `--features distributed`, docs/distributed.md).
+    #[arg(long)]
+    pub distributed: bool,
+    /// --distributed: boxes per axis, e.g. 4x1x1 (default: the split with the least halo).
+    #[arg(long, value_name = "PXxPYxPZ", value_parser = parse_procs, requires = "distributed")]
+    pub procs: Option<[usize; 3]>,
+    /// --distributed: the Krylov method (auto: CG when the reduced operator is symmetric,
+    /// else GMRES).
+    #[arg(long, value_enum, default_value = "auto", requires = "distributed")]
+    pub ksp: KspArg,
+    /// --distributed: the preconditioner on the assembled reduced operator.
+    #[arg(long, value_enum, default_value = "gamg", requires = "distributed")]
+    pub pc: PcArg,
+    /// --distributed: more PETSc options, e.g. "-pc_gamg_threshold 0.02".
+    #[arg(
+        long,
+        value_name = "OPTIONS",
+        allow_hyphen_values = true,
+        requires = "distributed"
+    )]
+    pub petsc_options: Option<String>,
+}
+
+/// `--ksp`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum KspArg {
+    /// CG where the assembled reduced operator is symmetric, else GMRES.
+    Auto,
+    /// Conjugate gradients.
+    Cg,
+    /// Restarted GMRES.
+    Gmres,
+}
+
+/// `--pc`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum PcArg {
+    /// PETSc's smoothed-aggregation algebraic multigrid (GAMG).
+    Gamg,
+    /// hypre's BoomerAMG.
+    Hypre,
+    /// Jacobi (the same on any number of processes).
+    Jacobi,
+    /// None.
+    None,
+}
+
+/// `--procs PXxPYxPZ`.
+fn parse_procs(s: &str) -> Result<[usize; 3], String> {
+    let parts: Vec<&str> = s.split(['x', 'X']).collect();
+    let bad = || format!("--procs wants three positive counts like 4x1x1, got {s:?}");
+    if parts.len() != 3 {
+        return Err(bad());
+    }
+    let mut p = [0usize; 3];
+    for (d, t) in parts.iter().enumerate() {
+        p[d] = t.trim().parse().map_err(|_| bad())?;
+        if p[d] == 0 {
+            return Err(bad());
+        }
+    }
+    Ok(p)
 }
 
 /// `--limiter`: the library's parser (its error names the limiters).
@@ -223,6 +286,14 @@ impl SolveFlags {
             tuning: env.tuning.clone(),
             pde: self.pde.clone(),
             pde_params: self.pde_param.clone(),
+            distributed: self
+                .distributed
+                .then(|| pn_drivers::scene_setup::DistributedRequest {
+                    procs: self.procs,
+                    ksp: format!("{:?}", self.ksp).to_lowercase(),
+                    pc: format!("{:?}", self.pc).to_lowercase(),
+                    petsc_options: self.petsc_options.clone(),
+                }),
         }
     }
 }

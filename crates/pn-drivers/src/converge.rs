@@ -45,6 +45,11 @@ fn scene_blocks(scene: &str, axes: usize) -> Option<[usize; 3]> {
 /// first) and `req.out` is the study's directory (default `out/converge-<scene>`). Prints
 /// the table to `stdout`.
 pub fn run(req: &SolveRequest, stdout: &mut dyn Write) -> Result<()> {
+    anyhow::ensure!(
+        req.distributed.is_none(),
+        "pn converge does not run distributed (its solves are small); use `pn solve \
+         --distributed` for one resolution"
+    );
     let a = req;
     ensure!(
         !a.error_estimate,

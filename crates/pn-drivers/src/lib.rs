@@ -62,6 +62,7 @@ pub mod progress;
 pub mod render;
 pub mod scene_setup;
 pub mod solve;
+pub mod solve_distributed;
 pub mod stencil;
 pub mod vacuum_extras;
 

@@ -132,6 +132,21 @@ pub struct SolveRequest {
     pub pde: Option<PathBuf>,
     /// `NAME=VALUE` overrides of the PDE file's `param`s.
     pub pde_params: Vec<(String, String)>,
+    /// `--distributed`: the solve split over MPI processes on PETSc (docs/distributed.md).
+    pub distributed: Option<DistributedRequest>,
+}
+
+/// How `pn solve --distributed` splits and solves (the `distributed` build feature).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct DistributedRequest {
+    /// Boxes per axis (`--procs 4x1x1`); `None`: the split with the least box surface.
+    pub procs: Option<[usize; 3]>,
+    /// The Krylov method: `auto` (CG when `S` is symmetric, else GMRES), `cg`, `gmres`.
+    pub ksp: String,
+    /// The preconditioner: `gamg`, `hypre`, `jacobi`, `none`.
+    pub pc: String,
+    /// More PETSc options, e.g. `-pc_gamg_threshold 0.02`.
+    pub petsc_options: Option<String>,
 }
 
 impl Default for SolveRequest {
@@ -169,6 +184,7 @@ impl Default for SolveRequest {
             tuning: SolverTuning::default(),
             pde: None,
             pde_params: Vec::new(),
+            distributed: None,
         }
     }
 }

@@ -16,12 +16,30 @@ use crate::scene_setup::{
     check_memory_and_set_sigma_t_min, kernel_for, sampled_problem, scene_from_request, Method,
 };
 pub use crate::scene_setup::{Route, SolveRequest};
+use crate::solve_distributed::SolveFn;
 
 /// Runs `pn solve`: solves `req`, writes `fluence.npy`, `moments.npy`, `fluence.png` and
 /// `report.json` (plus the method's and the scene's extra files) into its output directory
 /// and prints a summary to `stdout`. A solve that does not converge writes its results and
 /// then returns an error.
 pub fn run(req: &SolveRequest, stdout: &mut dyn Write) -> anyhow::Result<()> {
+    if let Some(d) = &req.distributed {
+        return crate::solve_distributed::run(req, d, &mut |solve| run_with(req, stdout, solve));
+    }
+    run_with(req, stdout, &|problem, kernel, opts| {
+        let sol = pn_runtime::with_threads(req.threads, || {
+            solve_problem(problem, kernel, req.solver, opts)
+        })??;
+        Ok(Some((sol, None)))
+    })
+}
+
+/// [`run`] with the solve itself given (one process, or the distributed solve).
+pub(crate) fn run_with(
+    req: &SolveRequest,
+    stdout: &mut dyn Write,
+    solve: SolveFn<'_>,
+) -> anyhow::Result<()> {
     let a = req;
     if a.method == Method::Fld {
         // The memory check before FLD allocates its per-cell arrays.
@@ -55,9 +73,9 @@ pub fn run(req: &SolveRequest, stdout: &mut dyn Write) -> anyhow::Result<()> {
     let sampled = sampled_problem(&scene.problem, a.sampling);
     let problem = &sampled;
     let kernel = choice.kernel.as_ref();
-    let sol = pn_runtime::with_threads(a.threads, || {
-        solve_problem(problem, kernel, a.solver, &opts)
-    })??;
+    let Some((sol, distributed)) = solve(problem, kernel, &opts)? else {
+        return Ok(());
+    };
     crate::progress::print_notes(&sol.stats.notes);
 
     let info = RunInfo {
@@ -77,7 +95,8 @@ pub fn run(req: &SolveRequest, stdout: &mut dyn Write) -> anyhow::Result<()> {
         stencil_compiled: choice.compiled,
         threads: pn_runtime::effective_threads(a.threads),
     };
-    let report = SolveReport::new(Report::new(&info, problem, kernel.name(), &sol));
+    let mut report = SolveReport::new(Report::new(&info, problem, kernel.name(), &sol));
+    report.distributed = distributed;
     let out = a.out_dir(&scene.name);
     write_results(
         req,

@@ -47,7 +47,8 @@ pub use input::{read_text, MAX_TEXT_BYTES};
 pub use json::write_atomic;
 pub use npy::{decode_npy, encode_npy, read_npy, write_npy, NpyArray};
 pub use output::report::{
-    ErrorEstimate, FldSection, Report, RunInfo, SolveReport, VacuumMeasurements,
+    DistributedSection, ErrorEstimate, FldSection, RankSection, Report, RunInfo, SolveReport,
+    VacuumMeasurements,
 };
 pub use output::{cell_shape, write_outputs, OUTPUT_FILES};
 pub use png::{write_png, Slice};

@@ -107,6 +107,69 @@ pub fn assemble(
     Ok(System { matrix, rhs })
 }
 
+/// Rows of `A u = Q` for a subset of the unknowns, as a domain-decomposed solve assembles
+/// the rows its process owns (and the eliminated rows next to them): `indptr` has
+/// `rows.len() + 1` entries, the columns of each row are global storage indices in
+/// ascending order (the order [`assemble`] stores them in, so that a row's products sum
+/// in the same order on any number of processes).
+#[derive(Clone, Debug, Default)]
+pub struct RowSet {
+    /// Start of each row's entries in `cols`/`vals`, then the total.
+    pub indptr: Vec<usize>,
+    /// Global column of each entry.
+    pub cols: Vec<usize>,
+    /// Value of each entry.
+    pub vals: Vec<f64>,
+    /// Right-hand side of each row.
+    pub rhs: Vec<f64>,
+}
+
+/// Assembles the rows `rows` (global storage indices, in that order) of `kernel` for
+/// `problem` on `layout`: the same rows, entry for entry, as [`assemble`] stores for them.
+pub fn assemble_row_subset(
+    problem: &Problem,
+    kernel: &dyn StencilKernel,
+    layout: &Layout,
+    rows: &[usize],
+) -> anyhow::Result<RowSet> {
+    check_kernel(problem, kernel, layout)?;
+    if let Some(&g) = rows.iter().find(|&&g| g >= layout.len()) {
+        anyhow::bail!(
+            "row {g} is outside the {} unknowns of the layout",
+            layout.len()
+        );
+    }
+    let (robin, marshak) = face_closures(problem, kernel, layout)?;
+    let chunks: Vec<Chunk> = rows
+        .par_chunks(CHUNK)
+        .map(|c| {
+            assemble_rows(
+                problem,
+                kernel,
+                layout,
+                marshak.as_ref(),
+                robin.as_ref(),
+                c.iter().copied(),
+            )
+        })
+        .collect::<anyhow::Result<_>>()?;
+    let mut set = RowSet {
+        indptr: Vec::with_capacity(rows.len() + 1),
+        ..RowSet::default()
+    };
+    set.indptr.push(0);
+    for c in chunks {
+        for k in c.row_nnz {
+            let end = set.indptr[set.indptr.len() - 1] + k;
+            set.indptr.push(end);
+        }
+        set.cols.extend(c.cols);
+        set.vals.extend(c.vals);
+        set.rhs.extend(c.rhs);
+    }
+    Ok(set)
+}
+
 /// The closures of the Marshak faces: the PDE's own conditions when the kernel states them
 /// ([`RobinFaces`], ghost elimination), else P_N's face rows ([`MarshakRows`]); at most one
 /// of the two is `Some`.

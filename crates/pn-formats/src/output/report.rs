@@ -173,6 +173,57 @@ pub struct SolveReport {
     /// `--method fld`: the FLD entries.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub fld: Option<FldSection>,
+    /// `--distributed`: the split, the PETSc solver and every process's measurements.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub distributed: Option<DistributedSection>,
+}
+
+/// The entries under `"distributed"` (`pn solve --distributed`, docs/distributed.md).
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+pub struct DistributedSection {
+    /// MPI processes.
+    pub processes: usize,
+    /// Boxes per axis.
+    pub procs: [usize; 3],
+    /// PETSc's Krylov method (`cg`, `gmres`).
+    pub ksp: String,
+    /// PETSc's preconditioner (`gamg`, `hypre`, `jacobi`, `none`).
+    pub pc: String,
+    /// Whether the assembled reduced operator was symmetric (null: not assembled).
+    pub symmetric: Option<bool>,
+    /// PETSc's converged reason and its words.
+    pub converged_reason: i32,
+    /// PETSc's converged reason in words.
+    pub converged_reason_text: String,
+    /// ‖f − S u_e‖ / ‖f‖ of the reduced system at the end.
+    pub reduced_relative_residual: f64,
+    /// Stored entries of the assembled reduced operator (0: not assembled).
+    pub nonzeros_reduced: usize,
+    /// One entry per process, in rank order.
+    pub ranks: Vec<RankSection>,
+}
+
+/// One process's measurements.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+pub struct RankSection {
+    /// Seconds assembling its rows.
+    pub assembly_seconds: f64,
+    /// Seconds forming the reduced operator and setting up the preconditioner.
+    pub setup_seconds: f64,
+    /// Seconds in the Krylov solve.
+    pub solve_seconds: f64,
+    /// Seconds of the solve in the operator's ghost exchanges.
+    pub communication_seconds: f64,
+    /// Applications of the reduced operator.
+    pub operator_applications: usize,
+    /// Bytes received per application (both ghost exchanges).
+    pub halo_bytes_per_application: usize,
+    /// Unknowns owned.
+    pub owned_unknowns: usize,
+    /// Ghost unknowns.
+    pub ghost_unknowns: usize,
+    /// Peak resident memory of the process in bytes.
+    pub peak_memory_bytes: f64,
 }
 
 impl SolveReport {
@@ -184,6 +235,7 @@ impl SolveReport {
             error_estimate: None,
             vacuum: VacuumMeasurements::default(),
             fld: None,
+            distributed: None,
         }
     }
 }

@@ -198,6 +198,38 @@ fn solve_split_system(
     }))
 }
 
+/// The [`Solution`] of a staggered vector `u` solved elsewhere (a domain-decomposed solve
+/// gathered onto one process): the energy balance, un-staggering and the status check of
+/// every other route. Fails when `u` does not fit the layout or the solver diverged.
+pub fn solution_from_vector(
+    problem: &Problem,
+    layout: Layout,
+    u: Vec<f64>,
+    stats: SolveStats,
+    nonzeros: usize,
+    seconds: [f64; 2],
+) -> anyhow::Result<Solution> {
+    anyhow::ensure!(
+        u.len() == layout.len(),
+        "a solution of {} values for a layout of {} unknowns",
+        u.len(),
+        layout.len()
+    );
+    let energy = energy_balance(problem, &layout, None, &u);
+    finish(
+        problem,
+        layout,
+        Solved {
+            u,
+            stats,
+            energy,
+            nonzeros,
+            seconds_assembly: seconds[0],
+            seconds_solve: seconds[1],
+        },
+    )
+}
+
 /// Checks the solver's status, un-staggers and packs the [`Solution`].
 pub(crate) fn finish(
     problem: &Problem,
