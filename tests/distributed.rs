@@ -52,12 +52,13 @@ fn read_outputs(dir: &Path) -> (Vec<f64>, Vec<f64>, serde_json::Value) {
     (m, f, r)
 }
 
-/// Solves on 1–4 processes with Jacobi (the same preconditioner whatever the split) and
-/// compares each with one process: 1e-10 relative (the runs differ only in the order of
-/// the Krylov method's global sums), iterations within ±1.
-fn parity(name: &str, args: &[&str]) -> (Vec<f64>, serde_json::Value) {
+/// Solves on 1–4 processes with `pc` and compares each with one process: 1e-10 relative
+/// (with Jacobi the runs differ only in the order of the Krylov method's global sums; the
+/// multigrid's aggregation is geometric, the same on any split, and only its coarse
+/// operators' sums and eigenvalue estimates see the split), iterations within ±1.
+fn parity(name: &str, args: &[&str], pc: &str) -> (Vec<f64>, serde_json::Value) {
     let mut a = args.to_vec();
-    a.extend(["--pc", "jacobi", "--tol", "1e-12"]);
+    a.extend(["--pc", pc, "--tol", "1e-12"]);
     let (m1, _, r1) = solve(1, name, &a);
     let it1 = r1["iterations"].as_i64().unwrap();
     for ranks in 2..=4 {
@@ -102,7 +103,8 @@ fn serial(name: &str, args: &[&str]) -> Vec<f64> {
 #[test]
 fn pointsource_on_1_to_4_processes() {
     let args = ["pointsource", "--order", "3", "--res", "20"];
-    let (m, r) = parity("pointsource", &args);
+    parity("pointsource-mg", &args, "mg");
+    let (m, r) = parity("pointsource", &args, "jacobi");
     assert_eq!(r["converged"], true);
     // Against the one-process parity solver: both at 1e-12, so the solutions agree to the
     // conditioning times that (1e-9 leaves three orders of margin over the observed 1e-11).
@@ -121,9 +123,27 @@ fn checkerboard3d_marshak_on_1_to_4_processes() {
         "--bc",
         "marshak",
     ];
-    let (m, _) = parity("checkerboard3d", &args);
+    let (m, _) = parity("checkerboard3d", &args, "jacobi");
     let d = rel_diff(&m, &serial("checkerboard3d", &args));
     assert!(d <= 1e-9, "distributed vs pn solve: {d:.3e}");
+}
+
+/// CDA (no parity structure: `A` split as it stands) and the SP_3 text PDE equal the
+/// one-process solve.
+#[test]
+fn cda_and_a_text_pde_on_three_processes() {
+    let sp3 = concat!(env!("CARGO_MANIFEST_DIR"), "/pdes/sp3.pde");
+    for (name, args) in [
+        ("cda", vec!["checkerboard", "--method", "cda"]),
+        ("sp3", vec!["checkerboard", "--pde", sp3]),
+    ] {
+        let mut a = args.clone();
+        a.extend(["--tol", "1e-12"]);
+        let (m, _, r) = solve(3, name, &a);
+        assert_eq!(r["distributed"]["processes"], 3);
+        let d = rel_diff(&m, &serial(name, &args));
+        assert!(d <= 1e-9, "{name}: distributed vs pn solve: {d:.3e}");
+    }
 }
 
 /// StaRMAP's checkerboard (P_1, 71², tests/checkerboard.rs's bound) on 2×2 boxes with the

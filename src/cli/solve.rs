@@ -193,8 +193,9 @@ pub struct SolveFlags {
     /// else GMRES).
     #[arg(long, value_enum, default_value = "auto", requires = "distributed")]
     pub ksp: KspArg,
-    /// --distributed: the preconditioner on the assembled reduced operator.
-    #[arg(long, value_enum, default_value = "gamg", requires = "distributed")]
+    /// --distributed: the preconditioner (mg: the project's aggregation multigrid on PETSc's
+    /// PCMG; gamg, hypre: algebraic multigrid on the assembled reduced operator).
+    #[arg(long, value_enum, default_value = "mg", requires = "distributed")]
     pub pc: PcArg,
     /// --distributed: more PETSc options, e.g. "-pc_gamg_threshold 0.02".
     #[arg(
@@ -220,6 +221,8 @@ pub enum KspArg {
 /// `--pc`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum PcArg {
+    /// The project's aggregation multigrid on PETSc's PCMG.
+    Mg,
     /// PETSc's smoothed-aggregation algebraic multigrid (GAMG).
     Gamg,
     /// hypre's BoomerAMG.

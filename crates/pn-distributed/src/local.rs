@@ -13,20 +13,20 @@ use crate::numbering::Numbering;
 use crate::partition::Decomposition;
 use anyhow::Context;
 use pn_runtime::assemble::{assemble_row_subset, RowSet};
+use pn_runtime::assemble_split::has_parity_structure;
 use pn_runtime::problem::Problem;
 use pn_runtime::solver::pn_layout::Retained;
 use pn_runtime::Layout;
 use pn_stencil::StencilKernel;
 use rayon::prelude::*;
-use std::collections::BTreeMap;
 
 /// Rows of a block in compressed form; columns index an extended local vector (owned
 /// unknowns, then ghosts), kept in the storage order of the global columns.
 #[derive(Clone, Debug, Default)]
 pub struct LocalRows {
-    indptr: Vec<usize>,
-    cols: Vec<u32>,
-    vals: Vec<f64>,
+    pub(crate) indptr: Vec<usize>,
+    pub(crate) cols: Vec<u32>,
+    pub(crate) vals: Vec<f64>,
 }
 
 impl LocalRows {
@@ -55,22 +55,21 @@ pub struct Part {
 }
 
 impl Part {
-    /// The extended local index of storage index `g` (owned or ghost).
-    fn local(&self, g: usize) -> Option<usize> {
-        match self.owned.binary_search(&g) {
-            Ok(k) => Some(k),
-            Err(_) => self
-                .ghosts
-                .binary_search(&g)
-                .ok()
-                .map(|k| self.owned.len() + k),
-        }
-    }
-
     /// Owned plus ghost unknowns.
     pub fn extended_len(&self) -> usize {
         self.owned.len() + self.ghosts.len()
     }
+}
+
+/// Rows of the assembled `S` (see [`LocalReduced::formed_rows`]).
+#[derive(Clone, Debug, Default)]
+pub struct FormedRows {
+    /// Entries of each row.
+    pub row_len: Vec<u32>,
+    /// Column numbers, row after row.
+    pub cols: Vec<i32>,
+    /// Values, row after row.
+    pub vals: Vec<f64>,
 }
 
 /// One process's rows of the reduced system (see the module documentation).
@@ -91,82 +90,134 @@ pub struct LocalReduced {
     /// Right-hand side of the owned eliminated rows.
     pub b_o: Vec<f64>,
     /// `B`: owned kept rows × eliminated columns (extended local).
-    b: LocalRows,
+    pub(crate) b: LocalRows,
     /// `C̃ = D_o⁻¹ C`: owned eliminated rows × kept columns (extended local).
-    c: LocalRows,
+    pub(crate) c: LocalRows,
+    /// A system without the parity structure, solved as it stands: the off-diagonal
+    /// entries of the owned rows (kept columns, extended local); `b` and `c` are then empty.
+    pub(crate) direct: Option<LocalRows>,
     /// Stored entries of this process's rows of `A` (diagonals included).
     pub nnz_a: usize,
 }
 
-/// The moments the parity solvers keep on `layout` ([`Retained::for_layout`]).
-pub fn kept_moments(layout: &Layout) -> Vec<bool> {
+/// The moments the parity solvers keep on `layout` ([`Retained::for_layout`]); every
+/// moment when `kernel`'s system lacks the parity structure (CDA, most text PDEs), which is
+/// then solved as it stands ([`LocalReduced::is_direct`]).
+pub fn kept_moments(layout: &Layout, kernel: &dyn StencilKernel) -> Vec<bool> {
     let retained = Retained::for_layout(layout);
+    let parity = has_parity_structure(kernel);
     layout
         .moments
         .iter()
-        .map(|m| retained.keeps(m.l as usize))
+        .map(|m| !parity || retained.keeps(m.l as usize))
         .collect()
 }
 
-/// An off-diagonal entry: local row, global column, value.
-type Entry = (usize, usize, f64);
+/// One class's rows split into the diagonal and the off-diagonal block.
+struct SplitRows {
+    diag: Vec<f64>,
+    rhs: Vec<f64>,
+    block: LocalRows,
+    /// The off-diagonal columns owned elsewhere (the other class's ghosts), ascending.
+    ghosts: Vec<usize>,
+}
 
-/// Splits assembled rows into their diagonal and the off-diagonal entries, checking that
-/// every off-diagonal entry couples to the other class (docs/design.md §5).
+/// Where a column of the other class lives: owned here (its local index) or a ghost.
+struct OtherClass<'a> {
+    layout: &'a Layout,
+    dec: &'a Decomposition,
+    num: &'a Numbering,
+    rank: usize,
+}
+
+impl OtherClass<'_> {
+    /// `None`: `g` is not of the other class; `Some(Some(l))`: owned, local index `l`;
+    /// `Some(None)`: a ghost.
+    fn classify(&self, g: usize) -> Option<Option<usize>> {
+        let (q, idx) = self.layout.locate(g);
+        if !self.num.contains_moment(q) {
+            return None;
+        }
+        Some((self.dec.owner(idx) == self.rank).then(|| self.num.local(self.rank, q, idx)))
+    }
+}
+
+/// Splits the assembled rows `rows` of the unknowns `owned` into their diagonal and the
+/// off-diagonal block, whose columns must all be unknowns of the other class (`other`) —
+/// the parity structure of docs/design.md §5. With `scale_by_diag` the block's rows are
+/// divided by their diagonal (`C̃ = D_o⁻¹ C`), which must then be non-zero. The block's
+/// columns index the other class's extended local vector (owned, then ghosts) and keep the
+/// assembled order.
 fn split_rows(
-    rows: &RowSet,
+    rows: RowSet,
     owned: &[usize],
-    other: &mut dyn FnMut(usize) -> bool,
-) -> anyhow::Result<(Vec<f64>, Vec<Entry>)> {
+    other: &OtherClass<'_>,
+    scale_by_diag: bool,
+) -> anyhow::Result<SplitRows> {
     let mut diag = vec![0.0; owned.len()];
-    let mut off = Vec::with_capacity(rows.cols.len());
+    let mut ghosts = Vec::new();
     for (i, &g) in owned.iter().enumerate() {
         for k in rows.indptr[i]..rows.indptr[i + 1] {
             let (col, v) = (rows.cols[k], rows.vals[k]);
             if col == g {
                 diag[i] = v;
-            } else {
-                anyhow::ensure!(
-                    other(col),
+                continue;
+            }
+            match other.classify(col) {
+                None => anyhow::bail!(
                     "row {g} couples to unknown {col} of its own parity off the diagonal \
                      (value {v:e}); the distributed solve needs the parity structure \
                      (docs/design.md §5)"
-                );
-                off.push((i, col, v));
+                ),
+                Some(None) => ghosts.push(col),
+                Some(Some(_)) => {}
             }
         }
     }
-    Ok((diag, off))
-}
-
-/// Compresses `(row, global column, value)` triples (rows ascending, columns ascending
-/// within a row) with the columns mapped to `part`'s extended local indices.
-fn compress(n_rows: usize, entries: &[Entry], part: &Part) -> LocalRows {
-    let mut indptr = vec![0; n_rows + 1];
-    for &(i, _, _) in entries {
-        indptr[i + 1] += 1;
+    if scale_by_diag {
+        if let Some((i, &v)) = diag
+            .iter()
+            .enumerate()
+            .find(|(_, v)| **v == 0.0 || !v.is_finite())
+        {
+            anyhow::bail!(
+                "row {} of the eliminated parity has diagonal {v:e}; parity elimination \
+                 divides by it (σ_t must be positive everywhere, docs/design.md §5)",
+                owned[i]
+            );
+        }
     }
-    for i in 0..n_rows {
-        indptr[i + 1] += indptr[i];
+    ghosts.par_sort_unstable();
+    ghosts.dedup();
+    let n_other = other.num.local_len(other.rank);
+    let mut block = LocalRows {
+        indptr: Vec::with_capacity(owned.len() + 1),
+        cols: Vec::with_capacity(rows.cols.len().saturating_sub(owned.len())),
+        vals: Vec::with_capacity(rows.cols.len().saturating_sub(owned.len())),
+    };
+    block.indptr.push(0);
+    for (i, &g) in owned.iter().enumerate() {
+        let scale = if scale_by_diag { diag[i] } else { 1.0 };
+        for k in rows.indptr[i]..rows.indptr[i + 1] {
+            let col = rows.cols[k];
+            if col == g {
+                continue;
+            }
+            let l = match other.classify(col) {
+                Some(Some(l)) => l,
+                _ => n_other + ghosts.binary_search(&col).unwrap_or(usize::MAX - n_other),
+            };
+            block.cols.push(l as u32);
+            block.vals.push(rows.vals[k] / scale);
+        }
+        block.indptr.push(block.cols.len());
     }
-    let cols = entries
-        .iter()
-        .map(|&(_, g, _)| part.local(g).map_or(u32::MAX, |l| l as u32))
-        .collect();
-    let vals = entries.iter().map(|e| e.2).collect();
-    LocalRows { indptr, cols, vals }
-}
-
-/// The sorted, deduplicated columns of `entries` that `owned` does not contain.
-fn ghosts_of(entries: &[Entry], owned: &[usize]) -> Vec<usize> {
-    let mut g: Vec<usize> = entries
-        .iter()
-        .map(|e| e.1)
-        .filter(|c| owned.binary_search(c).is_err())
-        .collect();
-    g.par_sort_unstable();
-    g.dedup();
-    g
+    Ok(SplitRows {
+        diag,
+        rhs: rows.rhs,
+        block,
+        ghosts,
+    })
 }
 
 impl LocalReduced {
@@ -180,56 +231,108 @@ impl LocalReduced {
         dec: &Decomposition,
         rank: usize,
     ) -> anyhow::Result<Self> {
-        let keep = kept_moments(layout);
+        let keep = kept_moments(layout, kernel);
         let kept_num = Numbering::new(layout, dec, keep.clone());
         let elim_num = Numbering::new(layout, dec, keep.iter().map(|k| !k).collect());
         let kept_owned = kept_num.owned(layout, rank);
         let elim_owned = elim_num.owned(layout, rank);
-        let is_kept = |g: usize| keep[layout.locate(g).0];
-
-        let rows_e = assemble_row_subset(problem, kernel, layout, &kept_owned)
+        if keep.iter().all(|&k| k) {
+            return Self::build_direct(problem, kernel, layout, dec, &kept_num, rank);
+        }
+        let class = |num| OtherClass {
+            layout,
+            dec,
+            num,
+            rank,
+        };
+        // One class at a time, so that only one class's assembled rows are held.
+        let rows = assemble_row_subset(problem, kernel, layout, &kept_owned)
             .context("assembling the kept rows")?;
-        let rows_o = assemble_row_subset(problem, kernel, layout, &elim_owned)
+        let mut nnz_a = rows.vals.len();
+        let e = split_rows(rows, &kept_owned, &class(&elim_num), false)?;
+        let rows = assemble_row_subset(problem, kernel, layout, &elim_owned)
             .context("assembling the eliminated rows")?;
-        let nnz_a = rows_e.vals.len() + rows_o.vals.len();
-        let (d_e, b_entries) = split_rows(&rows_e, &kept_owned, &mut |g| !is_kept(g))?;
-        let (d_o, mut c_entries) = split_rows(&rows_o, &elim_owned, &mut |g| is_kept(g))?;
-        if let Some((i, &v)) = d_o
-            .iter()
-            .enumerate()
-            .find(|(_, v)| **v == 0.0 || !v.is_finite())
-        {
-            anyhow::bail!(
-                "row {} of the eliminated parity has diagonal {v:e}; parity elimination divides \
-                 by it (σ_t must be positive everywhere, docs/design.md §5)",
-                elim_owned[i]
-            );
-        }
-        for e in &mut c_entries {
-            e.2 /= d_o[e.0];
-        }
-        let kept = Part {
-            ghosts: ghosts_of(&c_entries, &kept_owned),
-            owned: kept_owned,
-        };
-        let elim = Part {
-            ghosts: ghosts_of(&b_entries, &elim_owned),
-            owned: elim_owned,
-        };
-        let b = compress(kept.owned.len(), &b_entries, &elim);
-        let c = compress(elim.owned.len(), &c_entries, &kept);
+        nnz_a += rows.vals.len();
+        let o = split_rows(rows, &elim_owned, &class(&kept_num), true)?;
         Ok(Self {
             rank,
-            kept,
-            elim,
-            d_e,
-            d_o,
-            b_e: rows_e.rhs,
-            b_o: rows_o.rhs,
-            b,
-            c,
+            kept: Part {
+                owned: kept_owned,
+                ghosts: o.ghosts,
+            },
+            elim: Part {
+                owned: elim_owned,
+                ghosts: e.ghosts,
+            },
+            d_e: e.diag,
+            d_o: o.diag,
+            b_e: e.rhs,
+            b_o: o.rhs,
+            b: e.block,
+            c: o.block,
+            direct: None,
             nnz_a,
         })
+    }
+
+    /// [`Self::build`] for a system without eliminated unknowns (every moment kept).
+    fn build_direct(
+        problem: &Problem,
+        kernel: &dyn StencilKernel,
+        layout: &Layout,
+        dec: &Decomposition,
+        num: &Numbering,
+        rank: usize,
+    ) -> anyhow::Result<Self> {
+        let owned = num.owned(layout, rank);
+        let rows =
+            assemble_row_subset(problem, kernel, layout, &owned).context("assembling the rows")?;
+        let nnz_a = rows.vals.len();
+        let all = OtherClass {
+            layout,
+            dec,
+            num,
+            rank,
+        };
+        let a = split_rows(rows, &owned, &all, false)?;
+        let n = owned.len();
+        Ok(Self {
+            rank,
+            kept: Part {
+                owned,
+                ghosts: a.ghosts,
+            },
+            elim: Part::default(),
+            d_e: a.diag,
+            d_o: Vec::new(),
+            b_e: a.rhs,
+            b_o: Vec::new(),
+            b: LocalRows {
+                indptr: vec![0; n + 1],
+                ..LocalRows::default()
+            },
+            c: LocalRows {
+                indptr: vec![0],
+                ..LocalRows::default()
+            },
+            direct: Some(a.block),
+            nnz_a,
+        })
+    }
+
+    /// Whether the system is solved as it stands (no parity elimination): the operator is
+    /// `A` itself, [`Self::apply_direct`].
+    pub fn is_direct(&self) -> bool {
+        self.direct.is_some()
+    }
+
+    /// `y = A x` on the owned rows of a system without elimination (`x_ext`: owned values,
+    /// then the ghosts); `y = D_e x` when there is no such system.
+    pub fn apply_direct(&self, x_ext: &[f64], y: &mut [f64]) {
+        let direct = self.direct.as_ref();
+        y.par_iter_mut().enumerate().for_each(|(i, y)| {
+            *y = self.d_e[i] * x_ext[i] + direct.map_or(0.0, |a| a.row_dot(i, x_ext));
+        });
     }
 
     /// `t = C̃ x` on the owned eliminated rows; `x_ext` holds the owned kept values, then
@@ -280,7 +383,8 @@ impl LocalReduced {
         let n_e = self.b_e.len();
         let r_e: f64 = (0..n_e)
             .map(|i| {
-                let r = self.b_e[i] - self.d_e[i] * ue_ext[i] - self.b.row_dot(i, uo_ext);
+                let direct = self.direct.as_ref().map_or(0.0, |a| a.row_dot(i, ue_ext));
+                let r = self.b_e[i] - self.d_e[i] * ue_ext[i] - direct - self.b.row_dot(i, uo_ext);
                 r * r
             })
             .sum();
@@ -294,43 +398,84 @@ impl LocalReduced {
         (r_e + r_o, b2)
     }
 
-    /// The rows of `S = D_e − B C̃` this process owns, columns as storage indices ascending:
-    /// `c_ghost` holds the `C̃` rows of the eliminated ghosts (from
-    /// [`Self::ghost_c_rows`]). For an algebraic multigrid preconditioner.
-    pub fn formed_rows(&self, c_ghost: &RowSet) -> Vec<Vec<(usize, f64)>> {
+    /// The rows of `S = D_e − B C̃` this process owns, for an algebraic or Galerkin
+    /// multigrid: `c_ghost` holds the `C̃` rows of the eliminated ghosts (from
+    /// [`Self::ghost_c_rows`]) and `column` numbers a kept storage index (the distributed
+    /// numbering). Columns ascend within a row.
+    pub fn formed_rows(
+        &self,
+        c_ghost: &RowSet,
+        column: &(dyn Fn(usize) -> anyhow::Result<i32> + Sync),
+    ) -> anyhow::Result<FormedRows> {
+        const ROWS_PER_TASK: usize = 4096;
         let n_o = self.elim.owned.len();
-        (0..self.kept.owned.len())
-            .into_par_iter()
-            .map(|i| {
-                let mut row: BTreeMap<usize, f64> = BTreeMap::new();
-                row.insert(self.kept.owned[i], self.d_e[i]);
-                for k in self.b.indptr[i]..self.b.indptr[i + 1] {
-                    let (slot, bw) = (self.b.cols[k] as usize, self.b.vals[k]);
-                    if slot < n_o {
-                        for m in self.c.indptr[slot]..self.c.indptr[slot + 1] {
-                            let g = self.kept_global(self.c.cols[m] as usize);
-                            *row.entry(g).or_insert(0.0) -= bw * self.c.vals[m];
-                        }
-                    } else {
-                        let r = slot - n_o;
-                        for m in c_ghost.indptr[r]..c_ghost.indptr[r + 1] {
-                            *row.entry(c_ghost.cols[m]).or_insert(0.0) -= bw * c_ghost.vals[m];
+        let n_e = self.kept.owned.len();
+        // The numbers of the owned kept unknowns and their ghosts, found once.
+        let numbers: Vec<i32> = self
+            .kept
+            .owned
+            .par_iter()
+            .chain(self.kept.ghosts.par_iter())
+            .map(|&g| column(g))
+            .collect::<anyhow::Result<_>>()?;
+        let chunks: Vec<FormedRows> = (0..n_e)
+            .collect::<Vec<_>>()
+            .par_chunks(ROWS_PER_TASK)
+            .map(|rows| {
+                let mut out = FormedRows::default();
+                // The row's products, then sorted by column (stable: equal columns keep
+                // the order they were made in, the same on any split) and summed.
+                let mut row: Vec<(i32, f64)> = Vec::new();
+                for &i in rows {
+                    row.clear();
+                    row.push((numbers[i], self.d_e[i]));
+                    if let Some(a) = &self.direct {
+                        for k in a.indptr[i]..a.indptr[i + 1] {
+                            row.push((numbers[a.cols[k] as usize], a.vals[k]));
                         }
                     }
+                    for k in self.b.indptr[i]..self.b.indptr[i + 1] {
+                        let (slot, bw) = (self.b.cols[k] as usize, self.b.vals[k]);
+                        if slot < n_o {
+                            for m in self.c.indptr[slot]..self.c.indptr[slot + 1] {
+                                row.push((
+                                    numbers[self.c.cols[m] as usize],
+                                    -(bw * self.c.vals[m]),
+                                ));
+                            }
+                        } else {
+                            let r = slot - n_o;
+                            for m in c_ghost.indptr[r]..c_ghost.indptr[r + 1] {
+                                row.push((column(c_ghost.cols[m])?, -(bw * c_ghost.vals[m])));
+                            }
+                        }
+                    }
+                    row.sort_by_key(|e| e.0);
+                    let mut len = 0u32;
+                    let mut k = 0;
+                    while k < row.len() {
+                        let (n, mut v) = row[k];
+                        k += 1;
+                        while k < row.len() && row[k].0 == n {
+                            v += row[k].1;
+                            k += 1;
+                        }
+                        out.cols.push(n);
+                        out.vals.push(v);
+                        len += 1;
+                    }
+                    out.row_len.push(len);
                 }
-                row.into_iter().collect()
+                Ok(out)
             })
-            .collect()
-    }
-
-    /// The storage index of extended local kept index `l`.
-    fn kept_global(&self, l: usize) -> usize {
-        let n = self.kept.owned.len();
-        if l < n {
-            self.kept.owned[l]
-        } else {
-            self.kept.ghosts[l - n]
+            .collect::<anyhow::Result<_>>()?;
+        let mut all = FormedRows::default();
+        for c in chunks {
+            all.row_len.extend(c.row_len);
+            all.cols.extend(c.cols);
+            all.vals.extend(c.vals);
         }
+        Ok(all)
     }
 
     /// The `C̃` rows of the eliminated ghosts (columns: kept storage indices), assembled
@@ -368,13 +513,44 @@ impl LocalReduced {
         Ok(out)
     }
 
+    /// The diagonal of `S` on the owned kept rows: `D_e − Σ_k B_ik C̃_ki` (`A`'s diagonal
+    /// for a system without elimination), with `c_ghost` the `C̃` rows of the eliminated
+    /// ghosts ([`Self::ghost_c_rows`]). For Jacobi smoothing without forming `S`.
+    pub fn diagonal_of_s(&self, c_ghost: &RowSet) -> Vec<f64> {
+        let n_o = self.elim.owned.len();
+        (0..self.kept.owned.len())
+            .into_par_iter()
+            .map(|i| {
+                let mut d = self.d_e[i];
+                for k in self.b.indptr[i]..self.b.indptr[i + 1] {
+                    let (slot, bw) = (self.b.cols[k] as usize, self.b.vals[k]);
+                    if slot < n_o {
+                        for m in self.c.indptr[slot]..self.c.indptr[slot + 1] {
+                            if self.c.cols[m] as usize == i {
+                                d -= bw * self.c.vals[m];
+                            }
+                        }
+                    } else {
+                        let (r, g) = (slot - n_o, self.kept.owned[i]);
+                        for m in c_ghost.indptr[r]..c_ghost.indptr[r + 1] {
+                            if c_ghost.cols[m] == g {
+                                d -= bw * c_ghost.vals[m];
+                            }
+                        }
+                    }
+                }
+                d
+            })
+            .collect()
+    }
+
     /// Bytes this process receives per application of `S` (both ghost exchanges).
     pub fn halo_bytes_per_application(&self) -> usize {
         8 * (self.kept.ghosts.len() + self.elim.ghosts.len())
     }
 
-    /// Stored entries of `B` and `C̃` on this process.
+    /// Stored entries of `B` and `C̃` (or of `A`'s off-diagonal part) on this process.
     pub fn nnz_blocks(&self) -> usize {
-        self.b.nnz() + self.c.nnz()
+        self.b.nnz() + self.c.nnz() + self.direct.as_ref().map_or(0, LocalRows::nnz)
     }
 }

@@ -1,6 +1,6 @@
 //! The distributed numbering of one class of unknowns (the kept or the eliminated moments):
 //! process 0's unknowns first, then process 1's, …; within a process in ascending storage
-//! index (moment by moment, x slowest, [`pn_runtime::layout::Layout`]). Every process
+//! index (moment by moment, x slowest, [`pn_runtime::Layout`]). Every process
 //! computes any unknown's owner and number from the layout and the partition alone, so
 //! building the ghost lists needs no communication.
 

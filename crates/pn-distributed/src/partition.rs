@@ -133,6 +133,18 @@ impl Decomposition {
         }
     }
 
+    /// The partition of the grid coarsened by two along every axis with more than one cell
+    /// (multigrid's next level: cell or position `i` becomes `⌊i/2⌋`): the cuts halved and
+    /// rounded up, so that a box may own nothing on a coarse level.
+    pub fn coarsened(&self) -> Self {
+        let halve = |d: usize, v: usize| if self.res[d] > 1 { v.div_ceil(2) } else { v };
+        Self {
+            res: std::array::from_fn(|d| halve(d, self.res[d])),
+            procs: self.procs,
+            cuts: std::array::from_fn(|d| self.cuts[d].iter().map(|&c| halve(d, c)).collect()),
+        }
+    }
+
     /// Cells per axis.
     pub fn res(&self) -> [usize; 3] {
         self.res
@@ -161,24 +173,26 @@ impl Decomposition {
     }
 
     /// The positions `rank` owns per axis of a moment with `ext` positions per axis (`n` or
-    /// `n + 1`).
+    /// `n + 1`; empty ranges for a box that owns no cells on a coarse level).
     pub fn positions(&self, rank: usize, ext: [usize; 3]) -> [Range<usize>; 3] {
         let c = self.coords(rank);
         std::array::from_fn(|d| {
-            let lo = self.cuts[d][c[d]];
-            let hi = if c[d] + 1 == self.procs[d] {
-                ext[d]
+            let (lo, hi) = (self.cuts[d][c[d]], self.cuts[d][c[d] + 1]);
+            // The box with the last cell also owns the positions past it (the upper face).
+            if hi == self.res[d] && lo < hi {
+                lo..ext[d]
             } else {
-                self.cuts[d][c[d] + 1]
-            };
-            lo..hi
+                lo..hi
+            }
         })
     }
 
     /// The box index along axis `d` that owns position `i` (see the module documentation).
     fn box_along(&self, d: usize, i: usize) -> usize {
         let cell = i.min(self.res[d] - 1);
-        self.cuts[d].partition_point(|&c| c <= cell) - 1
+        // The last box starting at or before `cell` (on coarse levels boxes may be empty:
+        // equal cuts; the non-empty one after them owns the position).
+        (self.cuts[d].partition_point(|&c| c <= cell) - 1).min(self.procs[d] - 1)
     }
 
     /// The process that owns position `idx` of any moment.
@@ -210,6 +224,31 @@ mod tests {
             }
             assert!(seen.iter().all(|&s| s == 1), "{ext:?}");
         }
+    }
+
+    #[test]
+    fn coarse_levels_cover_every_position_once() {
+        let mut dec = Decomposition::new([9, 12, 1], [4, 3, 1]).unwrap();
+        for _ in 0..4 {
+            dec = dec.coarsened();
+            let r = dec.res();
+            for ext in [r, [r[0] + 1, r[1], 1]] {
+                let mut seen = vec![0u8; ext.iter().product()];
+                for rank in 0..dec.ranks() {
+                    let [x, y, z] = dec.positions(rank, ext);
+                    for i in x.clone() {
+                        for j in y.clone() {
+                            for k in z.clone() {
+                                assert_eq!(dec.owner([i, j, k]), rank);
+                                seen[(i * ext[1] + j) * ext[2] + k] += 1;
+                            }
+                        }
+                    }
+                }
+                assert!(seen.iter().all(|&s| s == 1), "{r:?} {ext:?}");
+            }
+        }
+        assert_eq!(dec.res(), [1, 1, 1]);
     }
 
     #[test]

@@ -38,7 +38,7 @@ impl SimulatedRanks {
         owned.iter().chain(ghosts).map(|&g| global[g]).collect()
     }
 
-    /// `S x` with `x` and the result in storage order (entries of eliminated unknowns in `x`
+    /// `S x` (or `A x` for a system solved as it stands) with `x` and the result in storage order (entries of eliminated unknowns in `x`
     /// are ignored, those of the result are 0): each process's rows from its owned values
     /// and ghosts, as on separate processes.
     pub fn apply(&self, x: &[f64]) -> Vec<f64> {
@@ -52,7 +52,15 @@ impl SimulatedRanks {
             }
         }
         let mut y = vec![0.0; self.len];
-        for p in &self.parts {
+        for p in self.parts.iter().filter(|p| p.is_direct()) {
+            let x_ext = Self::extended(&p.kept.owned, &p.kept.ghosts, x);
+            let mut out = vec![0.0; p.kept.owned.len()];
+            p.apply_direct(&x_ext, &mut out);
+            for (&g, v) in p.kept.owned.iter().zip(out) {
+                y[g] = v;
+            }
+        }
+        for p in self.parts.iter().filter(|p| !p.is_direct()) {
             let x_own: Vec<f64> = p.kept.owned.iter().map(|&g| x[g]).collect();
             let t_ext = Self::extended(&p.elim.owned, &p.elim.ghosts, &t_global);
             let mut out = vec![0.0; p.kept.owned.len()];

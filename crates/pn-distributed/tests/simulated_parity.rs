@@ -135,6 +135,48 @@ fn one_box_equals_the_serial_parity_operator() {
     }
 }
 
+/// CDA has no parity structure: the system is split as it stands (`A x`, no elimination).
+#[test]
+fn cda_is_split_without_elimination() {
+    let p = scene("checkerboard3d", 15, None);
+    let choice = pn_kernels::cda_kernel(Dim::Three).unwrap();
+    let kernel = choice.kernel.as_ref();
+    let layout = Layout::new(&p.grid, kernel.moments()).unwrap();
+    let one = SimulatedRanks::build(
+        &p,
+        kernel,
+        &layout,
+        &Decomposition::new(p.grid.res, [1; 3]).unwrap(),
+    )
+    .unwrap();
+    assert!(one.parts[0].is_direct());
+    let x = probe(layout.len());
+    let y1 = one.apply(&x);
+    // One box against the assembled matrix.
+    let a = pn_runtime::assemble::assemble(&p, kernel, &layout)
+        .unwrap()
+        .matrix;
+    let scale = y1.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    for (i, row) in a.outer_iterator().enumerate() {
+        let ax: f64 = row.iter().map(|(j, v)| v * x[j]).sum();
+        assert!((ax - y1[i]).abs() <= 1e-13 * scale, "row {i}");
+    }
+    for procs in [[3, 1, 1], [1, 2, 2]] {
+        let many = SimulatedRanks::build(
+            &p,
+            kernel,
+            &layout,
+            &Decomposition::new(p.grid.res, procs).unwrap(),
+        )
+        .unwrap();
+        let y = many.apply(&x);
+        assert!(
+            y.iter().zip(&y1).all(|(a, b)| a.to_bits() == b.to_bits()),
+            "{procs:?}"
+        );
+    }
+}
+
 #[test]
 fn refuses_boxes_thinner_than_the_ghost_layer() {
     let e = Decomposition::new([37, 37, 37], [19, 1, 1]).unwrap_err();

@@ -91,11 +91,12 @@ mod imp {
             other => anyhow::bail!("unknown --ksp {other:?} (auto, cg, gmres)"),
         };
         let pc = match dist.pc.as_str() {
+            "mg" => PcChoice::Mg,
             "gamg" => PcChoice::Gamg,
             "hypre" => PcChoice::Hypre,
             "jacobi" => PcChoice::Jacobi,
             "none" => PcChoice::None,
-            other => anyhow::bail!("unknown --pc {other:?} (gamg, hypre, jacobi, none)"),
+            other => anyhow::bail!("unknown --pc {other:?} (mg, gamg, hypre, jacobi, none)"),
         };
         Ok(DistributedOptions {
             procs: dist.procs,

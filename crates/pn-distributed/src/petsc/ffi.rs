@@ -48,15 +48,19 @@ pub type VecScatter = *mut _p_VecScatter;
 pub const INSERT_VALUES: c_int = 1;
 pub const SCATTER_FORWARD: c_int = 0;
 pub const MAT_FINAL_ASSEMBLY: c_int = 0;
-pub const MATOP_MULT: c_int = 3;
+pub const ADD_VALUES: c_int = 2;
 pub const KSP_NORM_UNPRECONDITIONED: c_int = 2;
 pub const PC_RIGHT: c_int = 1;
 pub const NORM_2: c_int = 1;
+pub const PC_MG_GALERKIN_NONE: c_int = 3;
+pub const MAT_INITIAL_MATRIX: c_int = 0;
 pub const PETSC_DEFAULT: PetscInt = -2;
 pub const PETSC_DEFAULT_REAL: PetscReal = -2.0;
 
 /// `PetscErrorCode (*)(Mat, Vec, Vec)`: a shell matrix's product.
 pub type MatMultFn = unsafe extern "C" fn(Mat, Vec, Vec) -> PetscErrorCode;
+/// `PetscErrorCode (*)(Mat, Vec)`: a shell matrix's diagonal.
+pub type MatDiagFn = unsafe extern "C" fn(Mat, Vec) -> PetscErrorCode;
 
 extern "C" {
     pub fn pn_comm_rank() -> c_int;
@@ -79,6 +83,16 @@ extern "C" {
         m: *mut Mat,
     ) -> PetscErrorCode;
     pub fn pn_ksp_create(k: *mut KSP) -> PetscErrorCode;
+    pub fn pn_mat_create_aij_rect(
+        m: PetscInt,
+        n: PetscInt,
+        d_nnz: *const PetscInt,
+        o_nnz: *const PetscInt,
+        a: *mut Mat,
+    ) -> PetscErrorCode;
+    pub fn pn_pcmg_set_levels(pc: PC, levels: PetscInt) -> PetscErrorCode;
+    pub fn pn_mat_shell_set_mult(m: Mat, f: MatMultFn) -> PetscErrorCode;
+    pub fn pn_mat_shell_set_diagonal(m: Mat, f: MatDiagFn) -> PetscErrorCode;
 }
 
 extern "C" {
@@ -107,7 +121,19 @@ extern "C" {
     pub fn VecScatterDestroy(s: *mut VecScatter) -> PetscErrorCode;
     pub fn ISDestroy(is: *mut IS) -> PetscErrorCode;
 
-    pub fn MatShellSetOperation(m: Mat, op: c_int, f: MatMultFn) -> PetscErrorCode;
+    pub fn MatMatMult(a: Mat, b: Mat, reuse: c_int, fill: PetscReal, c: *mut Mat)
+        -> PetscErrorCode;
+    pub fn MatTransposeMatMult(
+        a: Mat,
+        b: Mat,
+        reuse: c_int,
+        fill: PetscReal,
+        c: *mut Mat,
+    ) -> PetscErrorCode;
+    pub fn MatMultTranspose(a: Mat, x: Vec, y: Vec) -> PetscErrorCode;
+    pub fn MatDiagonalSet(a: Mat, d: Vec, im: c_int) -> PetscErrorCode;
+    pub fn MatScale(a: Mat, s: PetscScalar) -> PetscErrorCode;
+    pub fn MatCreateVecs(a: Mat, right: *mut Vec, left: *mut Vec) -> PetscErrorCode;
     pub fn MatShellGetContext(m: Mat, ctx: *mut c_void) -> PetscErrorCode;
     pub fn MatSetValues(
         m: Mat,
@@ -123,6 +149,10 @@ extern "C" {
     pub fn MatIsSymmetric(m: Mat, tol: PetscReal, flag: *mut PetscBool) -> PetscErrorCode;
     pub fn MatDestroy(m: *mut Mat) -> PetscErrorCode;
 
+    pub fn PCMGSetInterpolation(pc: PC, level: PetscInt, m: Mat) -> PetscErrorCode;
+    pub fn PCMGSetGalerkin(pc: PC, t: c_int) -> PetscErrorCode;
+    pub fn PCMGGetSmoother(pc: PC, level: PetscInt, k: *mut KSP) -> PetscErrorCode;
+    pub fn MatPtAP(a: Mat, p: Mat, reuse: c_int, fill: PetscReal, c: *mut Mat) -> PetscErrorCode;
     pub fn KSPSetOperators(k: KSP, a: Mat, p: Mat) -> PetscErrorCode;
     pub fn KSPSetType(k: KSP, t: *const c_char) -> PetscErrorCode;
     pub fn KSPGetPC(k: KSP, pc: *mut PC) -> PetscErrorCode;

@@ -2,16 +2,25 @@
 //!
 //! * [`ffi`]: the PETSc and MPI calls (and the C shim for those that take a communicator).
 //! * `objects`: owning wrappers that destroy PETSc objects when dropped.
-//! * [`solve`]: `S` as a PETSc shell matrix over [`crate::LocalReduced`], the reduced
-//!   right-hand side, the Krylov solve with its preconditioner, the recovery of the
-//!   eliminated moments and the gather of the solution onto process 0.
+//! * [`mod@solve`]: the solve — the reduced right-hand side, the Krylov solve (`krylov`: the
+//!   preconditioners, the symmetry probe, PETSc's settings) over the shell operator
+//!   (`operator`), the recovery of the eliminated moments and the gather onto process 0.
+//! * [`pcmg`]: the project's aggregation multigrid on PCMG; `blocks`: its first coarse
+//!   operator from the parity blocks.
+//! * [`probe`]: one application of the distributed `S` (the operator-parity check).
 
+mod blocks;
 pub mod ffi;
+mod krylov;
 mod objects;
+mod operator;
+mod options;
+pub mod pcmg;
 pub mod probe;
 pub mod solve;
 
-pub use solve::{solve, DistributedOptions, DistributedSolution, KspChoice, PcChoice, RankStats};
+pub use options::{DistributedOptions, KspChoice, PcChoice};
+pub use solve::{solve, DistributedSolution, RankStats};
 
 use anyhow::Context;
 use ffi::PetscErrorCode;

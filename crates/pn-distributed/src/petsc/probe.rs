@@ -2,7 +2,7 @@
 //! operator-parity check (the same bits on any number of processes and any split).
 
 use super::objects::{gather_to_zero, PVec};
-use super::solve::{Parts, Shell};
+use super::operator::{Parts, Shell};
 use super::Mpi;
 use pn_runtime::problem::Problem;
 use pn_runtime::Layout;

@@ -14,10 +14,14 @@ _Static_assert(INSERT_VALUES == 1, "InsertMode INSERT_VALUES");
 _Static_assert(SCATTER_FORWARD == 0, "ScatterMode SCATTER_FORWARD");
 _Static_assert(MAT_FINAL_ASSEMBLY == 0, "MatAssemblyType MAT_FINAL_ASSEMBLY");
 _Static_assert(MATOP_MULT == 3, "MatOperation MATOP_MULT");
+_Static_assert(MATOP_GET_DIAGONAL == 17, "MatOperation MATOP_GET_DIAGONAL");
+_Static_assert(ADD_VALUES == 2, "InsertMode ADD_VALUES");
 _Static_assert(KSP_NORM_UNPRECONDITIONED == 2, "KSPNormType KSP_NORM_UNPRECONDITIONED");
 _Static_assert(PC_RIGHT == 1, "PCSide PC_RIGHT");
 _Static_assert(NORM_2 == 1, "NormType NORM_2");
 _Static_assert(PETSC_COPY_VALUES == 0, "PetscCopyMode PETSC_COPY_VALUES");
+_Static_assert(PC_MG_GALERKIN_NONE == 3, "PCMGGalerkinType PC_MG_GALERKIN_NONE");
+_Static_assert(MAT_INITIAL_MATRIX == 0, "MatReuse MAT_INITIAL_MATRIX");
 _Static_assert(PETSC_DECIDE == -1 && PETSC_DETERMINE == -1, "PETSC_DECIDE");
 
 int pn_comm_rank(void) {
@@ -75,3 +79,19 @@ PetscErrorCode pn_mat_create_aij(PetscInt n, const PetscInt *d_nnz, const PetscI
 }
 
 PetscErrorCode pn_ksp_create(KSP *k) { return KSPCreate(PETSC_COMM_WORLD, k); }
+
+PetscErrorCode pn_mat_create_aij_rect(PetscInt m, PetscInt n, const PetscInt *d_nnz, const PetscInt *o_nnz, Mat *a) {
+  return MatCreateAIJ(PETSC_COMM_WORLD, m, n, PETSC_DETERMINE, PETSC_DETERMINE, 0, d_nnz, 0, o_nnz, a);
+}
+
+/* PCMG with `levels` levels on PETSC_COMM_WORLD (no per-level communicators). */
+PetscErrorCode pn_pcmg_set_levels(PC pc, PetscInt levels) { return PCMGSetLevels(pc, levels, NULL); }
+
+/* A shell matrix's product and diagonal (MatShellSetOperation takes a void(*)(void)). */
+PetscErrorCode pn_mat_shell_set_mult(Mat m, PetscErrorCode (*f)(Mat, Vec, Vec)) {
+  return MatShellSetOperation(m, MATOP_MULT, (void (*)(void))f);
+}
+
+PetscErrorCode pn_mat_shell_set_diagonal(Mat m, PetscErrorCode (*f)(Mat, Vec)) {
+  return MatShellSetOperation(m, MATOP_GET_DIAGONAL, (void (*)(void))f);
+}
