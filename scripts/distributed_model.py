@@ -91,7 +91,7 @@ def main():
             out.append(
                 f"| {res}³ | {k} | {owned / 1e6:.1f} M | {memory / 2**30:.1f} GB | "
                 f"{halo / 2**20:.1f} MB | {iterations:.0f} | {compute:.2f} s | "
-                f"{comm * 1e3:.1f} ms | {total / 60:.1f} min | {eff:.0%} |"
+                f"{comm * 1e3:.1f} ms | {total / 60:.1f} min | {eff:.1%} |"
             )
     out += [
         "",
