@@ -91,6 +91,7 @@ def run(pn, out, study, order, res, ranks, pc):
         "halo_bytes_max": max(r["halo_bytes_per_application"] for r in ranks_),
         "halo_bytes_sum": sum(r["halo_bytes_per_application"] for r in ranks_),
         "applications": ranks_[0]["operator_applications"],
+        "reductions": ranks_[0].get("reductions", 0),
     }
 
 

@@ -78,6 +78,13 @@ fn parity(name: &str, args: &[&str], pc: &str) -> (Vec<f64>, serde_json::Value) 
             "{name}: {it} iterations on {ranks}, {it1} on one"
         );
         assert_eq!(r["distributed"]["processes"], ranks);
+        // Every process reports the global reductions it took part in (about two per
+        // GMRES or CG iteration).
+        let red = r["distributed"]["ranks"][0]["reductions"].as_i64().unwrap();
+        assert!(
+            red >= it,
+            "{ranks} processes: {red} reductions for {it} iterations"
+        );
     }
     (m1, r1)
 }

@@ -211,6 +211,7 @@ mod imp {
                     owned_unknowns: r.owned_unknowns,
                     ghost_unknowns: r.ghost_unknowns,
                     peak_memory_bytes: r.peak_memory_bytes,
+                    reductions: r.reductions,
                 })
                 .collect(),
         }

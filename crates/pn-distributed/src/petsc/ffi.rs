@@ -72,6 +72,7 @@ extern "C" {
     pub fn pn_barrier() -> c_int;
     pub fn pn_wtime() -> f64;
     pub fn pn_peak_rss_bytes() -> f64;
+    pub fn pn_reduction_count() -> i64;
     pub fn pn_vec_create_mpi(n: PetscInt, v: *mut Vec) -> PetscErrorCode;
     pub fn pn_vec_create_seq(n: PetscInt, v: *mut Vec) -> PetscErrorCode;
     pub fn pn_is_create_general(n: PetscInt, idx: *const PetscInt, is: *mut IS) -> PetscErrorCode;

@@ -101,6 +101,13 @@ impl Mpi {
         Ok(())
     }
 
+    /// The global reductions (MPI_Allreduce calls on more than one process) this process has
+    /// taken part in so far, as PETSc counts them (`petsc_allreduce_ct`).
+    pub fn reductions(&self) -> i64 {
+        // SAFETY: reads a counter.
+        unsafe { ffi::pn_reduction_count() }
+    }
+
     /// Peak resident memory of this process in bytes (getrusage).
     pub fn peak_memory_bytes(&self) -> f64 {
         // SAFETY: getrusage has no preconditions.

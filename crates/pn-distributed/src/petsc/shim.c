@@ -95,3 +95,7 @@ PetscErrorCode pn_mat_shell_set_mult(Mat m, PetscErrorCode (*f)(Mat, Vec, Vec)) 
 PetscErrorCode pn_mat_shell_set_diagonal(Mat m, PetscErrorCode (*f)(Mat, Vec)) {
   return MatShellSetOperation(m, MATOP_GET_DIAGONAL, (void (*)(void))f);
 }
+
+/* The global reductions (MPI_Allreduce on more than one process) this process has taken
+ * part in: PETSc counts them itself (petsclog.h wraps its calls of MPI_Allreduce). */
+long long pn_reduction_count(void) { return (long long)petsc_allreduce_ct; }

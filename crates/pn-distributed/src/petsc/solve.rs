@@ -45,10 +45,12 @@ pub struct RankStats {
     pub ghost_unknowns: usize,
     /// Peak resident memory in bytes (getrusage, the whole process).
     pub peak_memory_bytes: f64,
+    /// Global reductions (MPI_Allreduce) during the Krylov solve.
+    pub reductions: usize,
 }
 
 impl RankStats {
-    const FIELDS: usize = 9;
+    const FIELDS: usize = 10;
 
     fn to_array(&self) -> [f64; Self::FIELDS] {
         [
@@ -61,6 +63,7 @@ impl RankStats {
             self.owned_unknowns as f64,
             self.ghost_unknowns as f64,
             self.peak_memory_bytes,
+            self.reductions as f64,
         ]
     }
 
@@ -75,6 +78,7 @@ impl RankStats {
             owned_unknowns: a[6] as usize,
             ghost_unknowns: a[7] as usize,
             peak_memory_bytes: a[8],
+            reductions: a[9] as usize,
         }
     }
 }
@@ -172,10 +176,12 @@ pub fn solve(
     let (mut solver, method) = super::krylov::krylov(&shell, pre, symmetric, opts)?;
     let run = (method, symmetric);
     stats.setup_seconds = t1.elapsed().as_secs_f64();
+    let reductions_before = mpi.reductions();
     let t2 = std::time::Instant::now();
     // SAFETY: the solver, `f` and `x` are valid; the shell's context lives through the call.
     check(unsafe { ffi::KSPSolve(solver.0, f.0, x.0) }, "KSPSolve")?;
     stats.solve_seconds = t2.elapsed().as_secs_f64();
+    stats.reductions = (mpi.reductions() - reductions_before).max(0) as usize;
     let (iterations, reason, rnorm) = super::krylov::result(&solver)?;
     drop(std::mem::replace(&mut solver, Ksp(null_mut())));
     let f_norm = norm(&f)?;

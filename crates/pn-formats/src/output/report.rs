@@ -224,6 +224,8 @@ pub struct RankSection {
     pub ghost_unknowns: usize,
     /// Peak resident memory of the process in bytes.
     pub peak_memory_bytes: f64,
+    /// Global reductions (MPI_Allreduce) during the Krylov solve.
+    pub reductions: usize,
 }
 
 impl SolveReport {
