@@ -153,6 +153,70 @@ fn cda_and_a_text_pde_on_three_processes() {
     }
 }
 
+/// `pn render --distributed`: every process takes part in the render's solve, process 0
+/// renders; the image equals the one-process render's to the solver tolerance (1e-8 here:
+/// 1e-6 of the image's largest value leaves two orders of margin).
+#[test]
+fn render_on_two_processes_equals_one() {
+    let args = [
+        "render",
+        "sphere",
+        "--order",
+        "3",
+        "--solve-res",
+        "16",
+        "--set",
+        "camera.width=48",
+        "--set",
+        "camera.height=48",
+        "--set",
+        "solve.tolerance=1e-8",
+    ];
+    let one = work_dir("render-one");
+    let two = work_dir("render-two");
+    let out = Command::new(env!("CARGO_BIN_EXE_pn"))
+        .args(args)
+        .args(["--out", one.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let mut a = args.to_vec();
+    a.extend([
+        "--distributed",
+        "--threads",
+        "1",
+        "--out",
+        two.to_str().unwrap(),
+    ]);
+    let out = mpirun(2, &a);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let (w1, h1, i1) = pn_formats::read_exr_gray(&one.join("image.exr")).unwrap();
+    let (w2, h2, i2) = pn_formats::read_exr_gray(&two.join("image.exr")).unwrap();
+    assert_eq!((w1, h1), (w2, h2));
+    let a: Vec<f64> = i2.iter().map(|&v| v as f64).collect();
+    let b: Vec<f64> = i1.iter().map(|&v| v as f64).collect();
+    assert!(b.iter().any(|&v| v > 0.0));
+    let d = rel_diff(&a, &b);
+    assert!(
+        d <= 1e-6,
+        "distributed render differs by {d:.3e} of the maximum"
+    );
+    let rep: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(two.join("report.json")).unwrap()).unwrap();
+    assert!(
+        rep.to_string().contains("petsc-"),
+        "the report names the distributed solver"
+    );
+}
+
 /// StaRMAP's checkerboard (P_1, 71², tests/checkerboard.rs's bound) on 2×2 boxes with the
 /// default preconditioner (GAMG).
 #[test]

@@ -113,6 +113,9 @@ pub struct RenderArgs {
     /// Override a `param` of the --pde file (repeatable), e.g. --pde-param sigma_f=2.
     #[arg(long, value_name = "NAME=VALUE", value_parser = pn_drivers::pde_text::parse_param, requires = "pde")]
     pub pde_param: Vec<(String, String)>,
+    /// --distributed and its settings (the render's linear solves over MPI processes).
+    #[command(flatten)]
+    pub dist: super::solve::DistributedFlags,
 }
 
 impl RenderArgs {
@@ -149,6 +152,7 @@ impl RenderArgs {
             },
             pde: self.pde.clone(),
             pde_params: self.pde_param.clone(),
+            distributed: self.dist.request(),
         }
     }
 }

@@ -182,7 +182,15 @@ pub struct SolveFlags {
     /// Override a `param` of the --pde file (repeatable), e.g. --pde-param sigma_f=2.
     #[arg(long, value_name = "NAME=VALUE", value_parser = pn_drivers::pde_text::parse_param)]
     pub pde_param: Vec<(String, String)>,
-    /// Split the solve over the MPI processes it was started with (`mpirun -np K pn solve …
+    /// --distributed and its settings.
+    #[command(flatten)]
+    pub dist: DistributedFlags,
+}
+
+/// `--distributed` and its settings (`pn solve`, `pn render`).
+#[derive(Args, Debug, Clone)]
+pub struct DistributedFlags {
+    /// Split the linear solves over the MPI processes it was started with (`mpirun -np K pn solve …
     /// --distributed`; needs a build with `--features distributed`, docs/distributed.md).
     #[arg(long)]
     pub distributed: bool,
@@ -205,6 +213,19 @@ pub struct SolveFlags {
         requires = "distributed"
     )]
     pub petsc_options: Option<String>,
+}
+
+impl DistributedFlags {
+    /// The driver's settings, when `--distributed` is given.
+    pub fn request(&self) -> Option<pn_drivers::scene_setup::DistributedRequest> {
+        self.distributed
+            .then(|| pn_drivers::scene_setup::DistributedRequest {
+                procs: self.procs,
+                ksp: format!("{:?}", self.ksp).to_lowercase(),
+                pc: format!("{:?}", self.pc).to_lowercase(),
+                petsc_options: self.petsc_options.clone(),
+            })
+    }
 }
 
 /// `--ksp`.
@@ -289,14 +310,7 @@ impl SolveFlags {
             tuning: env.tuning.clone(),
             pde: self.pde.clone(),
             pde_params: self.pde_param.clone(),
-            distributed: self
-                .distributed
-                .then(|| pn_drivers::scene_setup::DistributedRequest {
-                    procs: self.procs,
-                    ksp: format!("{:?}", self.ksp).to_lowercase(),
-                    pc: format!("{:?}", self.pc).to_lowercase(),
-                    petsc_options: self.petsc_options.clone(),
-                }),
+            distributed: self.dist.request(),
         }
     }
 }

@@ -80,6 +80,9 @@ pub struct RenderRequest {
     pub pde: Option<PathBuf>,
     /// `NAME=VALUE` overrides of the PDE file's `param`s.
     pub pde_params: Vec<(String, String)>,
+    /// `--distributed`: the linear solves split over MPI processes (docs/distributed.md);
+    /// process 0 renders and writes.
+    pub distributed: Option<crate::scene_setup::DistributedRequest>,
 }
 
 impl Default for RenderRequest {
@@ -110,6 +113,7 @@ impl Default for RenderRequest {
             options: RenderOptions::default(),
             pde: None,
             pde_params: Vec::new(),
+            distributed: None,
         }
     }
 }
@@ -300,7 +304,27 @@ pub fn run(a: &RenderRequest, stdout: &mut dyn Write) -> Result<()> {
         "--save-moments needs a grey scene with a solve (method pn, cda, fld or pop); for a \
          coloured scene, render each channel's scene"
     );
-    let mut run = render_views(&scene, &options, a.turntable.unwrap_or(1))?;
+    let mut run = match &a.distributed {
+        None => render_views(&scene, &options, a.turntable.unwrap_or(1))?,
+        Some(d) => {
+            // Every process runs the render's solves together; process 0 renders on.
+            let mut done = None;
+            crate::solve_distributed::run_render(d, &mut |solver, root| {
+                let mut o = options.clone();
+                o.linear_solver = Some(solver);
+                o.progress &= root;
+                let run = render_views(&scene, &o, a.turntable.unwrap_or(1))?;
+                if root {
+                    done = Some(run);
+                }
+                Ok(())
+            })?;
+            match done {
+                Some(run) => run,
+                None => return Ok(()),
+            }
+        }
+    };
     run.report.overrides = a.set.iter().map(|o| o.text.clone()).collect();
     let save = match &run.solution {
         Some(ms) if a.save_moments => Some(ms),

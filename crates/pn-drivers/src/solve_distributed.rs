@@ -23,6 +23,19 @@ pub type SolveFn<'a> = &'a dyn Fn(
 /// The rest of `pn solve` given the solve: scene, kernel, outputs and summary.
 pub type Command<'a> = &'a mut dyn FnMut(SolveFn<'_>) -> anyhow::Result<()>;
 
+/// A render given the distributed linear solver, on every process (`true` on process 0,
+/// which goes on to render and write).
+pub type RenderCommand<'a> = &'a mut dyn FnMut(pn_render::LinearSolver, bool) -> anyhow::Result<()>;
+
+/// `mpirun -np K pn render … --distributed`: runs `command` on every process with a linear
+/// solver that splits each of the render's P_N, CDA or text-PDE solves over the processes
+/// and hands every process the whole solution (so that all go through the same solves, as
+/// MPI's collective calls need); process 0 renders and writes. Errors end every process as
+/// in [`run`].
+pub fn run_render(dist: &DistributedRequest, command: RenderCommand<'_>) -> anyhow::Result<()> {
+    imp::run_render(dist, command)
+}
+
 /// Runs `command` with the distributed solve (see the module documentation).
 pub fn run(
     req: &SolveRequest,
@@ -53,6 +66,14 @@ mod imp {
     use super::*;
 
     pub fn run(_: &SolveRequest, _: &DistributedRequest, _: Command<'_>) -> anyhow::Result<()> {
+        bail_no_feature()
+    }
+
+    pub fn run_render(_: &DistributedRequest, _: RenderCommand<'_>) -> anyhow::Result<()> {
+        bail_no_feature()
+    }
+
+    fn bail_no_feature() -> anyhow::Result<()> {
         anyhow::bail!(
             "--distributed needs a pn built with the `distributed` feature (PETSc and MPI): \
              install petsc-dev and openmpi-bin (Debian), then `cargo build --release --features \
@@ -71,6 +92,7 @@ mod imp {
     use pn_runtime::solver::{SolveStats, SolveStatus};
     use pn_runtime::{Layout, Problem};
     use pn_stencil::StencilKernel;
+    use std::sync::Arc;
 
     /// Whether an MPI launcher started this process (OpenMPI, MPICH/Hydra and PMIx set
     /// these).
@@ -105,6 +127,7 @@ mod imp {
             rtol: req.tol,
             max_iter: req.max_iter,
             petsc_options: dist.petsc_options.clone(),
+            gather_everywhere: false,
         })
     }
 
@@ -114,13 +137,23 @@ mod imp {
         command: Command<'_>,
     ) -> anyhow::Result<()> {
         let opts = options(req, dist)?;
+        let mpi = start("solve")?;
+        let outcome = command(&|problem, kernel, _| solve_here(&mpi, req, problem, kernel, &opts));
+        finish(&mpi, outcome)
+    }
+
+    /// Checks for a launcher and starts PETSc and MPI.
+    fn start(command: &str) -> anyhow::Result<Arc<Mpi>> {
         anyhow::ensure!(
             launched_by_mpirun(),
-            "--distributed needs an MPI launcher: start it as `mpirun -np K pn solve … \
+            "--distributed needs an MPI launcher: start it as `mpirun -np K pn {command} … \
              --distributed` (K processes; `mpirun -np 1` for one)"
         );
-        let mpi = Mpi::init()?;
-        let outcome = command(&|problem, kernel, _| solve_here(&mpi, req, problem, kernel, &opts));
+        Ok(Arc::new(Mpi::init()?))
+    }
+
+    /// An error on one of several processes ends them all (see the module documentation).
+    fn finish(mpi: &Mpi, outcome: anyhow::Result<()>) -> anyhow::Result<()> {
         match outcome {
             Ok(()) => Ok(()),
             Err(e) if mpi.size() > 1 => {
@@ -129,6 +162,32 @@ mod imp {
             }
             Err(e) => Err(e),
         }
+    }
+
+    pub fn run_render(dist: &DistributedRequest, command: RenderCommand<'_>) -> anyhow::Result<()> {
+        let base = options(&SolveRequest::default(), dist)?;
+        let mpi = start("render")?;
+        let root = mpi.rank() == 0;
+        let shared = Arc::clone(&mpi);
+        let solver = pn_render::LinearSolver(Arc::new(move |problem, kernel, sopts, _guesses| {
+            let opts = DistributedOptions {
+                rtol: sopts.tol,
+                max_iter: sopts.max_iter,
+                gather_everywhere: true,
+                ..base.clone()
+            };
+            let layout = Layout::new(&problem.grid, kernel.moments())?;
+            let d = petsc::solve(&shared, problem, kernel, &layout, &opts)?;
+            let u = d
+                .u
+                .clone()
+                .ok_or_else(|| anyhow::anyhow!("the solution was not gathered (internal error)"))?;
+            let stats = stats_of(&d, sopts.tol);
+            let seconds = slowest_seconds(&d);
+            solution_from_vector(problem, layout, u, stats, d.nnz_a, seconds)
+        }));
+        let outcome = command(solver, root);
+        finish(&mpi, outcome)
     }
 
     /// This process's part of the solve; the solution and the report's section on process 0.
@@ -148,6 +207,14 @@ mod imp {
         let Some(u) = d.u.clone() else {
             return Ok(None);
         };
+        let stats = stats_of(&d, req.tol);
+        let seconds = slowest_seconds(&d);
+        let sol = solution_from_vector(problem, layout, u, stats, d.nnz_a, seconds)?;
+        Ok(Some((sol, Some(section(&d)))))
+    }
+
+    /// The solve's statistics in the form of the one-process solvers'.
+    fn stats_of(d: &petsc::DistributedSolution, tol: f64) -> SolveStats {
         let status = if d.reason > 0 {
             SolveStatus::Converged
         } else if d.reason == -3 {
@@ -155,17 +222,16 @@ mod imp {
         } else {
             SolveStatus::Diverged
         };
-        let r0 = d.ranks.first().cloned().unwrap_or_default();
-        let stats = SolveStats {
+        SolveStats {
             solver: format!("petsc-{}+{}", d.ksp, d.pc),
             status,
             iterations: d.iterations,
             relative_residual: d.relative_residual(),
             absolute_residual: d.absolute_residual,
             rhs_norm: d.rhs_norm,
-            tolerance: req.tol,
+            tolerance: tol,
             history: Vec::new(),
-            operator_applications: r0.applications,
+            operator_applications: d.ranks.first().map_or(0, |r| r.applications),
             notes: vec![format!(
                 "distributed: {} processes as {}×{}×{} boxes, {} with {} ({}), reduced residual {:.3e}",
                 d.ranks.len(),
@@ -177,14 +243,16 @@ mod imp {
                 d.reason_text(),
                 d.reduced_relative_residual
             )],
-        };
+        }
+    }
+
+    /// The slowest process's assembly and setup-plus-solve seconds.
+    fn slowest_seconds(d: &petsc::DistributedSolution) -> [f64; 2] {
         let slowest = |f: fn(&petsc::RankStats) -> f64| d.ranks.iter().map(f).fold(0.0, f64::max);
-        let seconds = [
+        [
             slowest(|r| r.assembly_seconds),
             slowest(|r| r.setup_seconds + r.solve_seconds),
-        ];
-        let sol = solution_from_vector(problem, layout, u, stats, d.nnz_a, seconds)?;
-        Ok(Some((sol, Some(section(&d)))))
+        ]
     }
 
     fn section(d: &petsc::DistributedSolution) -> DistributedSection {

@@ -90,8 +90,9 @@ pub use lights::{phase_value, Light};
 pub use medium::{DensityFilter, DensityGrid, Procedural};
 pub use pipeline::methods::{method_for, MsSolution, MultipleScattering, PreparedScene};
 pub use pipeline::{
-    render_scene, render_views, turntable_camera, ChannelReport, ProgressCallback, RenderOptions,
-    RenderReport, RenderRun, RgbImages, SolverReport, Timings, UnknownStats, ViewReport, MAX_VIEWS,
+    render_scene, render_views, turntable_camera, ChannelReport, LinearSolver, ProgressCallback,
+    RenderOptions, RenderReport, RenderRun, RgbImages, SolverReport, Timings, UnknownStats,
+    ViewReport, MAX_VIEWS,
 };
 pub use renderer::{Image, Renderer, Rng};
 pub use scene::{

@@ -117,6 +117,7 @@ extern "C" {
     pub fn VecScatterCreate(x: Vec, ix: IS, y: Vec, iy: IS, ctx: *mut VecScatter)
         -> PetscErrorCode;
     pub fn VecScatterCreateToZero(x: Vec, ctx: *mut VecScatter, y: *mut Vec) -> PetscErrorCode;
+    pub fn VecScatterCreateToAll(x: Vec, ctx: *mut VecScatter, y: *mut Vec) -> PetscErrorCode;
     pub fn VecScatterBegin(s: VecScatter, x: Vec, y: Vec, im: c_int, sm: c_int) -> PetscErrorCode;
     pub fn VecScatterEnd(s: VecScatter, x: Vec, y: Vec, im: c_int, sm: c_int) -> PetscErrorCode;
     pub fn VecScatterDestroy(s: *mut VecScatter) -> PetscErrorCode;

@@ -188,14 +188,20 @@ impl Drop for Ksp {
     }
 }
 
-/// The whole of a distributed vector on process 0 (empty elsewhere).
-pub(crate) fn gather_to_zero(v: &PVec) -> anyhow::Result<Vec<f64>> {
+/// The whole of a distributed vector on process 0 (empty elsewhere), or on every process.
+pub(crate) fn gather(v: &PVec, everywhere: bool) -> anyhow::Result<Vec<f64>> {
     let mut sc = null_mut();
     let mut out = null_mut();
     // SAFETY: `v` is valid; PETSc creates the scatter and the receiving vector.
     check(
-        unsafe { ffi::VecScatterCreateToZero(v.0, &mut sc, &mut out) },
-        "VecScatterCreateToZero",
+        unsafe {
+            if everywhere {
+                ffi::VecScatterCreateToAll(v.0, &mut sc, &mut out)
+            } else {
+                ffi::VecScatterCreateToZero(v.0, &mut sc, &mut out)
+            }
+        },
+        "VecScatterCreateTo…",
     )?;
     let out = PVec(out);
     let (i, s) = (ffi::INSERT_VALUES, ffi::SCATTER_FORWARD);

@@ -55,4 +55,7 @@ pub struct DistributedOptions {
     pub max_iter: usize,
     /// More PETSc options (`-ksp_gmres_restart 60 …`), applied last.
     pub petsc_options: Option<String>,
+    /// The solution on every process ([`super::DistributedSolution::u`]), not only on
+    /// process 0 (a render that goes on with it everywhere).
+    pub gather_everywhere: bool,
 }

@@ -1,7 +1,7 @@
 //! One application of the distributed `S` to a given vector, gathered onto process 0: the
 //! operator-parity check (the same bits on any number of processes and any split).
 
-use super::objects::{gather_to_zero, PVec};
+use super::objects::{gather, PVec};
 use super::operator::{Parts, Shell};
 use super::Mpi;
 use pn_runtime::problem::Problem;
@@ -26,7 +26,7 @@ pub fn apply_once(
     let y = PVec::mpi(owned.len())?;
     let shell = Shell::new(&parts, layout, &xv)?;
     shell.mult(xv.0, y.0)?;
-    let gathered = gather_to_zero(&y)?;
+    let gathered = gather(&y, false)?;
     Ok((mpi.rank() == 0).then(|| {
         let mut out = vec![0.0; layout.len()];
         let mut at = 0;

@@ -14,7 +14,7 @@
 //!   system `‖b − A u‖ / ‖b‖`, and the solution gathered onto process 0 in storage order.
 
 use super::ffi;
-use super::objects::{gather_to_zero, write, Ksp, PVec};
+use super::objects::{gather, write, Ksp, PVec};
 use super::operator::{Parts, Shell};
 use super::options::{DistributedOptions, KspChoice};
 use super::{check, Mpi};
@@ -86,7 +86,8 @@ impl RankStats {
 /// What the distributed solve produced.
 #[derive(Clone, Debug)]
 pub struct DistributedSolution {
-    /// The staggered solution in storage order, on process 0 (`None` elsewhere).
+    /// The staggered solution in storage order, on process 0 (`None` elsewhere unless
+    /// [`DistributedOptions::gather_everywhere`]).
     pub u: Option<Vec<f64>>,
     /// Krylov iterations.
     pub iterations: usize,
@@ -188,8 +189,14 @@ pub fn solve(
     stats.communication_seconds = shell.comm_seconds.get();
     stats.applications = shell.applications.get();
 
-    let (u, absolute_residual, rhs_norm) =
-        recover_and_gather(mpi, layout, &shell, &x, [kept_num, elim_num])?;
+    let (u, absolute_residual, rhs_norm) = recover_and_gather(
+        mpi,
+        layout,
+        &shell,
+        &x,
+        [kept_num, elim_num],
+        opts.gather_everywhere,
+    )?;
     stats.peak_memory_bytes = mpi.peak_memory_bytes();
     let all = mpi.allgather(&stats.to_array())?;
     let nnz = mpi.sum(&[local.nnz_a as f64, nnz_s as f64])?;
@@ -241,6 +248,7 @@ fn recover_and_gather(
     shell: &Shell<'_>,
     x: &PVec,
     nums: [&Numbering; 2],
+    everywhere: bool,
 ) -> anyhow::Result<(Option<Vec<f64>>, f64, f64)> {
     let local = shell.local;
     shell.kept_ghosts.run(x.0)?;
@@ -260,10 +268,10 @@ fn recover_and_gather(
         a[..n_e].copy_from_slice(&ue_ext[..n_e]);
         a[n_e..].copy_from_slice(&u_o);
     })?;
-    let gathered = gather_to_zero(&all)?;
+    let gathered = gather(&all, everywhere)?;
     // Process r's block of `gathered` is its kept unknowns, then its eliminated ones, each
     // in its local (ascending storage) order.
-    let u = (mpi.rank() == 0).then(|| {
+    let u = (everywhere || mpi.rank() == 0).then(|| {
         let mut u = vec![0.0; layout.len()];
         let mut at = 0;
         for r in 0..mpi.size() {

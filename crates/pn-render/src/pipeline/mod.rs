@@ -47,6 +47,42 @@ pub struct RenderOptions {
     pub observer: Option<IterationObserver>,
     /// Called as the image rows are rendered (None: nobody watches).
     pub rows: Option<ProgressCallback>,
+    /// Solves the linear systems of P_N, CDA and text PDEs instead of
+    /// `pn_runtime::pipeline::solve_problem_from` (a distributed solve, say); FLD and POP
+    /// keep their own solvers.
+    pub linear_solver: Option<LinearSolver>,
+}
+
+/// A replacement for the render's linear solves (see [`RenderOptions::linear_solver`]):
+/// given the problem, the stencil, the solver settings and the start guesses (other
+/// channels' solutions), it returns the solution.
+#[derive(Clone)]
+pub struct LinearSolver(
+    /// The solve.
+    pub Arc<LinearSolveFn>,
+);
+
+/// The function behind a [`LinearSolver`]: problem, stencil, solver settings and start
+/// guesses in, solution out.
+pub type LinearSolveFn = dyn Fn(
+        &pn_runtime::Problem,
+        &dyn pn_stencil::StencilKernel,
+        &pn_runtime::solver::SolverOptions,
+        &[&[f64]],
+    ) -> Result<pn_runtime::Solution>
+    + Send
+    + Sync;
+
+impl std::fmt::Debug for LinearSolver {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("LinearSolver(..)")
+    }
+}
+
+impl PartialEq for LinearSolver {
+    fn eq(&self, other: &Self) -> bool {
+        Arc::ptr_eq(&self.0, &other.0)
+    }
 }
 
 impl Default for RenderOptions {
@@ -61,6 +97,7 @@ impl Default for RenderOptions {
             pde: None,
             observer: None,
             rows: None,
+            linear_solver: None,
         }
     }
 }

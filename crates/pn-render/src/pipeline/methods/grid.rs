@@ -191,13 +191,16 @@ pub(super) fn stencil_solve(
     // CG, stagnates on render grids where the hull absorber jumps to σ_t·h = 3 within one
     // cell of a near-vacuum (12³ sphere: residual 7.6e-2 after 100 000 iterations, where
     // multigrid converges in 195; docs/vacuum.md).
-    let sol = solve_problem_from(
-        problem,
-        kernel.kernel.as_ref(),
-        SolverKind::ParityMg,
-        &opts,
-        p.guesses,
-    )?;
+    let sol = match &p.options.linear_solver {
+        Some(solve) => (solve.0)(problem, kernel.kernel.as_ref(), &opts, p.guesses)?,
+        None => solve_problem_from(
+            problem,
+            kernel.kernel.as_ref(),
+            SolverKind::ParityMg,
+            &opts,
+            p.guesses,
+        )?,
+    };
     notes.extend(sol.stats.notes.iter().cloned());
     if !sol.stats.converged() {
         notes.push(format!(
