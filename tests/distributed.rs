@@ -217,6 +217,30 @@ fn render_on_two_processes_equals_one() {
     );
 }
 
+/// An even order keeps the odd moments; on 3 processes a coarse row of the multigrid's
+/// first operator lacked its diagonal entry until the diagonal was allowed to add it. Where
+/// the absorption vanishes the even moments are kept instead.
+#[test]
+fn even_order_on_three_processes() {
+    let args = ["pointsource", "--order", "4", "--res", "18"];
+    let mut a = args.to_vec();
+    a.extend(["--tol", "1e-12"]);
+    let (m, _, _) = solve(3, "p4", &a);
+    let d = rel_diff(&m, &serial("p4", &args));
+    assert!(d <= 1e-9, "P_4 on 3 processes vs pn solve: {d:.3e}");
+    // The checkerboard's pure scatterer (zero absorption) cannot eliminate the even moments:
+    // every process keeps them instead, as pn solve does.
+    let args = ["checkerboard", "--order", "2"];
+    let mut a = args.to_vec();
+    a.extend(["--tol", "1e-12"]);
+    let (m, _, _) = solve(3, "c2", &a);
+    let d = rel_diff(&m, &serial("c2", &args));
+    assert!(
+        d <= 1e-9,
+        "checkerboard P_2 on 3 processes vs pn solve: {d:.3e}"
+    );
+}
+
 /// StaRMAP's checkerboard (P_1, 71², tests/checkerboard.rs's bound) on 2×2 boxes with the
 /// default preconditioner (GAMG).
 #[test]

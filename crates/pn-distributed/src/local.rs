@@ -104,13 +104,38 @@ pub struct LocalReduced {
 /// moment when `kernel`'s system lacks the parity structure (CDA, most text PDEs), which is
 /// then solved as it stands ([`LocalReduced::is_direct`]).
 pub fn kept_moments(layout: &Layout, kernel: &dyn StencilKernel) -> Vec<bool> {
-    let retained = Retained::for_layout(layout);
+    kept_moments_retaining(layout, kernel, Retained::for_layout(layout))
+}
+
+/// [`kept_moments`] with the kept parity given: [`Retained::Even`] is the fallback where
+/// keeping the odd moments (even N) meets a zero absorption ([`ZeroEliminatedDiagonal`]),
+/// as in `pn solve`'s parity solver.
+pub fn kept_moments_retaining(
+    layout: &Layout,
+    kernel: &dyn StencilKernel,
+    retained: Retained,
+) -> Vec<bool> {
     let parity = has_parity_structure(kernel);
     layout
         .moments
         .iter()
         .map(|m| !parity || retained.keeps(m.l as usize))
         .collect()
+}
+
+/// An eliminated row with a zero (or non-finite) diagonal: parity elimination divides by
+/// it. Where the odd moments are kept (even N) this is a zero absorption, and keeping the
+/// even ones instead works ([`kept_moments_retaining`]).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error(
+    "row {row} of the eliminated parity has diagonal {value:e}; parity elimination divides by \
+     it (σ_t must be positive everywhere, docs/design.md §5)"
+)]
+pub struct ZeroEliminatedDiagonal {
+    /// The row (storage index).
+    pub row: usize,
+    /// Its diagonal.
+    pub value: f64,
 }
 
 /// One class's rows split into the diagonal and the off-diagonal block.
@@ -180,11 +205,11 @@ fn split_rows(
             .enumerate()
             .find(|(_, v)| **v == 0.0 || !v.is_finite())
         {
-            anyhow::bail!(
-                "row {} of the eliminated parity has diagonal {v:e}; parity elimination \
-                 divides by it (σ_t must be positive everywhere, docs/design.md §5)",
-                owned[i]
-            );
+            return Err(ZeroEliminatedDiagonal {
+                row: owned[i],
+                value: v,
+            }
+            .into());
         }
     }
     ghosts.par_sort_unstable();
@@ -231,7 +256,26 @@ impl LocalReduced {
         dec: &Decomposition,
         rank: usize,
     ) -> anyhow::Result<Self> {
-        let keep = kept_moments(layout, kernel);
+        Self::build_keeping(
+            problem,
+            kernel,
+            layout,
+            dec,
+            rank,
+            &kept_moments(layout, kernel),
+        )
+    }
+
+    /// [`Self::build`] keeping the moments `keep` (from [`kept_moments_retaining`]).
+    pub fn build_keeping(
+        problem: &Problem,
+        kernel: &dyn StencilKernel,
+        layout: &Layout,
+        dec: &Decomposition,
+        rank: usize,
+        keep: &[bool],
+    ) -> anyhow::Result<Self> {
+        let keep = keep.to_vec();
         let kept_num = Numbering::new(layout, dec, keep.clone());
         let elim_num = Numbering::new(layout, dec, keep.iter().map(|k| !k).collect());
         let kept_owned = kept_num.owned(layout, rank);

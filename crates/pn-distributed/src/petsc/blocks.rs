@@ -195,6 +195,12 @@ pub(crate) fn first_coarse(parts: &Parts, layout: &Layout, p: &PMat) -> anyhow::
             "MatMultTranspose (Pᵀ d_e)",
         )?;
         check(ffi::MatScale(m.0, -1.0), "MatScale")?;
+        // A coarse row of `Pᵀ B C̃ P` may lack its diagonal entry (at P_4 on some splits):
+        // let the diagonal below add it.
+        check(
+            ffi::MatSetOption(m.0, ffi::MAT_NEW_NONZERO_ALLOCATION_ERR, ffi::PETSC_FALSE),
+            "MatSetOption",
+        )?;
         check(
             ffi::MatDiagonalSet(m.0, right.0, ffi::ADD_VALUES),
             "MatDiagonalSet",

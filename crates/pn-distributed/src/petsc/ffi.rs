@@ -54,6 +54,8 @@ pub const PC_RIGHT: c_int = 1;
 pub const NORM_2: c_int = 1;
 pub const PC_MG_GALERKIN_NONE: c_int = 3;
 pub const MAT_INITIAL_MATRIX: c_int = 0;
+pub const MAT_NEW_NONZERO_ALLOCATION_ERR: c_int = 19;
+pub const PETSC_FALSE: PetscBool = 0;
 pub const PETSC_DEFAULT: PetscInt = -2;
 pub const PETSC_DEFAULT_REAL: PetscReal = -2.0;
 
@@ -135,6 +137,7 @@ extern "C" {
     pub fn MatMultTranspose(a: Mat, x: Vec, y: Vec) -> PetscErrorCode;
     pub fn MatDiagonalSet(a: Mat, d: Vec, im: c_int) -> PetscErrorCode;
     pub fn MatScale(a: Mat, s: PetscScalar) -> PetscErrorCode;
+    pub fn MatSetOption(a: Mat, op: c_int, flag: PetscBool) -> PetscErrorCode;
     pub fn MatCreateVecs(a: Mat, right: *mut Vec, left: *mut Vec) -> PetscErrorCode;
     pub fn MatShellGetContext(m: Mat, ctx: *mut c_void) -> PetscErrorCode;
     pub fn MatSetValues(

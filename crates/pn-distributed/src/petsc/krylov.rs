@@ -8,7 +8,6 @@ use super::objects::{write, Ksp, PMat, PVec};
 use super::operator::{assemble_s, shell_mult, Parts, Shell};
 use super::options::{DistributedOptions, KspChoice, PcChoice};
 use super::Mpi;
-use crate::local::kept_moments;
 use anyhow::Context;
 use pn_krylov::krylov::SYMMETRY_TOL;
 use pn_runtime::problem::Problem;
@@ -67,12 +66,7 @@ pub(crate) fn prepare(
         }
     }
     if opts.pc == PcChoice::Mg {
-        let interps = super::pcmg::interpolations(
-            mpi.rank(),
-            layout,
-            &parts.dec,
-            &kept_moments(layout, kernel),
-        )?;
+        let interps = super::pcmg::interpolations(mpi.rank(), layout, &parts.dec, &parts.keep)?;
         if let Some(p) = interps.first() {
             let first = super::blocks::first_coarse(parts, layout, p)?;
             pre.mg = Some((interps, first));

@@ -6,11 +6,12 @@ use super::check;
 use super::ffi::{self, PetscInt};
 use super::objects::{read, write, PMat, PVec, Scatter};
 use super::Mpi;
-use crate::local::{kept_moments, LocalReduced};
+use crate::local::{kept_moments, kept_moments_retaining, LocalReduced, ZeroEliminatedDiagonal};
 use crate::numbering::Numbering;
 use crate::partition::Decomposition;
 use anyhow::Context;
 use pn_runtime::problem::Problem;
+use pn_runtime::solver::pn_layout::Retained;
 use pn_runtime::Layout;
 use pn_stencil::StencilKernel;
 use std::cell::{Cell, RefCell};
@@ -20,6 +21,8 @@ use std::ptr::null_mut;
 /// One process's share: the partition, its rows and the two numberings.
 pub(crate) struct Parts {
     pub(crate) dec: Decomposition,
+    /// The kept moments.
+    pub(crate) keep: Vec<bool>,
     pub(crate) local: LocalReduced,
     pub(crate) kept_num: Numbering,
     pub(crate) elim_num: Numbering,
@@ -49,8 +52,19 @@ impl Parts {
             dec.ranks(),
             mpi.size()
         );
-        let local = LocalReduced::build(problem, kernel, layout, &dec, mpi.rank())?;
-        let keep = kept_moments(layout, kernel);
+        // As pn solve's parity solver: where keeping the odd moments (even N) meets a zero
+        // absorption on any process, every process keeps the even ones instead.
+        let mut keep = kept_moments(layout, kernel);
+        let mut built =
+            LocalReduced::build_keeping(problem, kernel, layout, &dec, mpi.rank(), &keep);
+        let zero = matches!(&built, Err(e) if e.downcast_ref::<ZeroEliminatedDiagonal>().is_some());
+        if mpi.sum(&[f64::from(u8::from(zero))])?[0] > 0.0
+            && Retained::for_layout(layout) == Retained::Odd
+        {
+            keep = kept_moments_retaining(layout, kernel, Retained::Even);
+            built = LocalReduced::build_keeping(problem, kernel, layout, &dec, mpi.rank(), &keep);
+        }
+        let local = built?;
         let kept_num = Numbering::new(layout, &dec, keep.clone());
         let elim_num = Numbering::new(layout, &dec, keep.iter().map(|k| !k).collect());
         Ok(Self {
@@ -58,6 +72,7 @@ impl Parts {
             local,
             kept_num,
             elim_num,
+            keep,
         })
     }
 }

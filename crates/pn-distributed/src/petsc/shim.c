@@ -22,6 +22,8 @@ _Static_assert(NORM_2 == 1, "NormType NORM_2");
 _Static_assert(PETSC_COPY_VALUES == 0, "PetscCopyMode PETSC_COPY_VALUES");
 _Static_assert(PC_MG_GALERKIN_NONE == 3, "PCMGGalerkinType PC_MG_GALERKIN_NONE");
 _Static_assert(MAT_INITIAL_MATRIX == 0, "MatReuse MAT_INITIAL_MATRIX");
+_Static_assert(MAT_NEW_NONZERO_ALLOCATION_ERR == 19, "MatOption MAT_NEW_NONZERO_ALLOCATION_ERR");
+_Static_assert(PETSC_FALSE == 0, "PetscBool PETSC_FALSE");
 _Static_assert(PETSC_DECIDE == -1 && PETSC_DETERMINE == -1, "PETSC_DECIDE");
 
 int pn_comm_rank(void) {
