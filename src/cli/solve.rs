@@ -190,8 +190,9 @@ pub struct SolveFlags {
 /// `--distributed` and its settings (`pn solve`, `pn render`).
 #[derive(Args, Debug, Clone)]
 pub struct DistributedFlags {
-    /// Split the linear solves over the MPI processes it was started with (`mpirun -np K pn solve …
-    /// --distributed`; needs a build with `--features distributed`, docs/distributed.md).
+    /// Split the linear solves over the MPI processes it was started with (`mpirun -np K pn
+    /// solve|render … --distributed`; needs a build with `--features distributed`,
+    /// docs/distributed.md).
     #[arg(long)]
     pub distributed: bool,
     /// --distributed: boxes per axis, e.g. 4x1x1 (default: the split with the least halo).
@@ -231,7 +232,7 @@ impl DistributedFlags {
 /// `--ksp`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum KspArg {
-    /// CG where the assembled reduced operator is symmetric, else GMRES.
+    /// CG where a random-probe test finds the reduced operator symmetric, else GMRES.
     Auto,
     /// Conjugate gradients.
     Cg,
