@@ -169,12 +169,16 @@ pub(crate) fn first_coarse(parts: &Parts, layout: &Layout, p: &PMat) -> anyhow::
     let c = aij(&local.c, None, elim.start, &kept)?;
     let cp = product(ffi::MatMatMult, &c, p, "MatMatMult (C̃ P)")?;
     drop(c);
-    let ptb = product(
-        ffi::MatTransposeMatMult,
-        p,
-        &b,
-        "MatTransposeMatMult (Pᵀ B)",
+    // Pᵀ explicitly (one entry per column) times B: PETSc's parallel MatTransposeMatMult
+    // holds a transpose of B besides it.
+    let mut pt = PMat(null_mut());
+    // SAFETY: `p` is assembled; PETSc creates its transpose.
+    check(
+        unsafe { ffi::MatTranspose(p.0, ffi::MAT_INITIAL_MATRIX, &mut pt.0) },
+        "MatTranspose (Pᵀ)",
     )?;
+    let ptb = product(ffi::MatMatMult, &pt, &b, "MatMatMult (Pᵀ B)")?;
+    drop(pt);
     drop(b);
     let m = product(ffi::MatMatMult, &ptb, &cp, "MatMatMult (Pᵀ B C̃ P)")?;
     drop((ptb, cp));

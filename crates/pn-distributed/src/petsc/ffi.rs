@@ -135,6 +135,7 @@ extern "C" {
         c: *mut Mat,
     ) -> PetscErrorCode;
     pub fn MatMultTranspose(a: Mat, x: Vec, y: Vec) -> PetscErrorCode;
+    pub fn MatTranspose(a: Mat, reuse: c_int, b: *mut Mat) -> PetscErrorCode;
     pub fn MatDiagonalSet(a: Mat, d: Vec, im: c_int) -> PetscErrorCode;
     pub fn MatScale(a: Mat, s: PetscScalar) -> PetscErrorCode;
     pub fn MatSetOption(a: Mat, op: c_int, flag: PetscBool) -> PetscErrorCode;
