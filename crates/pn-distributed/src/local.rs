@@ -179,8 +179,17 @@ fn split_rows(
     other: &OtherClass<'_>,
     scale_by_diag: bool,
 ) -> anyhow::Result<SplitRows> {
+    // One pass classifies every entry: owned columns get their local index at once, ghosts
+    // theirs once the ghost list is sorted (`pending`).
     let mut diag = vec![0.0; owned.len()];
     let mut ghosts = Vec::new();
+    let mut pending = Vec::new();
+    let mut block = LocalRows {
+        indptr: Vec::with_capacity(owned.len() + 1),
+        cols: Vec::with_capacity(rows.cols.len().saturating_sub(owned.len())),
+        vals: Vec::with_capacity(rows.cols.len().saturating_sub(owned.len())),
+    };
+    block.indptr.push(0);
     for (i, &g) in owned.iter().enumerate() {
         for k in rows.indptr[i]..rows.indptr[i + 1] {
             let (col, v) = (rows.cols[k], rows.vals[k]);
@@ -194,10 +203,16 @@ fn split_rows(
                      (value {v:e}); the distributed solve needs the parity structure \
                      (docs/design.md §5)"
                 ),
-                Some(None) => ghosts.push(col),
-                Some(Some(_)) => {}
+                Some(None) => {
+                    pending.push((block.cols.len(), col));
+                    ghosts.push(col);
+                    block.cols.push(u32::MAX);
+                }
+                Some(Some(l)) => block.cols.push(l as u32),
             }
+            block.vals.push(v);
         }
+        block.indptr.push(block.cols.len());
     }
     if scale_by_diag {
         if let Some((i, &v)) = diag
@@ -211,31 +226,18 @@ fn split_rows(
             }
             .into());
         }
+        for (i, d) in diag.iter().enumerate() {
+            for v in &mut block.vals[block.indptr[i]..block.indptr[i + 1]] {
+                *v /= d;
+            }
+        }
     }
     ghosts.par_sort_unstable();
     ghosts.dedup();
     let n_other = other.num.local_len(other.rank);
-    let mut block = LocalRows {
-        indptr: Vec::with_capacity(owned.len() + 1),
-        cols: Vec::with_capacity(rows.cols.len().saturating_sub(owned.len())),
-        vals: Vec::with_capacity(rows.cols.len().saturating_sub(owned.len())),
-    };
-    block.indptr.push(0);
-    for (i, &g) in owned.iter().enumerate() {
-        let scale = if scale_by_diag { diag[i] } else { 1.0 };
-        for k in rows.indptr[i]..rows.indptr[i + 1] {
-            let col = rows.cols[k];
-            if col == g {
-                continue;
-            }
-            let l = match other.classify(col) {
-                Some(Some(l)) => l,
-                _ => n_other + ghosts.binary_search(&col).unwrap_or(usize::MAX - n_other),
-            };
-            block.cols.push(l as u32);
-            block.vals.push(rows.vals[k] / scale);
-        }
-        block.indptr.push(block.cols.len());
+    for (at, col) in pending {
+        let k = ghosts.binary_search(&col).unwrap_or(usize::MAX - n_other);
+        block.cols[at] = (n_other + k) as u32;
     }
     Ok(SplitRows {
         diag,

@@ -118,17 +118,7 @@ fn aij(
             "MatSetValues (parity block)",
         )?;
     }
-    // SAFETY: every value is set.
-    unsafe {
-        check(
-            ffi::MatAssemblyBegin(m.0, ffi::MAT_FINAL_ASSEMBLY),
-            "MatAssemblyBegin",
-        )?;
-        check(
-            ffi::MatAssemblyEnd(m.0, ffi::MAT_FINAL_ASSEMBLY),
-            "MatAssemblyEnd",
-        )?;
-    }
+    m.assemble()?;
     Ok(m)
 }
 

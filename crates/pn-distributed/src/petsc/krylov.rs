@@ -109,7 +109,7 @@ fn probe_value(g: usize, seed: u64) -> f64 {
 /// Whether `S` is symmetric: the random-probe asymmetry
 /// `|xᵀSy − yᵀSx| / (‖x‖‖Sy‖ + ‖y‖‖Sx‖)` of `pn_runtime`'s parity solver below
 /// [`SYMMETRY_TOL`], with the probes drawn per storage index (the same on any split).
-pub(crate) fn is_symmetric(mpi: &Mpi, shell: &Shell<'_>, _layout: &Layout) -> anyhow::Result<bool> {
+pub(crate) fn is_symmetric(mpi: &Mpi, shell: &Shell<'_>) -> anyhow::Result<bool> {
     let owned = &shell.local.kept.owned;
     let vec_of = |seed: u64| -> anyhow::Result<PVec> {
         let v = PVec::mpi(owned.len())?;

@@ -176,6 +176,24 @@ impl Drop for PMat {
     }
 }
 
+impl PMat {
+    /// Finishes a matrix whose values are all set (PETSc's final assembly: the entries set
+    /// for other processes' rows are sent to them).
+    pub(crate) fn assemble(&self) -> anyhow::Result<()> {
+        // SAFETY: a valid matrix; every process calls this for its share.
+        unsafe {
+            check(
+                ffi::MatAssemblyBegin(self.0, ffi::MAT_FINAL_ASSEMBLY),
+                "MatAssemblyBegin",
+            )?;
+            check(
+                ffi::MatAssemblyEnd(self.0, ffi::MAT_FINAL_ASSEMBLY),
+                "MatAssemblyEnd",
+            )
+        }
+    }
+}
+
 /// A PETSc Krylov solver.
 pub(crate) struct Ksp(pub(crate) ffi::KSP);
 

@@ -277,15 +277,6 @@ pub(crate) fn assemble_s(
         at += len as usize;
     }
     drop(rows);
-    // SAFETY: every value is set.
-    check(
-        unsafe { ffi::MatAssemblyBegin(m.0, ffi::MAT_FINAL_ASSEMBLY) },
-        "MatAssemblyBegin",
-    )?;
-    // SAFETY: as above.
-    check(
-        unsafe { ffi::MatAssemblyEnd(m.0, ffi::MAT_FINAL_ASSEMBLY) },
-        "MatAssemblyEnd",
-    )?;
+    m.assemble()?;
     Ok((m, nnz))
 }

@@ -136,16 +136,7 @@ fn interpolation(
             "MatSetValues (interpolation)",
         )?;
     }
-    // SAFETY: every value is set.
-    check(
-        unsafe { ffi::MatAssemblyBegin(m.0, ffi::MAT_FINAL_ASSEMBLY) },
-        "MatAssemblyBegin",
-    )?;
-    // SAFETY: as above.
-    check(
-        unsafe { ffi::MatAssemblyEnd(m.0, ffi::MAT_FINAL_ASSEMBLY) },
-        "MatAssemblyEnd",
-    )?;
+    m.assemble()?;
     Ok(m)
 }
 

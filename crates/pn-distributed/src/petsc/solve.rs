@@ -171,7 +171,7 @@ pub fn solve(
     let pre = super::krylov::prepare(mpi, problem, kernel, layout, &parts, &mut shell, opts)?;
     let nnz_s = pre.formed_nonzeros();
     let symmetric = match opts.ksp {
-        KspChoice::Auto => Some(super::krylov::is_symmetric(mpi, &shell, layout)?),
+        KspChoice::Auto => Some(super::krylov::is_symmetric(mpi, &shell)?),
         _ => None,
     };
     let (mut solver, method) = super::krylov::krylov(&shell, pre, symmetric, opts)?;
