@@ -300,44 +300,32 @@ fn refuses_splits_that_do_not_fit() {
         "--out",
         d,
     ];
-    let mut a = base.to_vec();
-    a.extend(["--procs", "2x1x1"]);
-    let out = mpirun(4, &a);
-    assert!(!out.status.success());
-    assert!(
-        stderr_of(&out).contains("makes 2 boxes but 4 processes run"),
-        "{}",
-        stderr_of(&out)
+    // `base` plus `extra` on `ranks` processes (0: without mpirun) fails, naming `want`.
+    let refused = |ranks: usize, extra: &[&str], want: &str| {
+        let mut a = base.to_vec();
+        a.extend(extra);
+        let out = if ranks == 0 {
+            Command::new(env!("CARGO_BIN_EXE_pn"))
+                .args(&a)
+                .output()
+                .unwrap()
+        } else {
+            mpirun(ranks, &a)
+        };
+        assert!(!out.status.success(), "{a:?} succeeded");
+        assert!(stderr_of(&out).contains(want), "{a:?}: {}", stderr_of(&out));
+        out
+    };
+    refused(
+        4,
+        &["--procs", "2x1x1"],
+        "makes 2 boxes but 4 processes run",
     );
-    let mut a = base.to_vec();
-    a.extend(["--procs", "1x1x5"]);
-    let out = mpirun(5, &a);
-    assert!(!out.status.success());
-    assert!(
-        stderr_of(&out).contains("at most 4 processes along z"),
-        "{}",
-        stderr_of(&out)
-    );
+    refused(5, &["--procs", "1x1x5"], "at most 4 processes along z");
     // Without a launcher: the command to start it with.
-    let out = Command::new(env!("CARGO_BIN_EXE_pn"))
-        .args(base)
-        .output()
-        .unwrap();
+    let out = refused(0, &[], "needs an MPI launcher");
     assert_eq!(out.status.code(), Some(1));
-    assert!(
-        stderr_of(&out).contains("needs an MPI launcher"),
-        "{}",
-        stderr_of(&out)
-    );
-    let mut a = base.to_vec();
-    a.extend(["--method", "fld"]);
-    let out = mpirun(2, &a);
-    assert!(!out.status.success());
-    assert!(
-        stderr_of(&out).contains("FLD is nonlinear"),
-        "{}",
-        stderr_of(&out)
-    );
+    refused(2, &["--method", "fld"], "FLD is nonlinear");
     assert!(!dir.exists() || std::fs::read_dir(&dir).unwrap().next().is_none());
 }
 
