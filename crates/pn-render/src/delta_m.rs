@@ -37,8 +37,15 @@ use pn_runtime::problem::Phase;
 /// The P_N order N and the forward-peak share f = λ_{N+1} p_{N+1} of the delta-M truncation
 /// that a method carrying order `method_order` (`MultipleScattering::delta_m_order`) uses
 /// for `scene`: None when the method has none, `[solve] delta_m = false`, or f = 0.
+///
+/// With `[solve] similarity = true` the truncation is at order 0 whatever the method's order:
+/// f = λ_1 p_1 = g, the solve carries σ_s′ = (1 − g) σ_s and an isotropic phase — the
+/// similarity relation σ_s′ (1 − g′) = σ_s (1 − g) with g′ = 0. For l ≥ 1 the P_N operator
+/// then reads σ_t − g σ_s instead of σ_t − σ_s λ_l p_l, so unlike delta-M it does not
+/// converge to transport as N grows (an ablation arm, off by default).
 pub fn truncation(scene: &RenderScene, method_order: Option<u32>) -> Option<(u32, f64)> {
-    let n = method_order.filter(|_| scene.solve.delta_m)?;
+    let n = method_order.filter(|_| scene.solve.delta_m || scene.solve.similarity)?;
+    let n = if scene.solve.similarity { 0 } else { n };
     let f = scene.phase.delta_m_fraction(n);
     (f > 0.0).then_some((n, f))
 }
@@ -154,5 +161,32 @@ mod tests {
         scene.solve.delta_m = true;
         scene.phase = Phase::Isotropic;
         assert_eq!(truncation(&scene, Some(5)), None);
+    }
+
+    #[test]
+    fn the_similarity_relation_is_the_truncation_at_order_zero() {
+        let mut scene = RenderScene::builtin("cloud").unwrap();
+        let g = 0.85;
+        scene.phase = Phase::HenyeyGreenstein(g);
+        scene.solve.similarity = true;
+        // Whatever the solve's order, and with or without the delta-M switch.
+        for delta_m in [true, false] {
+            scene.solve.delta_m = delta_m;
+            for order in [1, 3, 5] {
+                let (n, f) = truncation(&scene, Some(order)).unwrap();
+                assert_eq!(n, 0);
+                assert!((f - g).abs() < 1e-15, "{f}");
+            }
+        }
+        // The solve's phase is isotropic and σ_s′ (1 − g′) = σ_s (1 − g) with g′ = 0.
+        let density = scene.density_grid().unwrap();
+        let leg = LightLeg::new(&scene, &density, truncation(&scene, Some(3)));
+        let (p, f) = leg.solve_phase(&scene.phase);
+        assert!((p.moment(0) - 1.0).abs() < 1e-15);
+        for l in 1..=3 {
+            assert_eq!(p.moment(l), 0.0, "l = {l}");
+        }
+        let sigma_s = 2.0;
+        assert!(((1.0 - f) * sigma_s - sigma_s * (1.0 - g)).abs() < 1e-15);
     }
 }

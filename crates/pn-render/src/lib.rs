@@ -42,7 +42,7 @@
 //!   [`Timings`], [`UnknownStats`]);
 //! * the methods: [`MultipleScattering`], [`method_for`], [`PreparedScene`], [`MsSolution`];
 //! * the scene's main types: [`RenderScene`], [`MediumSpec`], [`RenderSettings`],
-//!   [`SolveSettings`], [`SolveBoundary`], [`AbsorberPlacement`], [`MsLookup`],
+//!   [`SolveSettings`], [`SolveBoundary`], [`AbsorberPlacement`], [`SweepScheme`], [`MsLookup`],
 //!   [`RenderMethod`], and [`SceneOverride`] (`--set SECTION.KEY=VALUE` on its TOML);
 //! * media and lights: [`DensityGrid`], [`DensityFilter`] (trilinear as Mitsuba, or
 //!   nearest), [`Procedural`], [`Light`], [`phase_value`], [`Camera`], [`CHANNELS`] (the
@@ -97,7 +97,7 @@ pub use pipeline::{
 pub use renderer::{Image, Renderer, Rng};
 pub use scene::{
     AbsorberPlacement, MediumSpec, MsLookup, RenderMethod, RenderScene, RenderSettings,
-    SolveBoundary, SolveSettings,
+    SolveBoundary, SolveSettings, SweepScheme,
 };
 pub use scene_file::load_scene;
 pub use scene_override::SceneOverride;

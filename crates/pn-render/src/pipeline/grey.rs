@@ -71,8 +71,13 @@ pub(super) fn render_grey_views(
         mut notes,
     } = method.solve(&prepared)?;
     if let Some((order, f)) = light_leg.truncation() {
+        let rule = if scene.solve.similarity {
+            "the similarity relation"
+        } else {
+            "delta-M"
+        };
         notes.push(format!(
-            "delta-M: the forward peak f = {f:.4} (λ_{} p_{} of {}) travels on unscattered; the \
+            "{rule}: the forward peak f = {f:.4} (λ_{} p_{} of {}) travels on unscattered; the \
              solve carries the truncated phase, the camera's single scattering the full one",
             order + 1,
             order + 1,

@@ -113,7 +113,10 @@ struct SolveToml {
     pop_epsilon_l: Option<f64>,
     sweeps: Option<usize>,
     sweep_quadrature: Option<usize>,
+    sweep_acceleration: Option<bool>,
+    sweep_scheme: Option<SweepScheme>,
     delta_m: Option<bool>,
+    similarity: Option<bool>,
     sweep_bands: Option<usize>,
 }
 
@@ -469,7 +472,10 @@ fn build_solve(s: SolveToml) -> anyhow::Result<SolveSettings> {
         pop_epsilon_l: s.pop_epsilon_l.unwrap_or(POP_DEFAULT_EPSILON_L),
         sweeps: s.sweeps.unwrap_or(DEFAULT_SWEEPS),
         sweep_quadrature: s.sweep_quadrature,
+        sweep_acceleration: s.sweep_acceleration.unwrap_or(false),
+        sweep_scheme: s.sweep_scheme.unwrap_or_default(),
         delta_m: s.delta_m.unwrap_or(true),
+        similarity: s.similarity.unwrap_or(false),
         sweep_bands: s.sweep_bands,
     };
     solve.validate()?;

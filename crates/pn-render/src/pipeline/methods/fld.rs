@@ -31,6 +31,7 @@ impl MultipleScattering for Fld {
             kernel: None,
             max_band: 0,
             uses_sigma_t_min: false,
+            correction: None,
         };
         solve_on_grid(p, &method, &|problem, notes| solve_fld(p, problem, notes))
     }

@@ -7,7 +7,7 @@ use super::{MsSeconds, MsSolution, PreparedScene};
 use crate::first_scatter::first_scatter_problem_with_depth;
 use crate::renderer::MsField;
 use crate::solve_setup::solve_grid;
-use crate::transport_sweep::{transport_sweeps_to_band, SweepSettings};
+use crate::transport_sweep::{scattering_change, transport_sweeps_to_band, SweepSettings};
 use crate::DensityGrid;
 use anyhow::Result;
 use pn_kernels::KernelChoice;
@@ -29,6 +29,10 @@ pub(super) struct GridMethod<'k> {
     /// Whether the solve uses the σ_t threshold of the problem (P_N, CDA, text PDEs; the
     /// report then carries it).
     pub uses_sigma_t_min: bool,
+    /// The method's linear solve from a zero start, for the low-order correction of
+    /// accelerated transport sweeps (`[solve] sweep_acceleration`; P_N and CDA, whose
+    /// operators are low-order transport operators; None: plain sweeps).
+    pub correction: Option<&'k SolveFn<'k>>,
 }
 
 /// What a grid method's own solve returns.
@@ -88,16 +92,21 @@ pub(super) fn solve_on_grid(
     let mut sweeps = 0;
     if s.sweeps > 0 {
         let t2 = Instant::now();
-        moments = pn_runtime::with_threads(threads, || {
-            transport_sweeps_to_band(
+        let settings = SweepSettings {
+            sweeps: s.sweeps,
+            n_mu: s.sweep_nodes(),
+            diamond: s.sweep_scheme == crate::scene::SweepScheme::Diamond,
+        };
+        moments = pn_runtime::with_threads(threads, || match m.correction {
+            Some(correct) if s.sweep_acceleration => accelerated_sweeps(
                 &fs.problem,
-                &moments,
-                SweepSettings {
-                    sweeps: s.sweeps,
-                    n_mu: s.sweep_nodes(),
-                },
+                moments,
+                settings,
                 s.sweep_bands,
-            )
+                (correct, m.max_band),
+                &mut notes,
+            ),
+            _ => transport_sweeps_to_band(&fs.problem, &moments, settings, s.sweep_bands),
         })??;
         seconds.sweeps = t2.elapsed().as_secs_f64();
         sweeps = s.sweeps;
@@ -123,6 +132,109 @@ pub(super) fn solve_on_grid(
         seconds,
         notes,
     })
+}
+
+/// Transport sweeps accelerated by the method's own operator (synthetic acceleration, as
+/// diffusion synthetic acceleration with the P_N operator in place of diffusion; docs/design.md
+/// §6): each of `settings.sweeps` iterations is one sweep from the moments φ,
+/// φ^{k+½} = Sweep(Q + σ_s Λ φ^k), and a correction δ that solves the P_N system with the
+/// change of the scattering source, `A δ = σ_s Λ (φ^{k+½} − φ^k)`, so φ^{k+1} = φ^{k+½} + δ.
+/// Plain sweeps are source iterations, whose error falls by about the scattering ratio per
+/// sweep — slowly at albedo 0.99; the correction removes the error's smooth, low-order part
+/// that the P_N operator represents. At the fixed point δ = 0 and φ = Sweep(φ): the same
+/// discrete-ordinates solution as plain sweeps converge to, so the scheme is a faster route to
+/// the same limit, not a different discretization. The last sweep keeps `out_lmax` bands
+/// ([`transport_sweeps_to_band`]); the correction, whose source has the bands ≤ `max_band`
+/// the method reads (P_N: N; CDA: 0, which makes this diffusion synthetic acceleration), is
+/// added to the bands it solved.
+fn accelerated_sweeps(
+    problem: &Problem,
+    start: CellMoments,
+    settings: SweepSettings,
+    out_lmax: Option<usize>,
+    (correct, max_band): (&SolveFn<'_>, u32),
+    notes: &mut Vec<String>,
+) -> Result<CellMoments> {
+    let one = SweepSettings {
+        sweeps: 1,
+        ..settings
+    };
+    let mut phi = start.clone();
+    let mut iterations = Vec::with_capacity(settings.sweeps);
+    let mut last_change = f64::INFINITY;
+    for k in 0..settings.sweeps {
+        let last = k + 1 == settings.sweeps;
+        let mut half = transport_sweeps_to_band(problem, &phi, one, out_lmax.filter(|_| last))?;
+        // A sweep changes the moments less each iteration when the scheme converges; where
+        // the two discretizations disagree too much (the diamond scheme in optically thick
+        // cells) the correction overshoots and the changes grow: plain sweeps instead.
+        let change = relative_change(&phi, &half);
+        if change > last_change || !change.is_finite() {
+            notes.push(format!(
+                "warning: the accelerated sweeps diverged (the change grew from {last_change:.2e} \
+                 to {change:.2e} at sweep {}): {} plain sweeps used instead",
+                k + 1,
+                settings.sweeps
+            ));
+            return transport_sweeps_to_band(problem, &start, settings, out_lmax);
+        }
+        last_change = change;
+        let mut correction = problem.clone();
+        correction.sources = scattering_change(problem, &phi, &half, max_band as usize)?;
+        // The correction's own notes (solver choice, …) repeat the solve's: not kept.
+        let delta = correct(&correction, &mut Vec::new())?;
+        if !delta.report.converged {
+            notes.push(format!(
+                "warning: the sweep correction {} stopped at relative residual {:.3e}",
+                k + 1,
+                delta.report.relative_residual
+            ));
+        }
+        iterations.push(delta.report.iterations.to_string());
+        add_low_bands(&mut half, &delta.moments);
+        phi = half;
+    }
+    notes.push(format!(
+        "transport sweeps accelerated by the solve's operator: {} corrections ({} iterations)",
+        settings.sweeps,
+        iterations.join(", ")
+    ));
+    Ok(phi)
+}
+
+/// ‖new − old‖ / ‖new‖ over the moments both have.
+fn relative_change(old: &CellMoments, new: &CellMoments) -> f64 {
+    let pc = old.per_cell.min(new.per_cell);
+    let (mut d, mut n) = (0.0, 0.0);
+    for (a, b) in old
+        .data
+        .chunks_exact(old.per_cell)
+        .zip(new.data.chunks_exact(new.per_cell))
+    {
+        for (x, y) in a[..pc].iter().zip(&b[..pc]) {
+            d += (y - x) * (y - x);
+            n += y * y;
+        }
+    }
+    if n > 0.0 {
+        (d / n).sqrt()
+    } else {
+        0.0
+    }
+}
+
+/// Adds `low`'s moments to the same moments of `into` (`into` has at least `low`'s bands).
+fn add_low_bands(into: &mut CellMoments, low: &CellMoments) {
+    let (pi, pl) = (into.per_cell, low.per_cell.min(into.per_cell));
+    for (cell, add) in into
+        .data
+        .chunks_exact_mut(pi)
+        .zip(low.data.chunks_exact(low.per_cell))
+    {
+        for (v, d) in cell[..pl].iter_mut().zip(&add[..pl]) {
+            *v += d;
+        }
+    }
 }
 
 /// The cropped solve grid and the unknowns with and without cropping, at the solve and at
@@ -178,7 +290,43 @@ pub(super) fn stencil_solve(
     problem: &Problem,
     notes: &mut Vec<String>,
 ) -> Result<GridSolve> {
-    let tol = p.scene.solve.tolerance;
+    stencil_solve_from(
+        p,
+        kernel,
+        problem,
+        notes,
+        p.guesses,
+        p.scene.solve.tolerance,
+    )
+}
+
+/// The relative residual to which the correction of accelerated sweeps is solved (or the
+/// scene's tolerance if looser). Its accuracy sets how fast the iteration converges, not
+/// where to (δ = 0 exactly once the sweeps stop changing): on the g = 0.877 race cloud, P_3 @
+/// 24³ and three corrections, 1e-3 and 1e-1 render the same image to 0.01 % in the mean with
+/// 35 and 17 iterations per correction (2026-12-08).
+const CORRECTION_TOLERANCE: f64 = 0.1;
+
+/// [`stencil_solve`] from a zero start (no other channel's solution): the correction of
+/// accelerated sweeps ([`GridMethod::correction`]), whose right-hand side is not the scene's.
+pub(super) fn stencil_correction(
+    p: &PreparedScene<'_>,
+    kernel: &KernelChoice,
+    problem: &Problem,
+    notes: &mut Vec<String>,
+) -> Result<GridSolve> {
+    let tol = p.scene.solve.tolerance.max(CORRECTION_TOLERANCE);
+    stencil_solve_from(p, kernel, problem, notes, &[], tol)
+}
+
+fn stencil_solve_from(
+    p: &PreparedScene<'_>,
+    kernel: &KernelChoice,
+    problem: &Problem,
+    notes: &mut Vec<String>,
+    guesses: &[&[f64]],
+    tol: f64,
+) -> Result<GridSolve> {
     // What the stencil library says of its choice (an interpreted stencil, say).
     notes.extend(kernel.note.iter().cloned());
     let opts = SolverOptions {
@@ -192,13 +340,13 @@ pub(super) fn stencil_solve(
     // cell of a near-vacuum (12³ sphere: residual 7.6e-2 after 100 000 iterations, where
     // multigrid converges in 195; docs/vacuum.md).
     let sol = match &p.options.linear_solver {
-        Some(solve) => (solve.0)(problem, kernel.kernel.as_ref(), &opts, p.guesses)?,
+        Some(solve) => (solve.0)(problem, kernel.kernel.as_ref(), &opts, guesses)?,
         None => solve_problem_from(
             problem,
             kernel.kernel.as_ref(),
             SolverKind::ParityMg,
             &opts,
-            p.guesses,
+            guesses,
         )?,
     };
     notes.extend(sol.stats.notes.iter().cloned());
@@ -244,5 +392,174 @@ fn render_tuning(tuning: &SolverTuning) -> SolverTuning {
     SolverTuning {
         multigrid: Some(mg),
         ..tuning.clone()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::transport_sweep::transport_sweeps;
+    use pn_kernels::{pn_kernel, Dim, Staggering};
+    use pn_runtime::field::Field;
+    use pn_runtime::problem::{Boundary, Phase, Scattering, SourceTerm};
+
+    /// A cube of HG g = 0.6 scatterers at albedo 0.95 (optically 2.4 across a cell), a source
+    /// in one corner octant, vacuum around: the kind of medium where plain sweeps converge
+    /// slowly (their error falls by about the scattering ratio per sweep).
+    fn scattering_cube(res: usize) -> Problem {
+        Problem {
+            grid: crate::test_box_grid([res; 3]),
+            sigma_t: Field::Constant(20.0),
+            scattering: Scattering::SigmaS(Field::Constant(19.0)),
+            phase: Phase::HenyeyGreenstein(0.6),
+            sources: vec![SourceTerm {
+                l: 0,
+                m: 0,
+                field: Field::analytic(|x| if x.iter().all(|&c| c < 0.0) { 1.0 } else { 0.0 }),
+            }],
+            boundary: Boundary::Dirichlet,
+            sigma_t_min: None,
+        }
+    }
+
+    fn p3_solve(problem: &Problem, _notes: &mut Vec<String>) -> Result<GridSolve> {
+        let kernel = pn_kernel(3, Dim::Three, Staggering::Staggered)?;
+        let opts = SolverOptions {
+            tol: 1e-10,
+            ..Default::default()
+        };
+        let sol = solve_problem_from(
+            problem,
+            kernel.kernel.as_ref(),
+            SolverKind::ParityMg,
+            &opts,
+            &[],
+        )?;
+        Ok(GridSolve {
+            moments: sol.moments,
+            staggered: None,
+            report: SolverReport {
+                solver: sol.stats.solver.clone(),
+                stencil: String::new(),
+                iterations: sol.stats.iterations,
+                relative_residual: sol.stats.relative_residual,
+                tolerance: opts.tol,
+                converged: sol.stats.converged(),
+                sigma_t_min: None,
+                sigma_t_min_auto: false,
+            },
+        })
+    }
+
+    fn distance(a: &CellMoments, b: &CellMoments) -> f64 {
+        let d: f64 = a
+            .data
+            .iter()
+            .zip(&b.data)
+            .map(|(x, y)| (x - y).powi(2))
+            .sum();
+        let n: f64 = b.data.iter().map(|y| y * y).sum();
+        (d / n).sqrt()
+    }
+
+    /// Synthetic acceleration is a faster route to plain source iteration's limit, not another
+    /// discretization: from the P_3 solution (33 % from the limit), 8 accelerated sweeps land
+    /// within 2e-3 of the fixed point that 400 plain sweeps reach (those contract by about 0.94
+    /// per sweep: 1e-11 left), where 8 plain sweeps are still more than 50× farther away.
+    /// Measured 2026-12-08: accelerated 9.6e-2, 5.2e-2, 2.4e-2, 9.4e-3, … 7.3e-4 after 1…8
+    /// sweeps (about 0.5 per sweep: the P_N and the sweep discretizations differ, so the
+    /// correction is not exact), plain 0.30, 0.28, 0.26, … 0.19.
+    #[test]
+    fn accelerated_sweeps_reach_the_plain_sweeps_fixed_point_sooner() {
+        let res = 8;
+        let problem = scattering_cube(res);
+        let start = p3_solve(&problem, &mut Vec::new()).unwrap().moments;
+        let settings = |sweeps| SweepSettings {
+            sweeps,
+            n_mu: 6,
+            diamond: false,
+        };
+        let fixed = transport_sweeps(&problem, &start, settings(400)).unwrap();
+        let plain = transport_sweeps(&problem, &start, settings(8)).unwrap();
+        let mut notes = Vec::new();
+        let accelerated = accelerated_sweeps(
+            &problem,
+            start.clone(),
+            settings(8),
+            None,
+            (&p3_solve, 3),
+            &mut notes,
+        )
+        .unwrap();
+        let (e_start, e_plain, e_acc) = (
+            distance(&start, &fixed),
+            distance(&plain, &fixed),
+            distance(&accelerated, &fixed),
+        );
+        assert!(
+            e_start > 1e-2,
+            "the P_3 start is already the limit: {e_start}"
+        );
+        assert!(
+            e_acc < 2e-3,
+            "accelerated: {e_acc} (plain {e_plain}, start {e_start})"
+        );
+        assert!(
+            e_plain > 50.0 * e_acc,
+            "plain {e_plain}, accelerated {e_acc}"
+        );
+        assert!(
+            notes.iter().any(|n| n.contains("8 corrections")),
+            "{notes:?}"
+        );
+    }
+
+    /// A thick, highly scattering cube (σ_t h = 3.75 at 16³, albedo 0.99, isotropic, uniform
+    /// source, vacuum around). Accelerated step sweeps converge, to a limit that depends on
+    /// the grid at first order: the step scheme has no thick diffusion limit (mean scalar
+    /// flux 3.05 / 2.39 / 2.08 at 8³ / 16³ / 32³ after 12 sweeps, 2026-12-08). Accelerated
+    /// diamond sweeps diverge in cells this thick (1e4 … 7e12 measured without the guard);
+    /// the guard must catch it, say so and return the plain sweeps' result.
+    #[test]
+    fn accelerated_sweeps_in_thick_cells_converge_or_fall_back() {
+        let run = |res: usize, diamond: bool, sweeps: usize, accelerate: bool| {
+            let mut problem = scattering_cube(res);
+            problem.sigma_t = Field::Constant(30.0);
+            problem.scattering = Scattering::SigmaS(Field::Constant(29.7));
+            problem.phase = Phase::Isotropic;
+            problem.sources[0].field = Field::Constant(1.0);
+            let start = p3_solve(&problem, &mut Vec::new()).unwrap().moments;
+            let settings = SweepSettings {
+                sweeps,
+                n_mu: 4,
+                diamond,
+            };
+            let mut notes = Vec::new();
+            let out = if accelerate {
+                accelerated_sweeps(&problem, start, settings, None, (&p3_solve, 3), &mut notes)
+            } else {
+                transport_sweeps(&problem, &start, settings)
+            }
+            .unwrap();
+            let pc = out.per_cell;
+            let mean = out.data.iter().step_by(pc).sum::<f64>() / (res * res * res) as f64;
+            (mean, notes)
+        };
+        let (s8, n8) = run(8, false, 12, true);
+        let (s16, _) = run(16, false, 12, true);
+        let (s16_more, _) = run(16, false, 14, true);
+        assert!(n8.iter().all(|n| !n.contains("diverged")), "{n8:?}");
+        assert!(
+            (s16_more / s16 - 1.0).abs() < 1e-3,
+            "not converged: {s16} {s16_more}"
+        );
+        assert!(s8 > 1.15 * s16, "step limit 8³ {s8}, 16³ {s16}");
+        let (d8, notes) = run(8, true, 6, true);
+        let (plain, _) = run(8, true, 6, false);
+        assert!(
+            notes.iter().any(|n| n.contains("diverged")),
+            "no warning: {notes:?}, mean {d8}"
+        );
+        assert_eq!(d8, plain);
     }
 }

@@ -35,6 +35,7 @@ impl MultipleScattering for TextPde {
             // band it references (filtered P_N: N; SP_N and CDA: 0).
             max_band: pde.source_band,
             uses_sigma_t_min: true,
+            correction: None,
         };
         solve_on_grid(p, &method, &|problem, notes| {
             let mut run = stencil_solve(p, &pde.choice, problem, notes)?;

@@ -1,7 +1,7 @@
 //! P_N: the real spherical-harmonic moments up to order N on the staggered grid, the
 //! first-scatter source up to band N.
 
-use super::grid::{solve_on_grid, stencil_solve, GridMethod};
+use super::grid::{solve_on_grid, stencil_correction, stencil_solve, GridMethod};
 use super::{MsSolution, MultipleScattering, PreparedScene};
 use anyhow::Result;
 use pn_kernels::{pn_kernel, Dim, Staggering};
@@ -27,10 +27,12 @@ impl MultipleScattering for Pn {
 
     fn solve(&self, p: &PreparedScene<'_>) -> Result<MsSolution> {
         let kernel = pn_kernel(self.order, Dim::Three, Staggering::Staggered)?;
+        let correct = |problem: &_, notes: &mut _| stencil_correction(p, &kernel, problem, notes);
         let method = GridMethod {
             kernel: Some(&kernel),
             max_band: self.order as u32,
             uses_sigma_t_min: true,
+            correction: Some(&correct),
         };
         solve_on_grid(p, &method, &|problem, notes| {
             stencil_solve(p, &kernel, problem, notes)
