@@ -671,7 +671,7 @@ mod tests {
             (out.get(c, c, c, 0) / Y00 / exact - 1.0).abs()
         };
         let dd: Vec<f64> = [15usize, 31, 63].iter().map(|&r| error(r, true)).collect();
-        // Measured 2026-12-08: 0.70 %, 0.016 %, 0.034 % (the step scheme: 1.0 %, 0.27 %,
+        // Measured 2026-12-07: 0.70 %, 0.016 %, 0.034 % (the step scheme: 1.0 %, 0.27 %,
         // 0.069 %); the thick-medium property that sets the two apart is tested in
         // pipeline::methods::grid.
         assert!(

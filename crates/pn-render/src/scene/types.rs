@@ -284,7 +284,7 @@ pub enum SweepScheme {
     /// Upwind step with exact attenuation: positive, first order in h; its converged
     /// limit is 12–26 % bright on an optically thick cloud at 16³–32³ (no thick diffusion
     /// limit), two sweeps from P_N move part of the way there. The default (measured best
-    /// of the two after two sweeps, docs/lab/race/2026-12-08-forward).
+    /// of the two after two sweeps, docs/lab/race/2026-12-07-night-forward).
     #[default]
     Step,
     /// Diamond difference with the set-to-zero fixup: second order in h; its converged limit

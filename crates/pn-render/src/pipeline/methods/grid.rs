@@ -304,7 +304,7 @@ pub(super) fn stencil_solve(
 /// scene's tolerance if looser). Its accuracy sets how fast the iteration converges, not
 /// where to (δ = 0 exactly once the sweeps stop changing): on the g = 0.877 race cloud, P_3 @
 /// 24³ and three corrections, 1e-3 and 1e-1 render the same image to 0.01 % in the mean with
-/// 35 and 17 iterations per correction (2026-12-08).
+/// 35 and 17 iterations per correction (2026-12-07).
 const CORRECTION_TOLERANCE: f64 = 0.1;
 
 /// [`stencil_solve`] from a zero start (no other channel's solution): the correction of
@@ -466,7 +466,7 @@ mod tests {
     /// discretization: from the P_3 solution (33 % from the limit), 8 accelerated sweeps land
     /// within 2e-3 of the fixed point that 400 plain sweeps reach (those contract by about 0.94
     /// per sweep: 1e-11 left), where 8 plain sweeps are still more than 50× farther away.
-    /// Measured 2026-12-08: accelerated 9.6e-2, 5.2e-2, 2.4e-2, 9.4e-3, … 7.3e-4 after 1…8
+    /// Measured 2026-12-07: accelerated 9.6e-2, 5.2e-2, 2.4e-2, 9.4e-3, … 7.3e-4 after 1…8
     /// sweeps (about 0.5 per sweep: the P_N and the sweep discretizations differ, so the
     /// correction is not exact), plain 0.30, 0.28, 0.26, … 0.19.
     #[test]
@@ -517,7 +517,7 @@ mod tests {
     /// A thick, highly scattering cube (σ_t h = 3.75 at 16³, albedo 0.99, isotropic, uniform
     /// source, vacuum around). Accelerated step sweeps converge, to a limit that depends on
     /// the grid at first order: the step scheme has no thick diffusion limit (mean scalar
-    /// flux 3.05 / 2.39 / 2.08 at 8³ / 16³ / 32³ after 12 sweeps, 2026-12-08). Accelerated
+    /// flux 3.05 / 2.39 / 2.08 at 8³ / 16³ / 32³ after 12 sweeps, 2026-12-07). Accelerated
     /// diamond sweeps diverge in cells this thick (1e4 … 7e12 measured without the guard);
     /// the guard must catch it, say so and return the plain sweeps' result.
     #[test]
