@@ -597,6 +597,22 @@ mod tests {
         }
     }
 
+    /// The scalar flux `Σ_k w_k S (1 − e^{−d(ω_k)})` at the centre of the unit-σ_t absorber
+    /// filling [−1, 1]³ with isotropic emission S = Q_0^0 Y_0^0 (Q_0^0 = 1), d the distance to
+    /// the box along −ω, in the directions of `quad`.
+    fn emitting_absorber_centre_flux(quad: &SphereQuadrature) -> f64 {
+        quad.points
+            .iter()
+            .zip(&quad.weights)
+            .map(|((dir, _, _), w)| {
+                let d = (0..3)
+                    .map(|a| 1.0 / dir[a].abs())
+                    .fold(f64::INFINITY, f64::min);
+                w * Y00 * (1.0 - (-d).exp())
+            })
+            .sum()
+    }
+
     /// A homogeneous pure absorber (σ_t = 1) filling [−1, 1]³ with uniform isotropic
     /// emission, vacuum outside: one sweep is the transport solution, and the scalar flux at
     /// the centre must approach `∫ S (1 − e^{−d(ω)}) dω` (d the distance to the box along −ω)
@@ -604,19 +620,7 @@ mod tests {
     /// scheme's interpolation), bounds 2.5 / 1.3 / 0.7 %, and the error must shrink.
     #[test]
     fn one_sweep_of_an_emitting_absorber_converges_to_transport() {
-        let s = Y00; // S = Q_0^0 Y_0^0 with Q_0^0 = 1
-        let quad = SphereQuadrature::new(200, 400);
-        let exact: f64 = quad
-            .points
-            .iter()
-            .zip(&quad.weights)
-            .map(|((dir, _, _), w)| {
-                let d = (0..3)
-                    .map(|a| 1.0 / dir[a].abs())
-                    .fold(f64::INFINITY, f64::min);
-                w * s * (1.0 - (-d).exp())
-            })
-            .sum();
+        let exact = emitting_absorber_centre_flux(&SphereQuadrature::new(200, 400));
         let mut last = f64::INFINITY;
         for (res, bound) in [(15usize, 0.025), (31, 0.013), (63, 0.007)] {
             let problem = cube(res, 1.0, 0.0, Phase::Isotropic, 1.0);
@@ -640,7 +644,6 @@ mod tests {
     /// discrete-ordinates answer of the same directions at the box's centre.
     #[test]
     fn a_diamond_sweep_converges_at_second_order() {
-        let s = Y00;
         // The same 8 × 16 directions as the sweeps: only the spatial error is left.
         let quad = SweepSettings {
             sweeps: 1,
@@ -648,17 +651,7 @@ mod tests {
             diamond: true,
         }
         .quadrature();
-        let exact: f64 = quad
-            .points
-            .iter()
-            .zip(&quad.weights)
-            .map(|((dir, _, _), w)| {
-                let d = (0..3)
-                    .map(|a| 1.0 / dir[a].abs())
-                    .fold(f64::INFINITY, f64::min);
-                w * s * (1.0 - (-d).exp())
-            })
-            .sum();
+        let exact = emitting_absorber_centre_flux(&quad);
         let error = |res: usize, diamond: bool| {
             let problem = cube(res, 1.0, 0.0, Phase::Isotropic, 1.0);
             let settings = SweepSettings {
@@ -772,46 +765,22 @@ mod tests {
         let problem = cube(5, 1.0, 0.5, Phase::Isotropic, 1.0);
         let mut start = zeros(5, 1);
         start.data.iter_mut().for_each(|v| *v = 1.0);
-        let out = transport_sweeps(
-            &problem,
-            &start,
-            SweepSettings {
-                sweeps: 1,
-                n_mu: 4,
-                diamond: false,
-            },
-        )
-        .unwrap();
+        let one = SweepSettings {
+            sweeps: 1,
+            n_mu: 4,
+            diamond: false,
+        };
+        let out = transport_sweeps(&problem, &start, one).unwrap();
         assert!(out.data.chunks(4).all(|c| c[0] > 0.0 && c[1..] == [0.0; 3]));
         let bad = cube(5, f64::NAN, 0.5, Phase::Isotropic, 1.0);
-        let e = transport_sweeps(
-            &bad,
-            &start,
-            SweepSettings {
-                sweeps: 1,
-                n_mu: 4,
-                diamond: false,
-            },
-        )
-        .unwrap_err()
-        .to_string();
+        let e = transport_sweeps(&bad, &start, one).unwrap_err().to_string();
         assert!(e.contains("invalid coefficients"), "{e}");
         // A threshold must not hide it (f64::max would turn NaN into the threshold).
         let bad = Problem {
             sigma_t_min: Some(0.1),
             ..cube(5, f64::NAN, 0.5, Phase::Isotropic, 1.0)
         };
-        let e = transport_sweeps(
-            &bad,
-            &start,
-            SweepSettings {
-                sweeps: 1,
-                n_mu: 4,
-                diamond: false,
-            },
-        )
-        .unwrap_err()
-        .to_string();
+        let e = transport_sweeps(&bad, &start, one).unwrap_err().to_string();
         assert!(e.contains("σ_t = NaN"), "{e}");
     }
 }
