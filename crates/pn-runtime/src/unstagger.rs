@@ -34,6 +34,27 @@ impl CellMoments {
             .copied()
             .collect()
     }
+
+    /// The same moments with the bands up to `lmax` (new ones 0); itself when it already
+    /// has them.
+    pub fn padded_to(self, lmax: usize) -> Self {
+        let per_cell = (lmax + 1) * (lmax + 1);
+        if per_cell <= self.per_cell {
+            return self;
+        }
+        let mut data = vec![0.0; self.data.len() / self.per_cell.max(1) * per_cell];
+        for (to, from) in data
+            .chunks_exact_mut(per_cell)
+            .zip(self.data.chunks_exact(self.per_cell))
+        {
+            to[..self.per_cell].copy_from_slice(from);
+        }
+        Self {
+            res: self.res,
+            per_cell,
+            data,
+        }
+    }
 }
 
 /// Moves every moment of `u` to the cell centres of `grid`.
@@ -78,6 +99,23 @@ pub fn unstagger(grid: &Grid, layout: &Layout, u: &[f64]) -> CellMoments {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn padding_keeps_the_moments_and_adds_zero_bands() {
+        let m = CellMoments {
+            res: [2, 1, 1],
+            per_cell: 4,
+            data: (0..8).map(f64::from).collect(),
+        };
+        let p = m.clone().padded_to(2);
+        assert_eq!(p.per_cell, 9);
+        for c in 0..2 {
+            assert_eq!(&p.data[c * 9..c * 9 + 4], &m.data[c * 4..c * 4 + 4]);
+            assert!(p.data[c * 9 + 4..c * 9 + 9].iter().all(|&v| v == 0.0));
+        }
+        assert_eq!(m.clone().padded_to(1), m);
+        assert_eq!(m.clone().padded_to(0), m);
+    }
+
     use super::*;
     use pn_stencil::{Dim, MomentPlacement};
 

@@ -606,4 +606,29 @@ fn the_sweep_quadrature_grows_with_the_order_unless_given() {
     );
     let e = format!("{:#}", at("sweep_quadrature = 0").unwrap_err());
     assert!(e.contains("sweep_quadrature must lie in 1..=64"), "{e}");
+    // sweep_order raises the sweeps' bands (and their nodes) only where there are sweeps.
+    let s = at("order = 3
+sweep_order = 9")
+    .unwrap()
+    .solve;
+    assert_eq!(
+        (s.sweep_band(3), s.sweep_band(0), s.sweep_nodes()),
+        (9, 9, 10)
+    );
+    let s = at("order = 3
+sweep_order = 9
+sweeps = 0")
+    .unwrap()
+    .solve;
+    assert_eq!(s.sweep_band(3), 3);
+    assert_eq!(
+        at("order = 5
+sweep_order = 1")
+        .unwrap()
+        .solve
+        .sweep_band(5),
+        5
+    );
+    let e = format!("{:#}", at("sweep_order = 16").unwrap_err());
+    assert!(e.contains("sweep_order must be at most 15"), "{e}");
 }

@@ -195,6 +195,13 @@ pub struct SolveSettings {
     pub sweep_acceleration: bool,
     /// The sweeps' spatial scheme (`[solve] sweep_scheme`, [`SweepScheme`]).
     pub sweep_scheme: SweepScheme,
+    /// The scattering order L the sweeps carry when it is above the method's own (P_N and
+    /// CDA with sweeps; `[solve] sweep_order`): delta-M at order L, the first-scatter source
+    /// to band L, the solution padded with zeros above its bands, and the sweeps scattering
+    /// with the phase's factors l ≤ L. With `sweep_acceleration` the method's operator is
+    /// then the low-order correction of an S_N transport solve (CDA: diffusion synthetic
+    /// acceleration). None: the method's order.
+    pub sweep_order: Option<usize>,
     /// Delta-M truncation of the phase for the solve ([`crate::delta_m`]; methods pn, cda
     /// and fld; default on): the forward peak f = λ_{N+1} p_{N+1} travels on as unscattered
     /// light, the camera's single scattering stays exact. The identity for isotropic media.
@@ -219,8 +226,18 @@ impl SolveSettings {
     /// N + 1 = 10) the g = 0.877 scene's bias against Mitsuba was −3.4 % at 24³, 36³ and 48³
     /// alike; with 10 nodes +0.03 % (docs/lab/race/2026-12-07-bias-vs-order).
     pub fn sweep_nodes(&self) -> usize {
+        let order = self.order.max(self.sweep_order.unwrap_or(0));
         self.sweep_quadrature
-            .unwrap_or_else(|| DEFAULT_SWEEP_QUADRATURE.max(self.order + 1))
+            .unwrap_or_else(|| DEFAULT_SWEEP_QUADRATURE.max(order + 1))
+    }
+
+    /// The scattering order the sweeps carry for a method of order `own` that can extend
+    /// them ([`SolveSettings::sweep_order`]): the larger of the two when there are sweeps.
+    pub fn sweep_band(&self, own: usize) -> usize {
+        match self.sweep_order {
+            Some(l) if self.sweeps > 0 => own.max(l),
+            _ => own,
+        }
     }
 }
 
@@ -231,6 +248,9 @@ impl SolveSettings {
 /// sweeps (P_3: −10.0…+3.8 % to −2.3…+2.6 %), for 6–18 % of the solve's time
 /// (docs/vacuum.md, "Transport sweeps").
 pub const DEFAULT_SWEEPS: usize = 2;
+
+/// Highest `[solve] sweep_order`: (L + 1)² moments per solve cell are swept and kept.
+pub const MAX_SWEEP_ORDER: usize = 15;
 
 /// Least Gauss–Legendre nodes in μ of the sweeps' angular rule (`[solve] sweep_quadrature`
 /// unset; [`SolveSettings::sweep_nodes`]): 8 × 16 = 128 directions, exact for the moments up

@@ -112,6 +112,12 @@ impl SolveSettings {
                 "sweep_quadrature must lie in 1..=64 (Gauss nodes in cos θ), got {n}"
             );
         }
+        if let Some(l) = self.sweep_order {
+            ensure!(
+                l <= MAX_SWEEP_ORDER,
+                "sweep_order must be at most {MAX_SWEEP_ORDER}, got {l}"
+            );
+        }
         if let Some(b) = self.sweep_bands {
             ensure!(
                 b < 2 * self.sweep_nodes(),

@@ -7,7 +7,12 @@ use anyhow::Result;
 use pn_kernels::{cda_kernel, Dim};
 
 /// Classical diffusion.
-pub struct Cda;
+pub struct Cda {
+    /// The scattering order the sweeps carry ([`crate::SolveSettings::sweep_band`]; 0: the
+    /// diffusion's own, above that delta-M's order and the first-scatter source's highest
+    /// band, with the diffusion as the sweeps' correction).
+    pub sweep_band: usize,
+}
 
 impl MultipleScattering for Cda {
     fn name(&self) -> &str {
@@ -15,7 +20,7 @@ impl MultipleScattering for Cda {
     }
 
     fn delta_m_order(&self) -> Option<u32> {
-        Some(1)
+        Some(self.sweep_band.max(1) as u32)
     }
 
     fn solve(&self, p: &PreparedScene<'_>) -> Result<MsSolution> {
@@ -23,7 +28,8 @@ impl MultipleScattering for Cda {
         let correct = |problem: &_, notes: &mut _| stencil_correction(p, &kernel, problem, notes);
         let method = GridMethod {
             kernel: Some(&kernel),
-            max_band: 0,
+            max_band: self.sweep_band as u32,
+            solve_band: 0,
             uses_sigma_t_min: true,
             correction: Some(&correct),
         };

@@ -30,6 +30,7 @@ impl MultipleScattering for Fld {
         let method = GridMethod {
             kernel: None,
             max_band: 0,
+            solve_band: 0,
             uses_sigma_t_min: false,
             correction: None,
         };

@@ -24,8 +24,11 @@ pub(super) struct GridMethod<'k> {
     /// The stencil (None: FLD, whose unknowns are the interior cells and which is not
     /// checked against the memory limit).
     pub kernel: Option<&'k KernelChoice>,
-    /// The highest band Q_l^m of the first-scatter source the method reads.
+    /// The highest band Q_l^m of the first-scatter source (what the method reads, or the
+    /// sweeps' higher scattering order, [`crate::SolveSettings::sweep_order`]).
     pub max_band: u32,
+    /// The highest band the method's own solve reads (its correction's source, too).
+    pub solve_band: u32,
     /// Whether the solve uses the σ_t threshold of the problem (P_N, CDA, text PDEs; the
     /// report then carries it).
     pub uses_sigma_t_min: bool,
@@ -89,6 +92,10 @@ pub(super) fn solve_on_grid(
     let run = pn_runtime::with_threads(threads, || solve(&fs.problem, &mut notes))??;
     seconds.solve = t1.elapsed().as_secs_f64();
     let mut moments = run.moments;
+    if s.sweeps > 0 {
+        // Bands the solve does not carry start at 0 and are filled by the sweeps.
+        moments = moments.padded_to(m.max_band as usize);
+    }
     let mut sweeps = 0;
     if s.sweeps > 0 {
         let t2 = Instant::now();
@@ -103,7 +110,7 @@ pub(super) fn solve_on_grid(
                 moments,
                 settings,
                 s.sweep_bands,
-                (correct, m.max_band),
+                (correct, m.solve_band),
                 &mut notes,
             ),
             _ => transport_sweeps_to_band(&fs.problem, &moments, settings, s.sweep_bands),
@@ -561,5 +568,40 @@ mod tests {
             "no warning: {notes:?}, mean {d8}"
         );
         assert_eq!(d8, plain);
+    }
+
+    /// `[solve] sweep_order` raises what the sweeps carry above a method's own bands: CDA
+    /// with sweep_order 3 keeps (3 + 1)² moments per cell, truncates with delta-M at order 3
+    /// (the note names λ_4 p_4) and renders another image; without sweeps it changes nothing.
+    #[test]
+    fn the_sweep_order_raises_the_bands_the_sweeps_carry() {
+        let mut scene = crate::RenderScene::builtin("cloud").unwrap();
+        scene.phase = Phase::HenyeyGreenstein(0.8);
+        scene.camera.width = 24;
+        scene.camera.height = 24;
+        scene.solve.method = crate::RenderMethod::Cda;
+        scene.solve.resolution = [10, 10, 10];
+        scene.solve.sweeps = 1;
+        let options = crate::RenderOptions {
+            threads: Some(1),
+            ..Default::default()
+        };
+        let render = |scene: &crate::RenderScene| crate::render_scene(scene, &options).unwrap();
+        let plain = render(&scene);
+        scene.solve.sweep_order = Some(3);
+        let carried = render(&scene);
+        let bands = |run: &crate::RenderRun| run.solution.as_ref().unwrap().moments.per_cell;
+        assert_eq!(bands(&carried), 16);
+        assert!(bands(&plain) < 16, "{}", bands(&plain));
+        assert!(
+            carried.notes.iter().any(|n| n.contains("λ_4 p_4")),
+            "{:?}",
+            carried.notes
+        );
+        assert_ne!(carried.image.data, plain.image.data);
+        scene.solve.sweeps = 0;
+        let unswept = render(&scene);
+        scene.solve.sweep_order = None;
+        assert_eq!(render(&scene).image.data, unswept.image.data);
     }
 }

@@ -114,8 +114,11 @@ pub fn method_for(
     Ok(match scene.solve.method {
         RenderMethod::Pn => Box::new(pn::Pn {
             order: scene.solve.order,
+            sweep_band: scene.solve.sweep_band(scene.solve.order),
         }),
-        RenderMethod::Cda => Box::new(cda::Cda),
+        RenderMethod::Cda => Box::new(cda::Cda {
+            sweep_band: scene.solve.sweep_band(0),
+        }),
         RenderMethod::Fld => Box::new(fld::Fld),
         RenderMethod::Pop => Box::new(pop::Pop {
             order: scene.solve.order,

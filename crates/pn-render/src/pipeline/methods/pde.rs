@@ -34,6 +34,7 @@ impl MultipleScattering for TextPde {
             // The first-scatter source's bands: a text PDE reads Q_l^m up to the highest
             // band it references (filtered P_N: N; SP_N and CDA: 0).
             max_band: pde.source_band,
+            solve_band: pde.source_band,
             uses_sigma_t_min: true,
             correction: None,
         };

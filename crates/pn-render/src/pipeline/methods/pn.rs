@@ -10,6 +10,9 @@ use pn_kernels::{pn_kernel, Dim, Staggering};
 pub struct Pn {
     /// The order N.
     pub order: usize,
+    /// The scattering order the sweeps carry (≥ N; [`crate::SolveSettings::sweep_band`]):
+    /// delta-M's order and the first-scatter source's highest band.
+    pub sweep_band: usize,
 }
 
 impl MultipleScattering for Pn {
@@ -22,7 +25,7 @@ impl MultipleScattering for Pn {
     }
 
     fn delta_m_order(&self) -> Option<u32> {
-        Some(self.order as u32)
+        Some(self.sweep_band.max(self.order) as u32)
     }
 
     fn solve(&self, p: &PreparedScene<'_>) -> Result<MsSolution> {
@@ -30,7 +33,8 @@ impl MultipleScattering for Pn {
         let correct = |problem: &_, notes: &mut _| stencil_correction(p, &kernel, problem, notes);
         let method = GridMethod {
             kernel: Some(&kernel),
-            max_band: self.order as u32,
+            max_band: self.sweep_band.max(self.order) as u32,
+            solve_band: self.order as u32,
             uses_sigma_t_min: true,
             correction: Some(&correct),
         };
