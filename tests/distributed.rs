@@ -11,7 +11,7 @@ mod support;
 use pn_formats::read_npy;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
-use support::{rel_diff, starmap_reference, work_dir};
+use support::{ok, pn, rel_diff, starmap_reference, work_dir};
 
 fn mpirun(ranks: usize, args: &[&str]) -> Output {
     Command::new("timeout")
@@ -95,15 +95,7 @@ fn serial(name: &str, args: &[&str]) -> Vec<f64> {
     let mut all = vec!["solve"];
     all.extend(args);
     all.extend(["--tol", "1e-12", "--out", dir.to_str().unwrap()]);
-    let out = Command::new(env!("CARGO_BIN_EXE_pn"))
-        .args(&all)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    ok(&pn(&all));
     read_outputs(&dir).0
 }
 
@@ -174,16 +166,9 @@ fn render_on_two_processes_equals_one() {
     ];
     let one = work_dir("render-one");
     let two = work_dir("render-two");
-    let out = Command::new(env!("CARGO_BIN_EXE_pn"))
-        .args(args)
-        .args(["--out", one.to_str().unwrap()])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let mut a = args.to_vec();
+    a.extend(["--out", one.to_str().unwrap()]);
+    ok(&pn(&a));
     let mut a = args.to_vec();
     a.extend([
         "--distributed",
@@ -192,12 +177,7 @@ fn render_on_two_processes_equals_one() {
         "--out",
         two.to_str().unwrap(),
     ]);
-    let out = mpirun(2, &a);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    ok(&mpirun(2, &a));
     let (w1, h1, i1) = pn_formats::read_exr_gray(&one.join("image.exr")).unwrap();
     let (w2, h2, i2) = pn_formats::read_exr_gray(&two.join("image.exr")).unwrap();
     assert_eq!((w1, h1), (w2, h2));

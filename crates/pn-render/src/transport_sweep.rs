@@ -370,16 +370,12 @@ impl SweepGrid<'_> {
         } else {
             (&oct.y, na)
         };
+        if self.diamond {
+            return self.sweep_octant_diamond(oct, e, y_out, nout);
+        }
         let mut acc = vec![0.0; nx * ny * nz * nout];
         let mut psi = vec![0.0; nx * ny * nz * nd];
         let mut wv = vec![0.0; nd];
-        let order = |len: usize, positive: bool| -> Vec<usize> {
-            if positive {
-                (0..len).collect()
-            } else {
-                (0..len).rev().collect()
-            }
-        };
         // The neighbour on the side the light comes from, None at the inflow face (vacuum).
         let upwind = |i: usize, len: usize, positive: bool| -> Option<usize> {
             if positive {
@@ -389,14 +385,11 @@ impl SweepGrid<'_> {
             }
         };
         let [px, py, pz] = oct.positive;
-        if self.diamond {
-            return self.sweep_octant_diamond(oct, e, y_out, nout);
-        }
-        for i in order(nx, px) {
+        for i in visit_order(nx, px) {
             let ui = upwind(i, nx, px);
-            for j in order(ny, py) {
+            for j in visit_order(ny, py) {
                 let uj = upwind(j, ny, py);
-                for k in order(nz, pz) {
+                for k in visit_order(nz, pz) {
                     let uk = upwind(k, nz, pz);
                     let c = (i * ny + j) * nz + k;
                     let up = [
@@ -425,12 +418,7 @@ impl SweepGrid<'_> {
                         psi[c * nd + d] = v;
                         wv[d] = oct.weight[d] * v;
                     }
-                    let ac = &mut acc[c * nout..(c + 1) * nout];
-                    for (yd, &w) in y_out.chunks_exact(nout).zip(&wv) {
-                        for (x, y) in ac.iter_mut().zip(yd) {
-                            *x += w * y;
-                        }
-                    }
+                    accumulate(&mut acc[c * nout..(c + 1) * nout], y_out, &wv);
                 }
             }
         }
@@ -459,13 +447,6 @@ impl SweepGrid<'_> {
         let na = self.na;
         let nd = oct.weight.len();
         let mut acc = vec![0.0; nx * ny * nz * nout];
-        let order = |len: usize, positive: bool| -> Vec<usize> {
-            if positive {
-                (0..len).collect()
-            } else {
-                (0..len).rev().collect()
-            }
-        };
         let [px, py, pz] = oct.positive;
         // Incoming face values: x faces for every (j, k), carried across i; y faces for every
         // k, carried across j (reset per i); z faces carried across k (reset per j).
@@ -473,11 +454,11 @@ impl SweepGrid<'_> {
         let mut fy = vec![0.0; nz * nd];
         let mut fz = vec![0.0; nd];
         let mut wv = vec![0.0; nd];
-        for i in order(nx, px) {
+        for i in visit_order(nx, px) {
             fy.iter_mut().for_each(|v| *v = 0.0);
-            for j in order(ny, py) {
+            for j in visit_order(ny, py) {
                 fz.iter_mut().for_each(|v| *v = 0.0);
-                for k in order(nz, pz) {
+                for k in visit_order(nz, pz) {
                     let c = (i * ny + j) * nz + k;
                     let ec = &e[c * na..(c + 1) * na];
                     let st = self.sigma_t[c];
@@ -525,16 +506,31 @@ impl SweepGrid<'_> {
                         fz[d] = out[2];
                         wv[d] = oct.weight[d] * psi;
                     }
-                    let ac = &mut acc[c * nout..(c + 1) * nout];
-                    for (yd, &w) in y_out.chunks_exact(nout).zip(&wv) {
-                        for (x, y) in ac.iter_mut().zip(yd) {
-                            *x += w * y;
-                        }
-                    }
+                    accumulate(&mut acc[c * nout..(c + 1) * nout], y_out, &wv);
                 }
             }
         }
         acc
+    }
+}
+
+/// The cell indices 0..len in the order a sweep visits them: ascending along a positive
+/// direction component, descending along a negative one.
+fn visit_order(len: usize, positive: bool) -> Vec<usize> {
+    if positive {
+        (0..len).collect()
+    } else {
+        (0..len).rev().collect()
+    }
+}
+
+/// Adds `Σ_d wv[d] Y(ω_d)` to a cell's moment accumulator `ac` (`y_out`: one row of
+/// `ac.len()` values per direction).
+fn accumulate(ac: &mut [f64], y_out: &[f64], wv: &[f64]) {
+    for (yd, &w) in y_out.chunks_exact(ac.len()).zip(wv) {
+        for (x, y) in ac.iter_mut().zip(yd) {
+            *x += w * y;
+        }
     }
 }
 
