@@ -46,6 +46,7 @@ use crate::sky::SkyLights;
 use pn_runtime::field::{Field, VoxelGrid};
 use pn_runtime::problem::{Boundary, Grid, Phase, Problem, Scattering, SourceTerm};
 use pn_stencil::quadrature::real_sh;
+use rayon::prelude::*;
 use std::sync::Arc;
 
 /// The source moments `Q_l^m`, l ≤ `max_band`, at the cell centres of `grid`
@@ -102,13 +103,15 @@ pub fn source_moments_weighted(
             d[1].atan2(d[0]),
         )
     };
-    let mut out = Vec::new();
-    for l in 0..=max_band {
-        let f = phase.moment(l);
-        if f == 0.0 {
-            continue;
-        }
-        for m in -(l as i32)..=(l as i32) {
+    // One task per moment (l, m) (the moments are independent; the order is kept).
+    let moments: Vec<(u32, i32, f64)> = (0..=max_band)
+        .map(|l| (l, phase.moment(l)))
+        .filter(|&(_, f)| f != 0.0)
+        .flat_map(|(l, f)| (-(l as i32)..=(l as i32)).map(move |m| (l, m, f)))
+        .collect();
+    moments
+        .into_par_iter()
+        .map(|(l, m, f)| {
             // A directional light's Y_l^m(d) is the same in every cell (a sky brings tens); a
             // sky light's is averaged over its region (crate::sky::SkyLights::sh_average).
             let fixed: Vec<Option<f64>> = lights
@@ -139,10 +142,9 @@ pub fn source_moments_weighted(
                     *v += w[c] * f * y;
                 }
             }
-            out.push((l, m, q));
-        }
-    }
-    out
+            (l, m, q)
+        })
+        .collect()
 }
 
 /// The problem of a render scene on `grid`, with the optical depth to its lights.

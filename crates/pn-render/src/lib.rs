@@ -79,6 +79,7 @@ mod scene_kind;
 mod scene_override;
 mod shadow;
 pub mod sky;
+mod sky_view;
 mod solve_setup;
 mod source_quadrature;
 mod transport_sweep;

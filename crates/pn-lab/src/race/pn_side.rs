@@ -19,6 +19,10 @@ pub enum Family {
     Fld,
     /// P_N of this order.
     Pn(usize),
+    /// Diffusion-synthetic-accelerated S_N: transport sweeps carrying the scattering to this
+    /// order, each followed by a diffusion correction (`--method cda` with `sweep_order`,
+    /// `sweep_acceleration` and the diamond scheme; docs/forward-scattering.md).
+    Sn(usize),
     /// Principal-Ordinates Propagation (`--method pop`, directional lights; docs/pop-design.md)
     /// with a grid of the point's resolution and as many iterations (the paper's §7 rule).
     Pop,
@@ -40,6 +44,18 @@ impl Family {
                 "--order".into(),
                 n.to_string(),
             ],
+            Family::Sn(l) => [
+                "--method",
+                "cda",
+                "--set",
+                &format!("solve.sweep_order={l}"),
+                "--set",
+                "solve.sweep_acceleration=true",
+                "--set",
+                "solve.sweep_scheme=diamond",
+            ]
+            .map(String::from)
+            .to_vec(),
             Family::Pop => vec!["--method".into(), "pop".into()],
             Family::Pde => vec![],
         }
@@ -52,15 +68,16 @@ impl Family {
             Family::Cda => "cda",
             Family::Fld => "fld",
             Family::Pn(_) => "pn",
+            Family::Sn(_) => "sn",
             Family::Pop => "pop",
             Family::Pde => "pde",
         }
     }
 
-    /// The order column (empty but for P_N).
+    /// The order column (empty but for P_N and S_N).
     pub fn order(self) -> Option<usize> {
         match self {
-            Family::Pn(n) => Some(n),
+            Family::Pn(n) | Family::Sn(n) => Some(n),
             _ => None,
         }
     }
@@ -73,6 +90,7 @@ impl fmt::Display for Family {
             Family::Cda => write!(f, "CDA"),
             Family::Fld => write!(f, "FLD"),
             Family::Pn(n) => write!(f, "P_{n}"),
+            Family::Sn(n) => write!(f, "DSA S_N(L={n})"),
             Family::Pop => write!(f, "POP"),
             Family::Pde => write!(f, "PDE"),
         }
@@ -91,6 +109,8 @@ pub struct PnPoint {
     pub rays: Option<usize>,
     /// `pn render --step` (None: the renderer's default).
     pub step: Option<f64>,
+    /// `[solve] sweeps` (None: the scene's).
+    pub sweeps: Option<usize>,
     /// The PDE file and parameters of a [`Family::Pde`] point.
     pub pde: Option<PdePoint>,
 }
@@ -120,8 +140,9 @@ impl PdePoint {
 }
 
 impl PnPoint {
-    /// Parses `cda@24`, `fld@24`, `p5@32` (`P5@32`), `pop@20`, `none`, each optionally followed by
-    /// `:rays=K` and/or `:step=S` (`p5@32:rays=1:step=1`).
+    /// Parses `cda@24`, `fld@24`, `p5@32` (`P5@32`), `sn5@24` (diffusion-accelerated S_N to
+    /// order 5), `pop@20`, `none`, each optionally followed by `:rays=K`, `:step=S` and/or
+    /// `:sweeps=K` (`p5@32:rays=1:step=1`, `sn5@24:sweeps=3`).
     ///
     /// A text PDE is `FILE.pde@RES` (the file relative to the working folder), its `param`s
     /// overridden by further `:NAME=VALUE` options: `pdes/sp3.pde@16`,
@@ -137,12 +158,12 @@ impl PnPoint {
             .filter(|f| f.to_ascii_lowercase().ends_with(".pde"));
         let lower = head.to_ascii_lowercase();
         let t = lower.as_str();
-        let (mut rays, mut step) = (None, None);
+        let (mut rays, mut step, mut sweeps) = (None, None, None);
         let mut params = Vec::new();
         let bad_option = |opt: &str| {
             anyhow::anyhow!(
-                "pn point {s:?}: options are :rays=K and :step=S (and :NAME=VALUE for a \
-                 .pde file's parameters), got {opt:?}"
+                "pn point {s:?}: options are :rays=K, :step=S and :sweeps=K (and :NAME=VALUE \
+                 for a .pde file's parameters), got {opt:?}"
             )
         };
         for opt in parts {
@@ -165,6 +186,12 @@ impl PnPoint {
                     );
                     step = Some(x);
                 }
+                "sweeps" => {
+                    let n: usize = v
+                        .parse()
+                        .with_context(|| format!("pn point {s:?}: sweeps must be an integer"))?;
+                    sweeps = Some(n);
+                }
                 _ if pde_file.is_some() => {
                     ensure!(
                         !key.is_empty() && !v.is_empty(),
@@ -181,6 +208,7 @@ impl PnPoint {
                 solve_res: 0,
                 rays,
                 step,
+                sweeps,
                 pde: None,
             });
         }
@@ -205,12 +233,25 @@ impl PnPoint {
             "cda" => Family::Cda,
             "fld" => Family::Fld,
             "pop" => Family::Pop,
+            _ if f.starts_with("sn") => {
+                let l = f[2..].parse::<usize>().with_context(|| {
+                    format!("pn point {s:?}: sN needs the sweeps' order, e.g. sn5")
+                })?;
+                ensure!(
+                    (1..=15).contains(&l),
+                    "pn point {s:?}: the sweeps' order {l} outside 1..=15"
+                );
+                Family::Sn(l)
+            }
             _ => {
                 let n = f
                     .strip_prefix('p')
                     .and_then(|n| n.parse::<usize>().ok())
                     .with_context(|| {
-                        format!("pn point {s:?}: the method is cda, fld, pop or pN (p1, p3, p5, …)")
+                        format!(
+                            "pn point {s:?}: the method is cda, fld, pop, pN (p1, p3, p5, …) or \
+                             snL (sn5: accelerated S_N)"
+                        )
                     })?;
                 ensure!(
                     (1..=60).contains(&n),
@@ -231,6 +272,7 @@ impl PnPoint {
             solve_res,
             rays,
             step,
+            sweeps,
             pde,
         })
     }
@@ -242,6 +284,7 @@ impl PnPoint {
             Family::Cda => format!("cda@{}", self.solve_res),
             Family::Fld => format!("fld@{}", self.solve_res),
             Family::Pn(n) => format!("p{n}@{}", self.solve_res),
+            Family::Sn(n) => format!("sn{n}@{}", self.solve_res),
             Family::Pop => format!("pop@{}", self.solve_res),
             Family::Pde => {
                 let pde = self.pde.as_ref();
@@ -262,6 +305,9 @@ impl PnPoint {
         if let Some(x) = self.step {
             s += &format!(":step={x}");
         }
+        if let Some(k) = self.sweeps {
+            s += &format!(":sweeps={k}");
+        }
         s
     }
 
@@ -272,6 +318,7 @@ impl PnPoint {
             Family::Cda => "cda".into(),
             Family::Fld => "fld".into(),
             Family::Pn(n) => format!("p{n}"),
+            Family::Sn(n) => format!("sn{n}"),
             Family::Pop => "pop".into(),
             Family::Pde => format!(
                 "pde:{}",
@@ -308,6 +355,9 @@ impl PnPoint {
         }
         if let Some(x) = self.step {
             v.extend(["--step".to_string(), x.to_string()]);
+        }
+        if let Some(k) = self.sweeps {
+            v.extend(["--set".to_string(), format!("solve.sweeps={k}")]);
         }
         v
     }
@@ -506,6 +556,16 @@ mod tests {
         assert_eq!(p.label(), "p3@32:rays=1:step=0.25");
         assert_eq!(p.folder(), "p3_32_rays1_step0.25");
         assert_eq!(p.render_args(), ["--rays", "1", "--step", "0.25"]);
+        let p = PnPoint::parse("SN5@24:rays=1:sweeps=3").unwrap();
+        assert_eq!((p.family, p.sweeps), (Family::Sn(5), Some(3)));
+        assert_eq!(p.label(), "sn5@24:rays=1:sweeps=3");
+        assert_eq!(PnPoint::parse(&p.label()).unwrap(), p);
+        assert_eq!((p.family.method(), p.family.order()), ("sn", Some(5)));
+        assert_eq!(p.render_args(), ["--rays", "1", "--set", "solve.sweeps=3"]);
+        assert!(p
+            .method_args()
+            .windows(2)
+            .any(|w| w == ["--set", "solve.sweep_order=5"]));
         for bad in [
             "p5",
             "q3@24",
@@ -516,6 +576,9 @@ mod tests {
             "p5@24:rays=0",
             "p5@24:step=-1",
             "p5@24:spp=3",
+            "sn@24",
+            "sn16@24",
+            "sn5@24:sweeps=-1",
         ] {
             assert!(PnPoint::parse(bad).is_err(), "{bad}");
         }

@@ -256,6 +256,7 @@ fn render_images(
         step: r.step,
         cutoff: r.cutoff,
         exact_transmittance: r.exact_transmittance,
+        sky_grid: r.sky_grid,
     };
     let marcher = light_depth.map(|ld| {
         Marcher::new(scene, density, ms, ld, settings)

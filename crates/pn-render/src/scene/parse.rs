@@ -132,6 +132,7 @@ struct RenderToml {
     cutoff: Option<f64>,
     exact_transmittance: Option<bool>,
     hide_emitters: Option<bool>,
+    sky_grid: Option<f64>,
     ms_lookup: Option<MsLookup>,
 }
 
@@ -537,6 +538,7 @@ pub(super) fn build(t: SceneToml, base: &Path) -> anyhow::Result<RenderScene> {
         exact_transmittance: r.exact_transmittance.unwrap_or(false),
         ms_lookup: r.ms_lookup.unwrap_or_default(),
         hide_emitters: r.hide_emitters.unwrap_or(false),
+        sky_grid: r.sky_grid.unwrap_or(DEFAULT_SKY_GRID),
     };
     render.validate().context("[render]")?;
     Ok(RenderScene {

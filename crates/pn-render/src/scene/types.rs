@@ -398,6 +398,10 @@ pub struct RenderSettings {
     /// Lights are not seen directly (Mitsuba volpath's `hide_emitters`): the sky behind and
     /// around the medium is black, only the light the medium scatters is shown.
     pub hide_emitters: bool,
+    /// Node spacing, in voxel sides, of the grid on which the deterministic renderer
+    /// tabulates the sky's single scattering once per view (docs/sky.md); 0: every sky
+    /// light at every step of every ray.
+    pub sky_grid: f64,
 }
 
 /// How the renderers read the un-staggered solution L_l^m between solve-cell centres
@@ -418,6 +422,13 @@ pub enum MsLookup {
 pub const DEFAULT_RAYS: usize = 4;
 /// Default step of the deterministic renderer (voxel sides).
 pub const DEFAULT_STEP: f64 = 0.5;
+
+/// Default `[render] sky_grid` (voxel sides between the nodes of the sky's single-scattering
+/// grid; docs/sky.md measures it).
+pub const DEFAULT_SKY_GRID: f64 = 1.0;
+
+/// Largest `[render] sky_grid`.
+pub const MAX_SKY_GRID: f64 = 16.0;
 /// Default transmittance cutoff of the deterministic renderer.
 pub const DEFAULT_CUTOFF: f64 = 1e-4;
 /// Most camera rays per pixel (16×16).

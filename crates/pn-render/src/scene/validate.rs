@@ -142,7 +142,8 @@ impl SolveSettings {
 
 impl RenderSettings {
     /// Checks the sample count, the ray count (a square number in 1..=[`MAX_RAYS`]), the
-    /// step (in [`STEP_RANGE`]) and the cutoff (in [0, 1)).
+    /// step (in [`STEP_RANGE`]), the cutoff (in [0, 1)) and the sky grid (in [0,
+    /// [`MAX_SKY_GRID`]]).
     pub fn validate(&self) -> anyhow::Result<()> {
         ensure!(
             (1..=MAX_SPP).contains(&self.spp),
@@ -166,6 +167,12 @@ impl RenderSettings {
             self.cutoff.is_finite() && (0.0..1.0).contains(&self.cutoff),
             "cutoff (transmittance at which a ray stops) must lie in [0, 1), got {}",
             self.cutoff
+        );
+        ensure!(
+            self.sky_grid.is_finite() && (0.0..=MAX_SKY_GRID).contains(&self.sky_grid),
+            "sky_grid (voxel sides between the nodes of the sky's single-scattering grid; 0: \
+             every sky light at every step) must lie in [0, {MAX_SKY_GRID}], got {}",
+            self.sky_grid
         );
         Ok(())
     }
