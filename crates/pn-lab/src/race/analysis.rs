@@ -158,6 +158,7 @@ pub fn family_name(fam: &str) -> String {
         "fld" => "pn FLD".into(),
         "pop" => "pn POP".into(),
         f if f.starts_with("pde:") => format!("pn PDE {}", &f[4..]),
+        f if f.starts_with("sn") => format!("pn DSA S_N L={}", &f[2..]),
         f => match f.strip_prefix('p') {
             Some(n) => format!("pn P_{n}"),
             None => f.into(),
@@ -300,7 +301,7 @@ mod tests {
 
     #[test]
     fn family_names_are_readable() {
-        let names: Vec<String> = ["p5", "cda", "fld", "pop", "none", "pde:fpn N=5"]
+        let names: Vec<String> = ["p5", "cda", "fld", "pop", "none", "pde:fpn N=5", "sn5"]
             .into_iter()
             .map(family_name)
             .collect();
@@ -312,7 +313,8 @@ mod tests {
                 "pn FLD",
                 "pn POP",
                 "pn single scattering",
-                "pn PDE fpn N=5"
+                "pn PDE fpn N=5",
+                "pn DSA S_N L=5"
             ]
         );
     }
