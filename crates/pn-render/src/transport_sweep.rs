@@ -201,31 +201,7 @@ pub fn transport_sweeps_to_band(
             .collect();
         let last_wide = s + 1 == settings.sweeps && out_lmax > lmax;
         let width = if last_wide { nw } else { na };
-        // The octants in one group per worker, each group into one accumulator (summed at
-        // the end): an accumulator per octant faulted in a fresh multi-megabyte buffer per
-        // octant and made the accelerated sweeps of docs/sky.md slower on two threads than
-        // on one (3 sweeps at L = 5, 24³: 0.39 s; 0.31 s now, 0.28 s sequential; plain
-        // sweeps: 0.14 s, 0.18 s sequential).
-        let per_worker = octants.len().div_ceil(rayon::current_num_threads().max(1));
-        let swept = octants
-            .par_iter()
-            .with_min_len(per_worker)
-            .fold(
-                || vec![0.0; n * width],
-                |mut acc, oct| {
-                    sweep_grid.sweep_octant(oct, &e, last_wide, &mut acc);
-                    acc
-                },
-            )
-            .reduce(
-                || vec![0.0; n * width],
-                |mut a, b| {
-                    for (x, y) in a.iter_mut().zip(&b) {
-                        *x += y;
-                    }
-                    a
-                },
-            );
+        let swept = sweep_grid.sweep_all(&octants, &e, last_wide, n * width);
         if last_wide {
             l_wide = swept;
         } else {
@@ -371,6 +347,35 @@ struct SweepGrid<'a> {
 }
 
 impl SweepGrid<'_> {
+    /// Sweeps every octant with the emission moments `e` and sums their contributions to
+    /// the `len` output moments ([`Self::sweep_octant`]). The octants go in one group per
+    /// worker, each group into one accumulator (summed at the end): an accumulator per
+    /// octant faulted in a fresh multi-megabyte buffer per octant and made the accelerated
+    /// sweeps of docs/sky.md slower on two threads than on one (3 sweeps at L = 5, 24³:
+    /// 0.39 s; 0.31 s now, 0.28 s sequential; plain sweeps 0.14 s, 0.18 s sequential).
+    fn sweep_all(&self, octants: &[Octant], e: &[f64], wide: bool, len: usize) -> Vec<f64> {
+        let per_worker = octants.len().div_ceil(rayon::current_num_threads().max(1));
+        octants
+            .par_iter()
+            .with_min_len(per_worker)
+            .fold(
+                || vec![0.0; len],
+                |mut acc, oct| {
+                    self.sweep_octant(oct, e, wide, &mut acc);
+                    acc
+                },
+            )
+            .reduce(
+                || vec![0.0; len],
+                |mut a, b| {
+                    for (x, y) in a.iter_mut().zip(&b) {
+                        *x += y;
+                    }
+                    a
+                },
+            )
+    }
+
     /// Sweeps the directions of `oct` with the emission moments `e` (`na` per cell) and
     /// adds their contribution `Σ_k w_k L'(ω_k) Y(ω_k)` to the moments in `acc`: the active
     /// ones, or with `wide` all those up to the output band.
