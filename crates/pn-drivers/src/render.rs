@@ -307,13 +307,17 @@ pub fn run(a: &RenderRequest, stdout: &mut dyn Write) -> Result<()> {
     let mut run = match &a.distributed {
         None => render_views(&scene, &options, a.turntable.unwrap_or(1))?,
         Some(d) => {
-            // Every process runs the render's solves together; process 0 renders on.
+            // Every process runs the render's solves together (they are collective); the
+            // others render 1×1-pixel images, only process 0's are of use.
             let mut done = None;
+            let mut one_pixel = scene.clone();
+            (one_pixel.camera.width, one_pixel.camera.height) = (1, 1);
             crate::solve_distributed::run_render(d, &mut |solver, root| {
                 let mut o = options.clone();
                 o.linear_solver = Some(solver);
                 o.progress &= root;
-                let run = render_views(&scene, &o, a.turntable.unwrap_or(1))?;
+                let here = if root { &scene } else { &one_pixel };
+                let run = render_views(here, &o, a.turntable.unwrap_or(1))?;
                 if root {
                     done = Some(run);
                 }
