@@ -90,6 +90,19 @@ fn bad_input_is_refused_with_the_field() {
     assert!(e.contains("irradiance"), "{e}");
     let e = err(&MINIMAL.replace("fov = 40.0", "fov = \"wide\""));
     assert!(e.contains("line 15, column 7"), "{e}");
+    for bad in ["-1", "nan", "17", "inf"] {
+        let e = format!(
+            "{:#}",
+            with_sets(&[&format!("render.sky_grid={bad}")]).unwrap_err()
+        );
+        assert!(
+            e.contains("[render]") && e.contains("sky_grid"),
+            "{bad}: {e}"
+        );
+    }
+    let ok = with_sets(&["render.sky_grid=0"]).unwrap();
+    assert_eq!(ok.render.sky_grid, 0.0);
+    assert_eq!(parse(MINIMAL).unwrap().render.sky_grid, DEFAULT_SKY_GRID);
 }
 
 fn with_sets(sets: &[&str]) -> anyhow::Result<RenderScene> {
