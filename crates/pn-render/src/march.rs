@@ -53,7 +53,10 @@
 //! `cutoff`; the light not collected is `∫_rest T σ_s S dt ≤ cutoff · max_x(albedo·S)`
 //! (T ≤ cutoff on the rest, and ∫ T σ_t dt ≤ T at the stop), e.g. ≤ 10⁻⁴ of the brightest
 //! in-scattered radiance with the default cutoff 10⁻⁴ — for an optically thick cloud whose
-//! pixels are ≈ albedo·S of its surface, a relative loss of order 10⁻⁴.
+//! pixels are ≈ albedo·S of its surface, a relative loss of order 10⁻⁴. (4) The sky grid:
+//! a sky's K lights are not summed at every step but read from a per-view grid of their
+//! sum ([`SkyView`], `sky_grid` voxel sides apart; 0 sums them at every step), an
+//! interpolation error of O(h²) in the grid's spacing (docs/sky.md).
 
 use super::camera::Camera;
 use super::light_depth::LightDepth;
