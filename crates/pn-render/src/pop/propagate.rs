@@ -7,6 +7,11 @@
 //! `(k·ny + j)·nx + i`, so that a plane k ⟂ d is one contiguous slice: the unit of rayon
 //! parallelism). It covers the given box (the medium's support) in the frame (u, v, d).
 //!
+//! **Other grids.** The iteration itself ([`propagate_on`]) needs only each cell's six
+//! neighbours and which of its patches points at each ([`Stencil`]) and per cell and
+//! patch the halves of the two factors below ([`Halves`]): a point light's radial grid
+//! ([`super::radial`]) is the second implementation, with its own half-steps.
+//!
 //! **One iteration** (Eq. 5–6, gathering): every destination cell sums what its six
 //! neighbours send it, `ΔL = L_src · frac · T_src→dst` with `frac` the source's patch
 //! fraction towards dst ([`super::hg_patch::Patches`]), and takes the ΔL-weighted mean of
@@ -57,7 +62,7 @@ pub struct LightGrid {
     pub h: f64,
 }
 
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+pub(crate) fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
@@ -72,6 +77,20 @@ fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
 fn normalized(a: [f64; 3]) -> [f64; 3] {
     let n = dot(a, a).sqrt();
     a.map(|c| c / n)
+}
+
+/// An orthonormal frame (u, v, d) with d = `direction` normalised (non-zero, finite): u ⟂ d
+/// from the world axis least aligned with d, v = d × u.
+pub fn frame(direction: [f64; 3]) -> [[f64; 3]; 3] {
+    let d = normalized(direction);
+    let a = (0..3)
+        .min_by(|&x, &y| d[x].abs().total_cmp(&d[y].abs()))
+        .unwrap_or(0);
+    let mut e = [0.0; 3];
+    e[a] = 1.0;
+    let u = normalized(cross(d, e));
+    let v = cross(d, u);
+    [u, v, d]
 }
 
 impl LightGrid {
@@ -95,16 +114,7 @@ impl LightGrid {
             "POP: the box {lo:?} to {hi:?} is not a finite box"
         );
         ensure!(resolution > 0, "POP: the grid resolution must be positive");
-        let d = normalized(direction);
-        // u ⟂ d from the world axis least aligned with d.
-        let a = (0..3)
-            .min_by(|&x, &y| d[x].abs().total_cmp(&d[y].abs()))
-            .unwrap_or(0);
-        let mut e = [0.0; 3];
-        e[a] = 1.0;
-        let u = normalized(cross(d, e));
-        let v = cross(d, u);
-        let axes = [u, v, d];
+        let axes = frame(direction);
         let mut pmin = [f64::INFINITY; 3];
         let mut pmax = [f64::NEG_INFINITY; 3];
         for c in 0..8 {
@@ -283,17 +293,115 @@ pub fn propagate_scheduled(
     lmax: usize,
     schedule: Schedule,
 ) -> anyhow::Result<Propagated> {
-    check_inputs(grid, medium, source, initial_anisotropy, schedule)?;
-    let n = grid.cells();
+    check_inputs(grid.cells(), medium, source, initial_anisotropy, schedule)?;
     let h = grid.h;
     let g = medium.g;
-    // Per-cell halves of Eq. 2's transmittance and Eq. 4's factor (module docs).
-    let t_half: Vec<f64> = medium
+    // Per-cell halves of Eq. 2's transmittance and Eq. 4's factor (module docs): the same
+    // half length h/2 towards every neighbour.
+    let t: Vec<[f64; 3]> = medium
         .sigma_a
         .iter()
-        .map(|s| (-0.5 * s * h).exp())
+        .map(|s| [(-0.5 * s * h).exp(); 3])
         .collect();
-    let g_half: Vec<f64> = medium.sigma_s.iter().map(|s| g.powf(0.5 * s * h)).collect();
+    let gh: Vec<[f64; 3]> = medium
+        .sigma_s
+        .iter()
+        .map(|s| [g.powf(0.5 * s * h); 3])
+        .collect();
+    let halves = Halves { t, g: gh };
+    propagate_on(
+        grid,
+        &halves,
+        h * h,
+        source,
+        initial_anisotropy,
+        lmax,
+        schedule,
+    )
+}
+
+/// The neighbourhood of a propagation grid: cells stored in planes of [`Stencil::plane`]
+/// contiguous cells (the unit of parallelism), each with six neighbours that its lobe's
+/// front, side or back patch points at. The light-aligned [`LightGrid`] and the radial grid
+/// of a point light ([`super::radial::RadialGrid`]) are the two implementations.
+pub trait Stencil: Sync {
+    /// Number of cells.
+    fn cells(&self) -> usize;
+    /// Cells per plane (`cells()` is a multiple of it).
+    fn plane(&self) -> usize;
+    /// The six neighbours of cell `c` as (neighbour, or None where the patch leaves the
+    /// grid; which patch of `c` points at it: [`FRONT`], [`SIDE`] or [`BACK`]), in the order
+    /// front, back, then the four sides. The relation must be symmetric (n lists c with the
+    /// opposite patch whenever c lists n), so that what is sent is what is gathered.
+    fn neighbours(&self, c: usize) -> [(Option<usize>, u8); 6];
+}
+
+/// The patch towards the neighbour in front (along the principal direction).
+pub const FRONT: u8 = 0;
+/// A patch towards one of the four side neighbours.
+pub const SIDE: u8 = 1;
+/// The patch towards the neighbour behind.
+pub const BACK: u8 = 2;
+
+impl Stencil for LightGrid {
+    fn cells(&self) -> usize {
+        LightGrid::cells(self)
+    }
+
+    fn plane(&self) -> usize {
+        self.res[0] * self.res[1]
+    }
+
+    #[inline]
+    fn neighbours(&self, c: usize) -> [(Option<usize>, u8); 6] {
+        let [nx, ny, nz] = self.res;
+        let plane = nx * ny;
+        let (k, o) = (c / plane, c % plane);
+        let (i, j) = (o % nx, o / nx);
+        let at = |ok: bool, ii: usize, jj: usize, kk: usize| ok.then(|| self.index(ii, jj, kk));
+        [
+            (at(k + 1 < nz, i, j, k + 1), FRONT),
+            (at(k > 0, i, j, k.wrapping_sub(1)), BACK),
+            (at(i + 1 < nx, i + 1, j, k), SIDE),
+            (at(i > 0, i.wrapping_sub(1), j, k), SIDE),
+            (at(j + 1 < ny, i, j + 1, k), SIDE),
+            (at(j > 0, i, j.wrapping_sub(1), k), SIDE),
+        ]
+    }
+}
+
+/// Per cell and patch ([`FRONT`], [`SIDE`], [`BACK`]) the halves of Eq. 2's transmittance
+/// `exp(−σ_a ℓ)` and of Eq. 4's factor `g^{σ_s ℓ}`, ℓ the distance from the cell's centre
+/// to its face on that side: the factor between two neighbours is the product of their
+/// halves (the mean coefficients of the two cells over the centre distance).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Halves {
+    /// `exp(−σ_a ℓ)` per cell and patch.
+    pub t: Vec<[f64; 3]>,
+    /// `g^{σ_s ℓ}` per cell and patch.
+    pub g: Vec<[f64; 3]>,
+}
+
+/// The iteration of [`propagate_scheduled`] on any [`Stencil`]: `source` holds the initial
+/// magnitudes, `power` converts a sum of magnitudes into power for the bookkeeping (h² on
+/// the light-aligned grid, 1 where the magnitudes are powers already).
+pub fn propagate_on<S: Stencil>(
+    grid: &S,
+    halves: &Halves,
+    power: f64,
+    source: &[f64],
+    initial_anisotropy: f64,
+    lmax: usize,
+    schedule: Schedule,
+) -> anyhow::Result<Propagated> {
+    let n = grid.cells();
+    ensure!(
+        source.len() == n && halves.t.len() == n && halves.g.len() == n,
+        "POP: source ({}) and halves ({} / {}) do not fit the grid's {n} cells",
+        source.len(),
+        halves.t.len(),
+        halves.g.len()
+    );
     let nb = lmax + 1;
     let mut bands = vec![0.0; n * nb];
     let mut l_cur = source.to_vec();
@@ -301,10 +409,8 @@ pub fn propagate_scheduled(
     accumulate(&mut bands, &l_cur, &a_cur, nb, 0.5);
     let mut l_next = vec![0.0; n];
     let mut a_next = vec![0.0; n];
-    let power = h * h;
     let injected = sum(&l_cur) * power;
-    let [nx, ny, _] = grid.res;
-    let plane = nx * ny;
+    let plane = grid.plane();
     let mut energy = Vec::new();
     let mut patches = vec![Patches::of(initial_anisotropy); n];
     let mut residuum: Option<ResiduumInfo> = None;
@@ -351,8 +457,7 @@ pub fn propagate_scheduled(
             l: &l_cur,
             a: &a_cur,
             patches: &patches,
-            t_half: &t_half,
-            g_half: &g_half,
+            halves,
         };
         let sums: Vec<(f64, f64, f64)> = l_next
             .par_chunks_mut(plane)
@@ -361,22 +466,21 @@ pub fn propagate_scheduled(
             .enumerate()
             .map(|(k, ((lp, ap), bp))| {
                 let (mut inflight, mut left, mut absorbed) = (0.0, 0.0, 0.0);
-                for j in 0..ny {
-                    for i in 0..nx {
-                        let (l, a) = cur.gather(grid, i, j, k);
-                        let o = j * nx + i;
-                        lp[o] = l;
-                        ap[o] = a;
-                        inflight += l;
-                        let mut p = 1.0;
-                        for b in &mut bp[o * nb..(o + 1) * nb] {
-                            *b += l * p;
-                            p *= a;
-                        }
-                        let (lf, ab) = cur.send(grid, i, j, k);
-                        left += lf;
-                        absorbed += ab;
+                for o in 0..plane {
+                    let c = k * plane + o;
+                    let nbrs = grid.neighbours(c);
+                    let (l, a) = cur.gather(c, &nbrs);
+                    lp[o] = l;
+                    ap[o] = a;
+                    inflight += l;
+                    let mut p = 1.0;
+                    for b in &mut bp[o * nb..(o + 1) * nb] {
+                        *b += l * p;
+                        p *= a;
                     }
+                    let (lf, ab) = cur.send(c, &nbrs);
+                    left += lf;
+                    absorbed += ab;
                 }
                 (inflight, left, absorbed)
             })
@@ -408,8 +512,8 @@ pub fn propagate_scheduled(
 /// The checks of [`propagate_scheduled`]'s inputs: the schedule's settings, the medium and
 /// source on the grid's cells, g and the initial anisotropy in range, finite non-negative
 /// values.
-fn check_inputs(
-    grid: &LightGrid,
+pub(crate) fn check_inputs(
+    n: usize,
     medium: &PopMedium,
     source: &[f64],
     initial_anisotropy: f64,
@@ -430,7 +534,6 @@ fn check_inputs(
             "POP: {anisotropic} anisotropic iterations exceed the cap of {max_total}"
         );
     }
-    let n = grid.cells();
     ensure!(
         medium.sigma_s.len() == n && medium.sigma_a.len() == n && source.len() == n,
         "POP: medium ({} / {}) and source ({}) do not fit the grid's {n} cells",
@@ -514,49 +617,36 @@ struct Buffers<'a> {
     l: &'a [f64],
     a: &'a [f64],
     patches: &'a [Patches],
-    t_half: &'a [f64],
-    g_half: &'a [f64],
+    halves: &'a Halves,
 }
 
 impl Buffers<'_> {
-    /// The six neighbours of (i, j, k) as (neighbour index or None outside, which patch of
-    /// the *source* (i, j, k) points at it): 0 front (k+1), 1 side, 2 back (k−1).
+    /// Eq. 5–6 for destination `dst` with neighbours `nbrs` ([`Stencil::neighbours`]): the
+    /// gathered magnitude and anisotropy.
     #[inline]
-    fn neighbours(grid: &LightGrid, i: usize, j: usize, k: usize) -> [(Option<usize>, u8); 6] {
-        let [nx, ny, nz] = grid.res;
-        let at = |ok: bool, ii: usize, jj: usize, kk: usize| ok.then(|| grid.index(ii, jj, kk));
-        [
-            (at(k + 1 < nz, i, j, k + 1), 0),
-            (at(k > 0, i, j, k.wrapping_sub(1)), 2),
-            (at(i + 1 < nx, i + 1, j, k), 1),
-            (at(i > 0, i.wrapping_sub(1), j, k), 1),
-            (at(j + 1 < ny, i, j + 1, k), 1),
-            (at(j > 0, i, j.wrapping_sub(1), k), 1),
-        ]
-    }
-
-    /// Eq. 5–6 for destination (i, j, k): the gathered magnitude and anisotropy.
-    #[inline]
-    fn gather(&self, grid: &LightGrid, i: usize, j: usize, k: usize) -> (f64, f64) {
-        let dst = grid.index(i, j, k);
+    fn gather(&self, dst: usize, nbrs: &[(Option<usize>, u8); 6]) -> (f64, f64) {
         let (mut l, mut la) = (0.0, 0.0);
-        // Seen from the destination, the neighbour at k−1 sends its *front* patch, the one
-        // at k+1 its *back* patch, the four others a side patch.
-        for (src, which) in Self::neighbours(grid, i, j, k) {
+        // Seen from the destination, the neighbour in front of it sends its *back* patch,
+        // the one behind it its *front* patch, the four others a side patch; each crosses
+        // its own half towards dst and dst's half towards it.
+        for &(src, which) in nbrs {
             let Some(s) = src else { continue };
             let ls = self.l[s];
             if ls == 0.0 {
                 continue;
             }
             let p = &self.patches[s];
+            let back = (BACK - which) as usize;
             let frac = match which {
-                0 => p.back,  // src in front of dst: dst is behind src
-                2 => p.front, // src behind dst: dst is in front of src
+                FRONT => p.back, // src in front of dst: dst is behind src
+                BACK => p.front, // src behind dst: dst is in front of src
                 _ => p.side,
             };
-            let dl = ls * frac * self.t_half[s] * self.t_half[dst];
+            let (ts, td) = (self.halves.t[s][back], self.halves.t[dst][which as usize]);
+            let dl = ls * frac * ts * td;
             l += dl;
-            la += dl * self.a[s] * self.g_half[s] * self.g_half[dst];
+            let (gs, gd) = (self.halves.g[s][back], self.halves.g[dst][which as usize]);
+            la += dl * self.a[s] * gs * gd;
         }
         let a = if l > 0.0 {
             (la / l).clamp(0.0, 1.0)
@@ -566,24 +656,25 @@ impl Buffers<'_> {
         (l, a)
     }
 
-    /// What source (i, j, k) sends out of the grid and what is absorbed on its six ways.
+    /// What source `src` sends out of the grid and what is absorbed on its six ways.
     #[inline]
-    fn send(&self, grid: &LightGrid, i: usize, j: usize, k: usize) -> (f64, f64) {
-        let src = grid.index(i, j, k);
+    fn send(&self, src: usize, nbrs: &[(Option<usize>, u8); 6]) -> (f64, f64) {
         let ls = self.l[src];
         if ls == 0.0 {
             return (0.0, 0.0);
         }
         let p = &self.patches[src];
         let (mut left, mut absorbed) = (0.0, 0.0);
-        for (dst, which) in Self::neighbours(grid, i, j, k) {
+        for &(dst, which) in nbrs {
             let frac = match which {
-                0 => p.front,
-                2 => p.back,
+                FRONT => p.front,
+                BACK => p.back,
                 _ => p.side,
             };
             let sent = ls * frac;
-            let t = self.t_half[src] * dst.map_or(1.0, |d| self.t_half[d]);
+            let back = (BACK - which) as usize;
+            let t =
+                self.halves.t[src][which as usize] * dst.map_or(1.0, |d| self.halves.t[d][back]);
             if dst.is_none() {
                 left += sent * t;
             }
