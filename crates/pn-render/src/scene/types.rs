@@ -110,7 +110,8 @@ pub enum RenderMethod {
     Cda,
     /// Flux-limited diffusion.
     Fld,
-    /// Principal-Ordinates Propagation, directional lights (issue 20; [`crate::pop`]).
+    /// Principal-Ordinates Propagation, directional and point lights (issues 20, 52;
+    /// [`crate::pop`]).
     Pop,
     /// Single scattering only.
     None,
