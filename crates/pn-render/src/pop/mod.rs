@@ -479,9 +479,9 @@ pub fn solve_light(
     };
     let t0 = Instant::now();
     let grid = LightGrid::around_box(direction, lo, hi, settings.resolution)?;
-    // Per cell: σ_s, σ_a, T (and its columns while sweeping), source, six halves, L and a
+    // Per cell: σ_s, σ_a, T (and its columns while sweeping), source, two halves, L and a
     // twice, three patch fractions and lmax + 1 band amplitudes (f64 each).
-    let bytes = grid.cells() as u128 * 8 * (18 + settings.lmax as u128 + 1);
+    let bytes = grid.cells() as u128 * 8 * (14 + settings.lmax as u128 + 1);
     let limit = pn_runtime::memory_estimate::default_limit_bytes() as u128;
     ensure!(
         bytes <= limit,

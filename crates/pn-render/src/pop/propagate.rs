@@ -9,8 +9,9 @@
 //!
 //! **Other grids.** The iteration itself ([`propagate_on`]) needs only each cell's six
 //! neighbours and which of its patches points at each ([`Stencil`]) and per cell and
-//! patch the halves of the two factors below ([`Halves`]): a point light's radial grid
-//! ([`super::radial`]) is the second implementation, with its own half-steps.
+//! patch the halves of the two factors below ([`HalfSteps`]): a point light's radial grid
+//! ([`super::radial`]) is the second implementation, with its own half-steps per patch
+//! ([`Halves`]).
 //!
 //! **One iteration** (Eq. 5–6, gathering): every destination cell sums what its six
 //! neighbours send it, `ΔL = L_src · frac · T_src→dst` with `frac` the source's patch
@@ -298,17 +299,13 @@ pub fn propagate_scheduled(
     let g = medium.g;
     // Per-cell halves of Eq. 2's transmittance and Eq. 4's factor (module docs): the same
     // half length h/2 towards every neighbour.
-    let t: Vec<[f64; 3]> = medium
+    let t: Vec<f64> = medium
         .sigma_a
         .iter()
-        .map(|s| [(-0.5 * s * h).exp(); 3])
+        .map(|s| (-0.5 * s * h).exp())
         .collect();
-    let gh: Vec<[f64; 3]> = medium
-        .sigma_s
-        .iter()
-        .map(|s| [g.powf(0.5 * s * h); 3])
-        .collect();
-    let halves = Halves { t, g: gh };
+    let gh: Vec<f64> = medium.sigma_s.iter().map(|s| g.powf(0.5 * s * h)).collect();
+    let halves = UniformHalves { t, g: gh };
     propagate_on(
         grid,
         &halves,
@@ -320,20 +317,24 @@ pub fn propagate_scheduled(
     )
 }
 
-/// The neighbourhood of a propagation grid: cells stored in planes of [`Stencil::plane`]
-/// contiguous cells (the unit of parallelism), each with six neighbours that its lobe's
-/// front, side or back patch points at. The light-aligned [`LightGrid`] and the radial grid
-/// of a point light ([`super::radial::RadialGrid`]) are the two implementations.
+/// The neighbourhood of a propagation grid: cells (i, j, k) stored at `(k·ny + j)·nx + i`,
+/// a plane k of `nx × ny` contiguous cells being the unit of parallelism, each cell with six
+/// neighbours that its lobe's front, side or back patch points at. The light-aligned
+/// [`LightGrid`] and the radial grid of a point light ([`super::radial::RadialGrid`]) are
+/// the two implementations.
 pub trait Stencil: Sync {
+    /// Cells along the three axes (nx, ny: a plane; nz planes).
+    fn shape(&self) -> [usize; 3];
     /// Number of cells.
-    fn cells(&self) -> usize;
-    /// Cells per plane (`cells()` is a multiple of it).
-    fn plane(&self) -> usize;
-    /// The six neighbours of cell `c` as (neighbour, or None where the patch leaves the
-    /// grid; which patch of `c` points at it: [`FRONT`], [`SIDE`] or [`BACK`]), in the order
-    /// front, back, then the four sides. The relation must be symmetric (n lists c with the
-    /// opposite patch whenever c lists n), so that what is sent is what is gathered.
-    fn neighbours(&self, c: usize) -> [(Option<usize>, u8); 6];
+    fn cells(&self) -> usize {
+        self.shape().iter().product()
+    }
+    /// The six neighbours of cell (i, j, k) as (storage index, or None where the patch leaves
+    /// the grid; which patch of the cell points at it: [`FRONT`], [`SIDE`] or [`BACK`]), in
+    /// the order front, back, then the four sides. The relation must be symmetric (n lists c
+    /// with the opposite patch whenever c lists n), so that what is sent is what is
+    /// gathered.
+    fn neighbours(&self, i: usize, j: usize, k: usize) -> [(Option<usize>, u8); 6];
 }
 
 /// The patch towards the neighbour in front (along the principal direction).
@@ -344,20 +345,13 @@ pub const SIDE: u8 = 1;
 pub const BACK: u8 = 2;
 
 impl Stencil for LightGrid {
-    fn cells(&self) -> usize {
-        LightGrid::cells(self)
+    fn shape(&self) -> [usize; 3] {
+        self.res
     }
 
-    fn plane(&self) -> usize {
-        self.res[0] * self.res[1]
-    }
-
-    #[inline]
-    fn neighbours(&self, c: usize) -> [(Option<usize>, u8); 6] {
+    #[inline(always)]
+    fn neighbours(&self, i: usize, j: usize, k: usize) -> [(Option<usize>, u8); 6] {
         let [nx, ny, nz] = self.res;
-        let plane = nx * ny;
-        let (k, o) = (c / plane, c % plane);
-        let (i, j) = (o % nx, o / nx);
         let at = |ok: bool, ii: usize, jj: usize, kk: usize| ok.then(|| self.index(ii, jj, kk));
         [
             (at(k + 1 < nz, i, j, k + 1), FRONT),
@@ -370,10 +364,66 @@ impl Stencil for LightGrid {
     }
 }
 
-/// Per cell and patch ([`FRONT`], [`SIDE`], [`BACK`]) the halves of Eq. 2's transmittance
-/// `exp(−σ_a ℓ)` and of Eq. 4's factor `g^{σ_s ℓ}`, ℓ the distance from the cell's centre
-/// to its face on that side: the factor between two neighbours is the product of their
-/// halves (the mean coefficients of the two cells over the centre distance).
+/// Per cell and patch, the halves of Eq. 2's transmittance `exp(−σ_a ℓ)` and of Eq. 4's
+/// factor `g^{σ_s ℓ}`, ℓ the distance from the cell's centre to its face on that patch's
+/// side: the factor between two neighbours is the product of their halves (the mean
+/// coefficients of the two cells over the centre distance).
+pub trait HalfSteps: Sync {
+    /// Number of cells.
+    fn len(&self) -> usize;
+    /// Whether there are no cells.
+    fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+    /// `exp(−σ_a ℓ)` of cell `c` towards its patch `which`.
+    fn t(&self, c: usize, which: u8) -> f64;
+    /// `g^{σ_s ℓ}` of cell `c` towards its patch `which`.
+    fn g(&self, c: usize, which: u8) -> f64;
+}
+
+/// The same half-step towards every neighbour (the light-aligned grid: h/2).
+#[derive(Clone, Debug, PartialEq)]
+pub struct UniformHalves {
+    /// `exp(−σ_a ℓ)` per cell.
+    pub t: Vec<f64>,
+    /// `g^{σ_s ℓ}` per cell.
+    pub g: Vec<f64>,
+}
+
+impl HalfSteps for UniformHalves {
+    fn len(&self) -> usize {
+        self.t.len().min(self.g.len())
+    }
+
+    #[inline(always)]
+    fn t(&self, c: usize, _which: u8) -> f64 {
+        self.t[c]
+    }
+
+    #[inline(always)]
+    fn g(&self, c: usize, _which: u8) -> f64 {
+        self.g[c]
+    }
+}
+
+impl HalfSteps for Halves {
+    fn len(&self) -> usize {
+        self.t.len().min(self.g.len())
+    }
+
+    #[inline]
+    fn t(&self, c: usize, which: u8) -> f64 {
+        self.t[c][which as usize]
+    }
+
+    #[inline]
+    fn g(&self, c: usize, which: u8) -> f64 {
+        self.g[c][which as usize]
+    }
+}
+
+/// Per cell and patch ([`FRONT`], [`SIDE`], [`BACK`], the index) the halves of
+/// [`HalfSteps`], where the half-steps differ between the patches (the radial grid).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Halves {
     /// `exp(−σ_a ℓ)` per cell and patch.
@@ -385,9 +435,9 @@ pub struct Halves {
 /// The iteration of [`propagate_scheduled`] on any [`Stencil`]: `source` holds the initial
 /// magnitudes, `power` converts a sum of magnitudes into power for the bookkeeping (h² on
 /// the light-aligned grid, 1 where the magnitudes are powers already).
-pub fn propagate_on<S: Stencil>(
+pub fn propagate_on<S: Stencil, H: HalfSteps>(
     grid: &S,
-    halves: &Halves,
+    halves: &H,
     power: f64,
     source: &[f64],
     initial_anisotropy: f64,
@@ -396,11 +446,10 @@ pub fn propagate_on<S: Stencil>(
 ) -> anyhow::Result<Propagated> {
     let n = grid.cells();
     ensure!(
-        source.len() == n && halves.t.len() == n && halves.g.len() == n,
-        "POP: source ({}) and halves ({} / {}) do not fit the grid's {n} cells",
+        source.len() == n && halves.len() == n,
+        "POP: source ({}) and halves ({}) do not fit the grid's {n} cells",
         source.len(),
-        halves.t.len(),
-        halves.g.len()
+        halves.len()
     );
     let nb = lmax + 1;
     let mut bands = vec![0.0; n * nb];
@@ -410,7 +459,8 @@ pub fn propagate_on<S: Stencil>(
     let mut l_next = vec![0.0; n];
     let mut a_next = vec![0.0; n];
     let injected = sum(&l_cur) * power;
-    let plane = grid.plane();
+    let [nx, ny, _] = grid.shape();
+    let plane = nx * ny;
     let mut energy = Vec::new();
     let mut patches = vec![Patches::of(initial_anisotropy); n];
     let mut residuum: Option<ResiduumInfo> = None;
@@ -466,21 +516,24 @@ pub fn propagate_on<S: Stencil>(
             .enumerate()
             .map(|(k, ((lp, ap), bp))| {
                 let (mut inflight, mut left, mut absorbed) = (0.0, 0.0, 0.0);
-                for o in 0..plane {
-                    let c = k * plane + o;
-                    let nbrs = grid.neighbours(c);
-                    let (l, a) = cur.gather(c, &nbrs);
-                    lp[o] = l;
-                    ap[o] = a;
-                    inflight += l;
-                    let mut p = 1.0;
-                    for b in &mut bp[o * nb..(o + 1) * nb] {
-                        *b += l * p;
-                        p *= a;
+                for j in 0..ny {
+                    for i in 0..nx {
+                        let o = j * nx + i;
+                        let c = k * plane + o;
+                        let nbrs = grid.neighbours(i, j, k);
+                        let (l, a) = cur.gather(c, &nbrs);
+                        lp[o] = l;
+                        ap[o] = a;
+                        inflight += l;
+                        let mut p = 1.0;
+                        for b in &mut bp[o * nb..(o + 1) * nb] {
+                            *b += l * p;
+                            p *= a;
+                        }
+                        let (lf, ab) = cur.send(c, &nbrs);
+                        left += lf;
+                        absorbed += ab;
                     }
-                    let (lf, ab) = cur.send(c, &nbrs);
-                    left += lf;
-                    absorbed += ab;
                 }
                 (inflight, left, absorbed)
             })
@@ -613,17 +666,17 @@ fn accumulate(bands: &mut [f64], l: &[f64], a: &[f64], nb: usize, w: f64) {
 }
 
 /// The read-only state of one iteration.
-struct Buffers<'a> {
+struct Buffers<'a, H> {
     l: &'a [f64],
     a: &'a [f64],
     patches: &'a [Patches],
-    halves: &'a Halves,
+    halves: &'a H,
 }
 
-impl Buffers<'_> {
+impl<H: HalfSteps> Buffers<'_, H> {
     /// Eq. 5–6 for destination `dst` with neighbours `nbrs` ([`Stencil::neighbours`]): the
     /// gathered magnitude and anisotropy.
-    #[inline]
+    #[inline(always)]
     fn gather(&self, dst: usize, nbrs: &[(Option<usize>, u8); 6]) -> (f64, f64) {
         let (mut l, mut la) = (0.0, 0.0);
         // Seen from the destination, the neighbour in front of it sends its *back* patch,
@@ -636,16 +689,16 @@ impl Buffers<'_> {
                 continue;
             }
             let p = &self.patches[s];
-            let back = (BACK - which) as usize;
+            let back = BACK - which;
             let frac = match which {
                 FRONT => p.back, // src in front of dst: dst is behind src
                 BACK => p.front, // src behind dst: dst is in front of src
                 _ => p.side,
             };
-            let (ts, td) = (self.halves.t[s][back], self.halves.t[dst][which as usize]);
+            let (ts, td) = (self.halves.t(s, back), self.halves.t(dst, which));
             let dl = ls * frac * ts * td;
             l += dl;
-            let (gs, gd) = (self.halves.g[s][back], self.halves.g[dst][which as usize]);
+            let (gs, gd) = (self.halves.g(s, back), self.halves.g(dst, which));
             la += dl * self.a[s] * gs * gd;
         }
         let a = if l > 0.0 {
@@ -657,7 +710,7 @@ impl Buffers<'_> {
     }
 
     /// What source `src` sends out of the grid and what is absorbed on its six ways.
-    #[inline]
+    #[inline(always)]
     fn send(&self, src: usize, nbrs: &[(Option<usize>, u8); 6]) -> (f64, f64) {
         let ls = self.l[src];
         if ls == 0.0 {
@@ -672,9 +725,8 @@ impl Buffers<'_> {
                 _ => p.side,
             };
             let sent = ls * frac;
-            let back = (BACK - which) as usize;
-            let t =
-                self.halves.t[src][which as usize] * dst.map_or(1.0, |d| self.halves.t[d][back]);
+            let back = BACK - which;
+            let t = self.halves.t(src, which) * dst.map_or(1.0, |d| self.halves.t(d, back));
             if dst.is_none() {
                 left += sent * t;
             }

@@ -225,17 +225,12 @@ impl RadialGrid {
 }
 
 impl Stencil for RadialGrid {
-    fn cells(&self) -> usize {
-        self.map.n * self.map.n * self.shells()
-    }
-
-    fn plane(&self) -> usize {
-        self.map.n * self.map.n
+    fn shape(&self) -> [usize; 3] {
+        self.res()
     }
 
     #[inline]
-    fn neighbours(&self, c: usize) -> [(Option<usize>, u8); 6] {
-        let [i, j, k] = self.cell(c);
+    fn neighbours(&self, i: usize, j: usize, k: usize) -> [(Option<usize>, u8); 6] {
         let s = self.map.neighbours(i, j);
         [
             (
@@ -461,7 +456,7 @@ pub fn solve_point_light(
     let t0 = Instant::now();
     let grid = RadialGrid::around_box(position, lo, hi, settings.resolution, shells)?;
     let cells = Stencil::cells(&grid);
-    // As the light-aligned grid (super::solve_light), plus the cross-sections.
+    // As the light-aligned grid (super::solve_light), with six halves instead of two.
     let bytes = cells as u128 * 8 * (19 + settings.lmax as u128 + 1);
     let limit = pn_runtime::memory_estimate::default_limit_bytes() as u128;
     ensure!(
