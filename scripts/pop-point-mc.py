@@ -10,6 +10,12 @@ emitted uniformly into the cone about +z that holds the cube (half-angle atan(sq
 sum_c A_0,c V_c over its radial grid's cells.
 
     python3 scripts/pop-point-mc.py [photons] [seed]
+
+With `ball` first: scenes/sphere.toml's ball (radius 0.8, sigma_t = 5, albedo 0.8, isotropic
+phase) lit by a point light of power 20 at its centre; prints the once-scattered power, and
+of it the power absorbed after further collisions and the power that escapes.
+
+    python3 scripts/pop-point-mc.py ball [photons] [seed]
 """
 import math
 import random
@@ -53,9 +59,52 @@ def slab(x, w):
     return t0, t1
 
 
+def isotropic(rng):
+    """A uniformly distributed unit vector."""
+    z = 1.0 - 2.0 * rng.random()
+    r = math.sqrt(max(0.0, 1.0 - z * z))
+    p = 2.0 * math.pi * rng.random()
+    return (r * math.cos(p), r * math.sin(p), z)
+
+
+def ball(n, rng):
+    """The light at the centre of scenes/sphere.toml's ball: collided absorbed and escaping."""
+    radius, sigma, albedo, power = 0.8, 5.0, 0.8, 20.0
+    once, absorbed = 0, 0
+    for _ in range(n):
+        s = -math.log(1.0 - rng.random()) / sigma
+        if s > radius or rng.random() >= albedo:
+            continue  # uncollided, or absorbed at the first collision
+        once += 1
+        x = tuple(s * c for c in isotropic(rng))
+        w = isotropic(rng)
+        while True:
+            step = -math.log(1.0 - rng.random()) / sigma
+            b = sum(x[q] * w[q] for q in range(3))
+            c = sum(v * v for v in x) - radius * radius
+            if step >= -b + math.sqrt(max(0.0, b * b - c)):
+                break  # escapes
+            x = tuple(x[q] + step * w[q] for q in range(3))
+            if rng.random() >= albedo:
+                absorbed += 1
+                break
+            w = isotropic(rng)
+    exact = power * albedo * (1.0 - math.exp(-sigma * radius))
+    print(f"photons {n}: once-scattered power {power * once / n:.4f} (exact {exact:.4f})")
+    print(f"absorbed after further collisions {power * absorbed / n:.4f}, "
+          f"escaping {power * (once - absorbed) / n:.4f}")
+
+
 def main():
-    n = int(sys.argv[1]) if len(sys.argv) > 1 else 200000
-    rng = random.Random(int(sys.argv[2]) if len(sys.argv) > 2 else 1)
+    args = sys.argv[1:]
+    is_ball = bool(args) and args[0] == "ball"
+    if is_ball:
+        args = args[1:]
+    n = int(args[0]) if args else 200000
+    rng = random.Random(int(args[1]) if len(args) > 1 else 1)
+    if is_ball:
+        ball(n, rng)
+        return
     cos_max = math.cos(math.atan(math.sqrt(0.5) / 1.5))
     weight = POWER * (1.0 - cos_max) / 2.0  # the cone's share of the sphere, times Phi
     total, total2, collided = 0.0, 0.0, 0

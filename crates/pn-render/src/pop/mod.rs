@@ -249,7 +249,11 @@ pub struct PopLightReport {
 pub struct RadialReport {
     /// The light's position.
     pub position: [f64; 3],
-    /// Radius of the innermost shell's inner face (the distance to the medium's box).
+    /// Whether the light lies inside (or on) the medium's box: the innermost shell then
+    /// stands for the ball down to the light.
+    pub inside: bool,
+    /// Radius of the innermost shell's inner face (the distance to the medium's box, or for
+    /// a light inside it half the smallest voxel side).
     pub r_min: f64,
     /// Radius of the outermost shell's outer face.
     pub r_max: f64,
@@ -720,6 +724,7 @@ pub fn point_report(light: usize, sol: &radial::PointSolution) -> PopLightReport
     r.subsamples = sol.subsamples;
     r.radial = Some(RadialReport {
         position: grid.position,
+        inside: grid.inside,
         r_min: grid.radii[0],
         r_max: grid.radii[shells],
         shells,

@@ -90,6 +90,9 @@ pub struct OctahedralMap {
     pub directions: Vec<[f64; 3]>,
     /// Solid angle of each cell (sums to 4π).
     pub solid_angles: Vec<f64>,
+    /// The cell opposite each cell (its centre's direction negated; with n even the
+    /// antipode of a cell centre is a cell centre).
+    pub antipodes: Vec<usize>,
 }
 
 impl OctahedralMap {
@@ -125,10 +128,20 @@ impl OctahedralMap {
                 solid_angles.push(omega);
             }
         }
+        let s = 0.5 * n as f64;
+        let antipodes = directions
+            .iter()
+            .map(|d| {
+                let [u, v] = encode(d.map(|c| -c));
+                let at = |x: f64| (((x + 1.0) * s - 0.5).round().max(0.0) as usize).min(n - 1);
+                at(v) * n + at(u)
+            })
+            .collect();
         Ok(OctahedralMap {
             n,
             directions,
             solid_angles,
+            antipodes,
         })
     }
 
@@ -144,6 +157,26 @@ impl OctahedralMap {
             if j + 1 < n { (i, j + 1) } else { (m - i, m) },
             if j > 0 { (i, j - 1) } else { (m - i, 0) },
         ]
+    }
+
+    /// The cell (i, j) of the continuous cell indices (i, j) ∈ [−1, n]², read across the
+    /// square's outer edges by the fold of [`Self::neighbours`] (the four cells around a
+    /// corner of the square, where all four corners meet on the sphere, are the four corner
+    /// cells).
+    pub fn fold(&self, i: i64, j: i64) -> (usize, usize) {
+        let m = self.n as i64 - 1;
+        let (mut i, mut j) = (i, j);
+        if i > m {
+            (i, j) = (m, m - j);
+        } else if i < 0 {
+            (i, j) = (0, m - j);
+        }
+        if j > m {
+            (i, j) = (m - i, m);
+        } else if j < 0 {
+            (i, j) = (m - i, 0);
+        }
+        (i.clamp(0, m) as usize, j.clamp(0, m) as usize)
     }
 
     /// Continuous cell coordinates of the direction `w` (cell (i, j)'s centre at (i, j)).
@@ -215,6 +248,22 @@ mod tests {
         }
         assert!(OctahedralMap::new(5).is_err());
         assert!(OctahedralMap::new(0).is_err());
+    }
+
+    /// The antipode of every cell is a cell whose centre's direction is exactly opposite
+    /// (1e−14), and taking it twice gives the cell back.
+    #[test]
+    fn antipodes_are_opposite_cells() {
+        for n in [2, 4, 10, 20] {
+            let m = OctahedralMap::new(n).unwrap();
+            for (c, &a) in m.antipodes.iter().enumerate() {
+                assert_eq!(m.antipodes[a], c, "n {n}: {c} ↔ {a}");
+                let (p, q) = (m.directions[c], m.directions[a]);
+                for (x, y) in p.iter().zip(&q) {
+                    assert!((x + y).abs() < 1e-14, "n {n}: {c} {p:?} vs {a} {q:?}");
+                }
+            }
+        }
     }
 
     /// The neighbour relation is symmetric with multiplicity (what is sent is gathered) and

@@ -330,12 +330,16 @@ pub trait Stencil: Sync {
         self.shape().iter().product()
     }
     /// The six neighbours of cell (i, j, k) as (storage index, or None where the patch leaves
-    /// the grid; which patch of the cell points at it: [`FRONT`], [`SIDE`] or [`BACK`]), in
-    /// the order front, back, then the four sides. The relation must be symmetric (n lists c
-    /// with the opposite patch whenever c lists n), so that what is sent is what is
-    /// gathered.
-    fn neighbours(&self, i: usize, j: usize, k: usize) -> [(Option<usize>, u8); 6];
+    /// the grid; which patch of the cell points at it: [`FRONT`], [`SIDE`] or [`BACK`];
+    /// which patch of the neighbour points back at the cell), in the order front, back, then
+    /// the four sides. The relation must be symmetric (n lists c with the two patches swapped
+    /// whenever c lists n), so that what is sent is what is gathered.
+    fn neighbours(&self, i: usize, j: usize, k: usize) -> [Neighbour; 6];
 }
+
+/// One neighbour of a cell ([`Stencil::neighbours`]): its storage index (None: outside the
+/// grid), the cell's patch that points at it, and its patch that points back.
+pub type Neighbour = (Option<usize>, u8, u8);
 
 /// The patch towards the neighbour in front (along the principal direction).
 pub const FRONT: u8 = 0;
@@ -350,16 +354,16 @@ impl Stencil for LightGrid {
     }
 
     #[inline(always)]
-    fn neighbours(&self, i: usize, j: usize, k: usize) -> [(Option<usize>, u8); 6] {
+    fn neighbours(&self, i: usize, j: usize, k: usize) -> [Neighbour; 6] {
         let [nx, ny, nz] = self.res;
         let at = |ok: bool, ii: usize, jj: usize, kk: usize| ok.then(|| self.index(ii, jj, kk));
         [
-            (at(k + 1 < nz, i, j, k + 1), FRONT),
-            (at(k > 0, i, j, k.wrapping_sub(1)), BACK),
-            (at(i + 1 < nx, i + 1, j, k), SIDE),
-            (at(i > 0, i.wrapping_sub(1), j, k), SIDE),
-            (at(j + 1 < ny, i, j + 1, k), SIDE),
-            (at(j > 0, i, j.wrapping_sub(1), k), SIDE),
+            (at(k + 1 < nz, i, j, k + 1), FRONT, BACK),
+            (at(k > 0, i, j, k.wrapping_sub(1)), BACK, FRONT),
+            (at(i + 1 < nx, i + 1, j, k), SIDE, SIDE),
+            (at(i > 0, i.wrapping_sub(1), j, k), SIDE, SIDE),
+            (at(j + 1 < ny, i, j + 1, k), SIDE, SIDE),
+            (at(j > 0, i, j.wrapping_sub(1), k), SIDE, SIDE),
         ]
     }
 }
@@ -677,28 +681,22 @@ impl<H: HalfSteps> Buffers<'_, H> {
     /// Eq. 5–6 for destination `dst` with neighbours `nbrs` ([`Stencil::neighbours`]): the
     /// gathered magnitude and anisotropy.
     #[inline(always)]
-    fn gather(&self, dst: usize, nbrs: &[(Option<usize>, u8); 6]) -> (f64, f64) {
+    fn gather(&self, dst: usize, nbrs: &[Neighbour; 6]) -> (f64, f64) {
         let (mut l, mut la) = (0.0, 0.0);
-        // Seen from the destination, the neighbour in front of it sends its *back* patch,
-        // the one behind it its *front* patch, the four others a side patch; each crosses
-        // its own half towards dst and dst's half towards it.
-        for &(src, which) in nbrs {
+        // Each neighbour sends dst its patch that points at dst (on the light-aligned grid:
+        // the neighbour in front its back patch, the one behind its front patch, the four
+        // others a side patch), crossing its own half towards dst and dst's half towards it.
+        for &(src, mine, theirs) in nbrs {
             let Some(s) = src else { continue };
             let ls = self.l[s];
             if ls == 0.0 {
                 continue;
             }
-            let p = &self.patches[s];
-            let back = BACK - which;
-            let frac = match which {
-                FRONT => p.back, // src in front of dst: dst is behind src
-                BACK => p.front, // src behind dst: dst is in front of src
-                _ => p.side,
-            };
-            let (ts, td) = (self.halves.t(s, back), self.halves.t(dst, which));
+            let frac = self.patches[s].towards(theirs);
+            let (ts, td) = (self.halves.t(s, theirs), self.halves.t(dst, mine));
             let dl = ls * frac * ts * td;
             l += dl;
-            let (gs, gd) = (self.halves.g(s, back), self.halves.g(dst, which));
+            let (gs, gd) = (self.halves.g(s, theirs), self.halves.g(dst, mine));
             la += dl * self.a[s] * gs * gd;
         }
         let a = if l > 0.0 {
@@ -711,22 +709,16 @@ impl<H: HalfSteps> Buffers<'_, H> {
 
     /// What source `src` sends out of the grid and what is absorbed on its six ways.
     #[inline(always)]
-    fn send(&self, src: usize, nbrs: &[(Option<usize>, u8); 6]) -> (f64, f64) {
+    fn send(&self, src: usize, nbrs: &[Neighbour; 6]) -> (f64, f64) {
         let ls = self.l[src];
         if ls == 0.0 {
             return (0.0, 0.0);
         }
         let p = &self.patches[src];
         let (mut left, mut absorbed) = (0.0, 0.0);
-        for &(dst, which) in nbrs {
-            let frac = match which {
-                FRONT => p.front,
-                BACK => p.back,
-                _ => p.side,
-            };
-            let sent = ls * frac;
-            let back = BACK - which;
-            let t = self.halves.t(src, which) * dst.map_or(1.0, |d| self.halves.t(d, back));
+        for &(dst, mine, theirs) in nbrs {
+            let sent = ls * p.towards(mine);
+            let t = self.halves.t(src, mine) * dst.map_or(1.0, |d| self.halves.t(d, theirs));
             if dst.is_none() {
                 left += sent * t;
             }

@@ -5,9 +5,12 @@
 //! reads. The decisions on what §6 leaves open (docs/pop-design.md, "Point lights"):
 //!
 //! * **Extent.** Shells from r_min, the distance from the light to the medium's support box,
-//!   to r_max, the distance to its farthest corner; a light inside or on that box (r_min = 0)
-//!   is refused (exponential shells cannot start at r = 0, and the once-scattered light
-//!   about the light is singular there).
+//!   to r_max, the distance to its farthest corner. A light inside or on that box (the
+//!   paper's Fig. 10 has its light at the centre of a ball) gets r_min = half the smallest
+//!   voxel side (below it the density has no detail; exponential shells cannot start at
+//!   r = 0): shell 0 then stands for the ball r < r_1 down to the light (its source covers
+//!   [0, r_1] with T at r_1/2), and what shell 0 sends inwards crosses the ball to the
+//!   opposite cell of shell 0 (the map's antipode), 2 r_c of medium.
 //! * **Shell spacing** ("grows exponentially, in proportion to the radial segment length at
 //!   a given radius"): `r_k = r_min q^k`, k = 0..=N, with `ln q` the mean angular width of a
 //!   cell, `√(4π)/n` for an n × n map, so that Δr ≈ r·Δθ (cells as long as wide); N =
@@ -36,18 +39,19 @@
 //!   is an HG lobe with a = g about r̂, and its power in cell c is exactly
 //!   `σ_s T (Φ/4π) Ω Δr` (`∫ r^{−2} dV = Ω Δr`), T the exact uncollided transmittance from
 //!   the light to the centre (`crate::shadow`), σ_s the cell average.
-//! * **Boundaries**: what leaves the outer shell or goes inwards from the inner one has left
-//!   the grid (inside r_min is vacuum, and light crossing it heads away from the medium);
-//!   the angular neighbours wrap (the map is closed).
+//! * **Boundaries**: what leaves the outer shell has left the grid; so has what goes
+//!   inwards from the inner one of a light outside the box (inside r_min is vacuum, and
+//!   light crossing it heads away from the medium); the angular neighbours wrap (the map is
+//!   closed), and so does the resampling across the map's seams.
 //! * **Medium sampling**: `k³` subsamples per cell at the midpoints of (u, v, ln r), weighted
 //!   by their volume element `r³ / |p(u, v)|³` (exact for this parametrisation), k the ratio
 //!   of the cell's size to the density's voxel, 1..=4 per shell.
 
-use super::accumulate::{trilinear_corners, BandGrid};
+use super::accumulate::BandGrid;
 use super::octahedral::{unnormalised, OctahedralMap};
 use super::propagate::{
-    check_inputs, dot, frame, propagate_on, Halves, PopMedium, Propagated, Schedule, Stencil, BACK,
-    FRONT, SIDE,
+    check_inputs, dot, frame, propagate_on, Halves, Neighbour, PopMedium, Propagated, Schedule,
+    Stencil, BACK, FRONT, SIDE,
 };
 use super::{eq10_switch, phase_g, PopSeconds, PopSettings};
 use crate::medium::DensityGrid;
@@ -72,20 +76,26 @@ pub struct RadialGrid {
     pub radii: Vec<f64>,
     /// `ln q`, the logarithmic shell spacing.
     pub log_q: f64,
+    /// Whether the light lies inside (or on) the medium's box: shell 0 then starts at the
+    /// inner radius given to [`RadialGrid::around_box`] and stands for the ball down to the
+    /// light (module docs).
+    pub inside: bool,
 }
 
 impl RadialGrid {
     /// The grid around the light at `position` that covers the box `[lo, hi]` (the medium's
     /// support) with `angular` cells per side of the octahedral map (rounded up to even) and
-    /// `shells` shells (None: cells about as long as wide, module docs). Errors: a
-    /// non-finite position, a light inside or on the box, a shell count outside
-    /// 1..=[`POP_MAX_SHELLS`] (given or needed).
+    /// `shells` shells (None: cells about as long as wide, module docs). A light inside or
+    /// on the box gets shells from `inner` (> 0) outwards. Errors: a non-finite position, a
+    /// shell count outside 1..=[`POP_MAX_SHELLS`] (given or needed), an `inner` radius that
+    /// is not positive or does not lie below the box's farthest corner.
     pub fn around_box(
         position: [f64; 3],
         lo: [f64; 3],
         hi: [f64; 3],
         angular: usize,
         shells: Option<usize>,
+        inner: f64,
     ) -> anyhow::Result<RadialGrid> {
         ensure!(
             position.iter().all(|c| c.is_finite()),
@@ -93,17 +103,17 @@ impl RadialGrid {
         );
         ensure!(angular > 0, "POP: pop_resolution must be positive");
         let nearest = [0, 1, 2].map(|d| position[d].clamp(lo[d], hi[d]) - position[d]);
-        let r_min = dot(nearest, nearest).sqrt();
-        if r_min <= 0.0 {
-            bail!(
-                "POP: the point light's [[light]] position {position:?} lies inside or on the \
-                 medium's support box {lo:?} to {hi:?}; POP's radial grids (§6) start at a \
-                 shell of positive radius around the light and cannot hold the singular light \
-                 next to it: move the light outside that box, or use method pn, cda or fld"
-            );
-        }
+        let distance = dot(nearest, nearest).sqrt();
+        let inside = distance <= 0.0;
+        let r_min = if inside { inner } else { distance };
         let far = [0, 1, 2].map(|d| (position[d] - lo[d]).abs().max((position[d] - hi[d]).abs()));
         let r_max = dot(far, far).sqrt();
+        ensure!(
+            r_min.is_finite() && r_min > 0.0 && r_min < r_max,
+            "POP: the point light at {position:?} lies in the medium's box {lo:?} to {hi:?}; \
+             its radial grid's inner radius {r_min:e} must be positive and below the box's \
+             farthest corner ({r_max:e})"
+        );
         let n = angular + angular % 2;
         let map = OctahedralMap::new(n)?;
         let width = map.mean_solid_angle().sqrt();
@@ -146,6 +156,7 @@ impl RadialGrid {
             map,
             radii,
             log_q,
+            inside,
         })
     }
 
@@ -230,29 +241,73 @@ impl Stencil for RadialGrid {
     }
 
     #[inline]
-    fn neighbours(&self, i: usize, j: usize, k: usize) -> [(Option<usize>, u8); 6] {
+    fn neighbours(&self, i: usize, j: usize, k: usize) -> [Neighbour; 6] {
         let s = self.map.neighbours(i, j);
+        let n = self.map.n;
+        // Inwards from shell 0: through the light's ball to the opposite cell of shell 0
+        // (whose own back patch points here), or out of the grid where that ball is vacuum.
+        let back = if k > 0 {
+            (Some(self.index(i, j, k - 1)), BACK, FRONT)
+        } else if self.inside {
+            (Some(self.map.antipodes[j * n + i]), BACK, BACK)
+        } else {
+            (None, BACK, FRONT)
+        };
         [
             (
                 (k + 1 < self.shells()).then(|| self.index(i, j, k + 1)),
                 FRONT,
+                BACK,
             ),
-            ((k > 0).then(|| self.index(i, j, k.wrapping_sub(1))), BACK),
-            (Some(self.index(s[0].0, s[0].1, k)), SIDE),
-            (Some(self.index(s[1].0, s[1].1, k)), SIDE),
-            (Some(self.index(s[2].0, s[2].1, k)), SIDE),
-            (Some(self.index(s[3].0, s[3].1, k)), SIDE),
+            back,
+            (Some(self.index(s[0].0, s[0].1, k)), SIDE, SIDE),
+            (Some(self.index(s[1].0, s[1].1, k)), SIDE, SIDE),
+            (Some(self.index(s[2].0, s[2].1, k)), SIDE, SIDE),
+            (Some(self.index(s[3].0, s[3].1, k)), SIDE, SIDE),
         ]
     }
 }
 
 impl BandGrid for RadialGrid {
+    /// Trilinear in (i, j, ln r); across the map's seams the cells beyond are read through
+    /// the fold ([`OctahedralMap::fold`]), so the interpolation is continuous on the sphere;
+    /// clamped at the innermost and outermost shells' centres.
     fn corners(&self, x: [f64; 3]) -> [(usize, f64); 8] {
-        let mut q = self.local(x);
-        if !q[2].is_finite() {
-            q[2] = 0.0;
+        let q = self.local(x);
+        let n = self.map.n as f64;
+        let axis = |t: f64| {
+            let t = if t.is_finite() {
+                t.clamp(-0.5, n - 0.5)
+            } else {
+                0.0
+            };
+            let i0 = t.floor();
+            (i0 as i64, t - i0)
+        };
+        let (i0, fi) = axis(q[0]);
+        let (j0, fj) = axis(q[1]);
+        let ns = self.shells();
+        let kq = if q[2].is_finite() {
+            q[2].clamp(0.0, (ns - 1) as f64)
+        } else {
+            0.0
+        };
+        let k0 = (kq.floor() as usize).min(ns - 1);
+        let k1 = (k0 + 1).min(ns - 1);
+        let fk = kq - k0 as f64;
+        let wi = [1.0 - fi, fi];
+        let wj = [1.0 - fj, fj];
+        let wk = [1.0 - fk, fk];
+        let mut out = [(0usize, 0.0f64); 8];
+        for a in 0..2 {
+            for b in 0..2 {
+                let (i, j) = self.map.fold(i0 + a as i64, j0 + b as i64);
+                for (c, k) in [k0, k1].into_iter().enumerate() {
+                    out[a * 4 + b * 2 + c] = (self.index(i, j, k), wi[a] * wj[b] * wk[c]);
+                }
+            }
         }
-        trilinear_corners(q, self.res(), |i, j, k| self.index(i, j, k))
+        out
     }
 
     fn centre_of(&self, c: usize) -> [f64; 3] {
@@ -356,10 +411,21 @@ pub fn sample_medium(
 }
 
 /// `T` at every cell centre: the exact optical depth from the light along each angular
-/// cell's direction to the shells' centre radii (one traversal per direction).
+/// cell's direction to the shells' centre radii (one traversal per direction); for a light
+/// inside the medium, shell 0's at r_1/2, the midpoint of the ball and shell it stands for.
 pub fn transmittance(ext: &Extinction, grid: &RadialGrid) -> Vec<f64> {
     let n = grid.map.n;
-    let marks: Vec<f64> = (0..grid.shells()).map(|k| grid.centre_radius(k)).collect();
+    // For a light inside the medium shell 0 stands for [0, r_1]: its midpoint r_1/2 (module
+    // docs).
+    let marks: Vec<f64> = (0..grid.shells())
+        .map(|k| {
+            if k == 0 && grid.inside {
+                0.5 * grid.radii[1]
+            } else {
+                grid.centre_radius(k)
+            }
+        })
+        .collect();
     let columns: Vec<Vec<f64>> = (0..n * n)
         .into_par_iter()
         .map(|a| {
@@ -378,13 +444,18 @@ pub fn transmittance(ext: &Extinction, grid: &RadialGrid) -> Vec<f64> {
     t
 }
 
-/// The once-scattered power per cell, `σ_s T (Φ/4π) Ω Δr` (module docs).
+/// The once-scattered power per cell, `σ_s T (Φ/4π) Ω Δr` (module docs); for a light inside
+/// the medium's box shell 0 also holds the ball inside it (Δr = r_1).
 pub fn source(grid: &RadialGrid, medium: &PopMedium, t: &[f64], power: f64) -> Vec<f64> {
     let intensity = power / (4.0 * PI);
     (0..Stencil::cells(grid))
         .map(|c| {
             let k = grid.cell(c)[2];
-            let dr = grid.radii[k + 1] - grid.radii[k];
+            let dr = if k == 0 && grid.inside {
+                grid.radii[1]
+            } else {
+                grid.radii[k + 1] - grid.radii[k]
+            };
             medium.sigma_s[c] * t[c] * intensity * grid.solid_angle(c) * dr
         })
         .collect()
@@ -401,7 +472,13 @@ pub fn halves(grid: &RadialGrid, medium: &PopMedium) -> Halves {
             let mut l = [0.0; 3];
             l[FRONT as usize] = grid.radii[k + 1] - rc;
             l[SIDE as usize] = 0.5 * rc * grid.solid_angle(c).sqrt();
-            l[BACK as usize] = rc - grid.radii[k];
+            // Inwards from shell 0 of a light inside the medium: through the ball, r_c to the
+            // light and r_c on to the opposite cell's centre.
+            l[BACK as usize] = if k == 0 && grid.inside {
+                rc
+            } else {
+                rc - grid.radii[k]
+            };
             l
         })
         .collect();
@@ -454,7 +531,10 @@ pub fn solve_point_light(
         return Ok(None);
     };
     let t0 = Instant::now();
-    let grid = RadialGrid::around_box(position, lo, hi, settings.resolution, shells)?;
+    // A light inside the medium's box: shells from half the smallest voxel side (the
+    // density has no detail below it; the ball inside is lumped into shell 0).
+    let inner = 0.5 * density.h().iter().fold(f64::INFINITY, |m, v| m.min(*v));
+    let grid = RadialGrid::around_box(position, lo, hi, settings.resolution, shells, inner)?;
     let cells = Stencil::cells(&grid);
     // As the light-aligned grid (super::solve_light), with six halves instead of two.
     let bytes = cells as u128 * 8 * (19 + settings.lmax as u128 + 1);
@@ -523,7 +603,8 @@ mod tests {
 
     #[test]
     fn radial_grid_covers_the_box_and_spaces_shells_exponentially() {
-        let g = RadialGrid::around_box([3.0, 0.5, -0.2], [-1.0; 3], [1.0; 3], 16, None).unwrap();
+        let g =
+            RadialGrid::around_box([3.0, 0.5, -0.2], [-1.0; 3], [1.0; 3], 16, None, 0.1).unwrap();
         // r_min is the distance to the face x = 1, r_max to the corner (−1, −1, 1).
         assert!((g.radii[0] - 2.0).abs() < 1e-15);
         let far: f64 = (16.0f64 + 1.5 * 1.5 + 1.2 * 1.2).sqrt();
@@ -561,30 +642,44 @@ mod tests {
 
     #[test]
     fn bad_radial_input_is_an_error() {
-        let err = |p: [f64; 3], shells: Option<usize>| {
+        let err = |p: [f64; 3], shells: Option<usize>, inner: f64| {
             format!(
                 "{:#}",
-                RadialGrid::around_box(p, [-1.0; 3], [1.0; 3], 8, shells).unwrap_err()
+                RadialGrid::around_box(p, [-1.0; 3], [1.0; 3], 8, shells, inner).unwrap_err()
             )
         };
-        assert!(err([0.2, 0.0, 0.0], None).contains("inside or on the medium's support box"));
-        assert!(err([1.0, 0.0, 0.0], None).contains("inside or on"));
-        assert!(err([f64::NAN, 0.0, 0.0], None).contains("position"));
-        assert!(err([2.0, 0.0, 0.0], Some(0)).contains("pop_shells must lie in 1..=512"));
-        assert!(err([2.0, 0.0, 0.0], Some(513)).contains("pop_shells must lie in 1..=512"));
+        // A light inside (or on) the box needs a positive inner radius below the farthest
+        // corner.
+        for inner in [0.0, -1.0, f64::NAN, 10.0] {
+            for p in [[0.2, 0.0, 0.0], [1.0, 0.0, 0.0]] {
+                assert!(
+                    err(p, None, inner).contains("inner radius"),
+                    "{p:?} {inner}"
+                );
+            }
+        }
+        assert!(err([f64::NAN, 0.0, 0.0], None, 0.1).contains("position"));
+        assert!(err([2.0, 0.0, 0.0], Some(0), 0.1).contains("pop_shells must lie in 1..=512"));
+        assert!(err([2.0, 0.0, 0.0], Some(513), 0.1).contains("pop_shells must lie in 1..=512"));
         // A light 1e−100 from the unit box: cells as long as wide (ln q = √(4π)/16 = 0.22)
         // would need ln(1.22/1e−100)/0.22 ≈ 1040 shells…
         let near = [-1e-100, 0.5, 0.5];
         let e = format!(
             "{:#}",
-            RadialGrid::around_box(near, [0.0; 3], [1.0; 3], 16, None).unwrap_err()
+            RadialGrid::around_box(near, [0.0; 3], [1.0; 3], 16, None, 0.1).unwrap_err()
         );
         assert!(
             e.contains("beyond the grid's") && e.contains("pop_shells"),
             "{e}"
         );
-        // …which pop_shells overrides.
-        let g = RadialGrid::around_box(near, [0.0; 3], [1.0; 3], 16, Some(40)).unwrap();
+        // …which pop_shells overrides; so does an inner radius 1e−100 inside the box.
+        let g = RadialGrid::around_box(near, [0.0; 3], [1.0; 3], 16, Some(40), 0.1).unwrap();
         assert_eq!(g.shells(), 40);
+        assert!(!g.inside);
+        let inner = RadialGrid::around_box([0.5; 3], [0.0; 3], [1.0; 3], 16, None, 1e-100);
+        assert!(format!("{:#}", inner.unwrap_err()).contains("beyond the grid's"));
+        // Inside, with a sensible inner radius: shells from it.
+        let g = RadialGrid::around_box([0.5; 3], [0.0; 3], [1.0; 3], 16, None, 0.01).unwrap();
+        assert!(g.inside && g.radii[0] == 0.01);
     }
 }
