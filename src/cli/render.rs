@@ -15,14 +15,15 @@ pub struct RenderArgs {
     /// A scene file (.toml) or a built-in scene: cloud, nebula, sphere, lowalbedo.
     pub scene: String,
     /// Multiple scattering: pn, cda, fld, pop (Principal-Ordinates Propagation, directional
-    /// lights), or none (single scattering only).
+    /// and point lights), or none (single scattering only).
     #[arg(long)]
     pub method: Option<RenderMethod>,
     /// P_N order (--method pn); the highest SH band POP hands to the renderer (--method pop).
     #[arg(long, allow_negative_numbers = true)]
     pub order: Option<usize>,
-    /// --method pop: cells along the longest axis of each light-aligned grid, 1..=512
-    /// (default: the scene's [solve] pop_resolution, else 20).
+    /// --method pop: cells along the longest axis of each light-aligned grid, and per side
+    /// of a point light's octahedral map, 1..=512 (default: the scene's [solve]
+    /// pop_resolution, else 20).
     #[arg(long, allow_negative_numbers = true)]
     pub pop_resolution: Option<usize>,
     /// --method pop: propagation iterations, ≥ 1 (default: the scene's [solve]

@@ -71,6 +71,17 @@ impl Patches {
         }
     }
 
+    /// The fraction towards one neighbour through patch `which` (0 front, 1 side, 2 back:
+    /// [`super::propagate::FRONT`], `SIDE`, `BACK`).
+    #[inline(always)]
+    pub fn towards(&self, which: u8) -> f64 {
+        match which {
+            0 => self.front,
+            2 => self.back,
+            _ => self.side,
+        }
+    }
+
     /// `front + 4·side + back` (1 up to rounding).
     pub fn total(&self) -> f64 {
         self.front + 4.0 * self.side + self.back

@@ -1,5 +1,5 @@
 //! Principal-Ordinates Propagation (POP; `../shared/papers/principal-ordinates-propagation.txt`,
-//! issue 20) for directional lights: `pn render --method pop`.
+//! issues 20 and 52) for directional and point lights: `pn render --method pop`.
 //!
 //! For each directional light a grid aligned with its travel direction d covers the medium's
 //! support ([`propagate::LightGrid`]); every cell holds one HG lobe about d, a magnitude L
@@ -27,9 +27,14 @@
 //!   (Eq. 10, [`residuum_switch_iteration`]) the lobes are made isotropic and propagated
 //!   until the power in flight falls below ε_L; each light in its own grid (no merge).
 //!
-//! Not implemented: point lights (§6; they keep their exact single scattering but get no
-//! multiple scattering from POP, with a warning), environment lighting (§5), the joint
-//! bilateral upsampling (§4.4; the resampling is trilinear).
+//! * **Point lights (§6)**: a radial grid per light, the octahedral map of directions ×
+//!   exponentially spaced shells ([`radial`], [`octahedral`]); the same propagation on its
+//!   neighbourhood ([`propagate::Stencil`]).
+//! * **Upsampling (§4.4)**: trilinear by default; the joint bilateral upsampling guided by
+//!   σ_s on request ([`upsample`], `[solve] pop_upsample = "bilateral"`).
+//!
+//! Not implemented: environment lighting (§5.1–5.3), instant radiosity (VPLs from
+//! reflective shadow maps, §6).
 //!
 //! Settings: `[solve] pop_resolution` (cells along the longest axis of the light-aligned box,
 //! default 20 as the paper's typical 20³), `pop_iterations` (default 20: "amounts similar
@@ -38,15 +43,20 @@
 
 pub mod accumulate;
 pub mod hg_patch;
+pub mod octahedral;
 pub mod propagate;
+pub mod radial;
+pub mod upsample;
 
 use crate::lights::Light;
 use crate::medium::DensityGrid;
 use crate::scene::{
-    RenderScene, POP_DEFAULT_EPSILON_A, POP_DEFAULT_EPSILON_L, POP_DEFAULT_ITERATIONS,
-    POP_DEFAULT_RESOLUTION, POP_MAX_ITERATIONS, POP_MAX_RESOLUTION,
+    PopUpsample, RenderScene, POP_DEFAULT_EPSILON_A, POP_DEFAULT_EPSILON_L, POP_DEFAULT_ITERATIONS,
+    POP_DEFAULT_RESOLUTION, POP_DEFAULT_UPSAMPLE_SIGMA, POP_MAX_ITERATIONS, POP_MAX_RESOLUTION,
+    POP_MAX_SHELLS,
 };
 use crate::shadow::Extinction;
+use accumulate::BandGrid;
 use anyhow::{bail, ensure};
 use pn_runtime::problem::{Grid, Phase};
 use pn_runtime::CellMoments;
@@ -54,6 +64,7 @@ use propagate::{IterationEnergy, LightGrid, PopMedium, ResiduumInfo, Schedule};
 use rayon::prelude::*;
 use serde::Serialize;
 use std::time::Instant;
+use upsample::Bilateral;
 
 /// POP's settings.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
@@ -108,18 +119,29 @@ impl Default for PopSettings {
 /// medium, not the empty corners of the light-aligned box).
 pub fn residuum_switch_iteration(grid: &LightGrid, medium: &PopMedium, epsilon_a: f64) -> usize {
     let along = grid.res[2];
-    let g = medium.g;
     let (sum, count) = medium
         .sigma_s
         .iter()
         .filter(|s| **s > 0.0)
         .fold((0.0, 0usize), |(a, c), s| (a + s, c + 1));
-    if g <= epsilon_a || count == 0 {
-        return along.min(POP_MAX_ITERATIONS);
-    }
     let mean = sum / count as f64;
+    eq10_switch(
+        along,
+        medium.g,
+        (count > 0).then_some(mean * grid.h),
+        epsilon_a,
+    )
+}
+
+/// Eq. 10 with the mean optical depth that one step crosses, `tau_step` (σ̄_s h on the
+/// light-aligned grid; None: no medium), at least `along` and at most
+/// [`POP_MAX_ITERATIONS`]: [`residuum_switch_iteration`].
+pub fn eq10_switch(along: usize, g: f64, tau_step: Option<f64>, epsilon_a: f64) -> usize {
+    let Some(tau) = tau_step.filter(|_| g > epsilon_a) else {
+        return along.min(POP_MAX_ITERATIONS);
+    };
     // (ln ε_a − ln â) / ln g / (σ̄_s h); ln g < 0 and ln ε_a < ln â, so this is positive.
-    let m = (epsilon_a.ln() - g.ln()) / g.ln() / (mean * grid.h);
+    let m = (epsilon_a.ln() - g.ln()) / g.ln() / tau;
     let m = if m.is_finite() {
         m.ceil().min(POP_MAX_ITERATIONS as f64) as usize
     } else {
@@ -190,11 +212,16 @@ pub fn phase_g(phase: &Phase) -> anyhow::Result<f64> {
 pub struct PopLightReport {
     /// Index of the light in the scene.
     pub light: usize,
-    /// Its travel direction (unit).
+    /// "directional" (a light-aligned grid) or "point" (a radial grid).
+    pub kind: &'static str,
+    /// The radial grid of a point light (None for a directional light).
+    pub radial: Option<RadialReport>,
+    /// Its travel direction (unit); for a point light the radial grid's pole.
     pub direction: [f64; 3],
-    /// Cells of its grid along u, v, d.
+    /// Cells of its grid along u, v, d (a point light: the octahedral map's two sides and
+    /// the shells).
     pub grid_res: [usize; 3],
-    /// Cell side.
+    /// Cell side (a point light: the innermost shell's thickness).
     pub cell_size: f64,
     /// Midpoint subsamples per axis and cell used for the cell averages of σ_s, σ_a.
     pub subsamples: usize,
@@ -217,6 +244,71 @@ pub struct PopLightReport {
     pub energy: Vec<IterationEnergy>,
 }
 
+/// A point light's radial grid (`report.json` → "pop" → "lights" → "radial").
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct RadialReport {
+    /// The light's position.
+    pub position: [f64; 3],
+    /// Whether the light lies inside (or on) the medium's box: the innermost shell then
+    /// stands for the ball down to the light.
+    pub inside: bool,
+    /// Radius of the innermost shell's inner face (the distance to the medium's box, or for
+    /// a light inside it half the smallest voxel side).
+    pub r_min: f64,
+    /// Radius of the outermost shell's outer face.
+    pub r_max: f64,
+    /// Radial shells.
+    pub shells: usize,
+    /// Cells per side of the octahedral map.
+    pub angular: usize,
+    /// `ln q`, the logarithmic shell spacing (`Δr/r ≈ ln q`).
+    pub log_q: f64,
+    /// Angular cells (of `angular²`) with medium in some shell: how finely the map resolves
+    /// the medium as seen from the light.
+    pub medium_directions: usize,
+}
+
+/// What POP does beyond the directional-light core: point lights' shells and the
+/// upsampling (`[solve] pop_shells`, `pop_upsample`, `pop_upsample_sigma`).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct PopOptions {
+    /// Radial shells of a point light's grid (None: cells about as long as wide).
+    pub shells: Option<usize>,
+    /// Trilinear or the joint bilateral upsampling of §4.4.
+    pub upsample: PopUpsample,
+    /// The bilateral range kernel's width relative to the largest σ_s.
+    pub upsample_sigma: f64,
+}
+
+impl Default for PopOptions {
+    /// Automatic shells, trilinear resampling.
+    fn default() -> Self {
+        Self {
+            shells: None,
+            upsample: PopUpsample::Trilinear,
+            upsample_sigma: POP_DEFAULT_UPSAMPLE_SIGMA,
+        }
+    }
+}
+
+impl PopOptions {
+    /// Checks the ranges: shells in 1..=[`POP_MAX_SHELLS`], a finite positive σ_r.
+    pub fn validate(&self) -> anyhow::Result<()> {
+        if let Some(n) = self.shells {
+            ensure!(
+                (1..=POP_MAX_SHELLS).contains(&n),
+                "pop_shells must lie in 1..={POP_MAX_SHELLS}, got {n}"
+            );
+        }
+        ensure!(
+            self.upsample_sigma.is_finite() && self.upsample_sigma > 0.0,
+            "pop_upsample_sigma must be finite and positive, got {}",
+            self.upsample_sigma
+        );
+        Ok(())
+    }
+}
+
 /// Seconds per POP stage (all lights).
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]
 pub struct PopSeconds {
@@ -235,6 +327,8 @@ pub struct PopSeconds {
 pub struct PopReport {
     /// Settings used.
     pub settings: PopSettings,
+    /// Point-light shells and upsampling used.
+    pub options: PopOptions,
     /// g of the phase function.
     pub g: f64,
     /// Per directional light.
@@ -436,15 +530,28 @@ pub fn solve_light(
     }))
 }
 
-/// POP for every directional light of `scene`: the moments (l ≤ `settings.lmax`) of the
-/// collided radiance at the cell centres of `target` (the solve grid) and the report.
+/// POP for every light of `scene` with the default [`PopOptions`]: [`pop_field_with`].
 pub fn pop_field(
     scene: &RenderScene,
     density: &DensityGrid,
     target: &Grid,
     settings: &PopSettings,
 ) -> anyhow::Result<PopRun> {
+    pop_field_with(scene, density, target, settings, &PopOptions::default())
+}
+
+/// POP for every light of `scene` (a light-aligned grid per directional light, a radial
+/// grid per point light): the moments (l ≤ `settings.lmax`) of the collided radiance at the
+/// cell centres of `target` (the solve grid) and the report.
+pub fn pop_field_with(
+    scene: &RenderScene,
+    density: &DensityGrid,
+    target: &Grid,
+    settings: &PopSettings,
+    options: &PopOptions,
+) -> anyhow::Result<PopRun> {
     settings.validate()?;
+    options.validate()?;
     let g = phase_g(&scene.phase)?;
     let pc = (settings.lmax + 1) * (settings.lmax + 1);
     let mut moments = CellMoments {
@@ -455,37 +562,75 @@ pub fn pop_field(
     let mut seconds = PopSeconds::default();
     let mut lights = Vec::new();
     let mut warnings = Vec::new();
+    let guide = |x: [f64; 3]| scene.medium.coefficients_at(density, x).1;
+    let sigma = match options.upsample {
+        PopUpsample::Trilinear => None,
+        PopUpsample::Bilateral => Some(options.upsample_sigma),
+    };
     for (n, light) in scene.lights.iter().enumerate() {
-        let (direction, irradiance) = match light {
+        let (report, propagated) = match light {
             Light::Directional {
                 direction,
                 irradiance,
-            } => (*direction, *irradiance),
-            Light::Point { .. } => {
-                warnings.push(format!(
-                    "POP propagates directional lights only: point light {n} contributes \
-                     single scattering only"
-                ));
-                continue;
+            } => {
+                let Some(sol) = solve_light(
+                    scene,
+                    density,
+                    *direction,
+                    *irradiance,
+                    settings,
+                    &mut seconds,
+                )?
+                else {
+                    continue;
+                };
+                let t3 = Instant::now();
+                let p = &sol.propagated;
+                let bil = sigma.and_then(|s| {
+                    Bilateral::new(sol.grid.cells(), |c| sol.grid.centre_of(c), &guide, s)
+                });
+                accumulate::add_moments(
+                    &sol.grid,
+                    &p.bands,
+                    p.lmax,
+                    target,
+                    &mut moments,
+                    bil.as_ref(),
+                );
+                seconds.resampling += t3.elapsed().as_secs_f64();
+                (light_report(n, &sol), sol.propagated)
+            }
+            Light::Point { position, power } => {
+                let Some(sol) = radial::solve_point_light(
+                    scene,
+                    density,
+                    *position,
+                    *power,
+                    settings,
+                    options.shells,
+                    &mut seconds,
+                )?
+                else {
+                    continue;
+                };
+                let t3 = Instant::now();
+                let p = &sol.propagated;
+                let cells = propagate::Stencil::cells(&sol.grid);
+                let bil =
+                    sigma.and_then(|s| Bilateral::new(cells, |c| sol.grid.centre_of(c), &guide, s));
+                accumulate::add_moments(
+                    &sol.grid,
+                    &p.bands,
+                    p.lmax,
+                    target,
+                    &mut moments,
+                    bil.as_ref(),
+                );
+                seconds.resampling += t3.elapsed().as_secs_f64();
+                (point_report(n, &sol), sol.propagated)
             }
         };
-        let Some(sol) = solve_light(
-            scene,
-            density,
-            direction,
-            irradiance,
-            settings,
-            &mut seconds,
-        )?
-        else {
-            continue;
-        };
-        let t3 = Instant::now();
-        let p = &sol.propagated;
-        accumulate::add_light_moments(&sol.grid, &p.bands, p.lmax, target, &mut moments);
-        seconds.resampling += t3.elapsed().as_secs_f64();
-        if let Some(r) = sol
-            .propagated
+        if let Some(r) = propagated
             .residuum
             .as_ref()
             .filter(|r| !r.reached_epsilon_l)
@@ -495,23 +640,20 @@ pub fn pop_field(
                  {POP_MAX_ITERATIONS} iterations ({} isotropic); {:.3e} of the injected power \
                  is still in flight",
                 r.isotropic_iterations,
-                sol.propagated
-                    .energy
-                    .last()
-                    .map_or(1.0, |e| e.in_flight_after)
-                    / sol.propagated.injected.max(f64::MIN_POSITIVE)
+                propagated.energy.last().map_or(1.0, |e| e.in_flight_after)
+                    / propagated.injected.max(f64::MIN_POSITIVE)
             ));
         }
-        lights.push(light_report(n, &sol));
+        lights.push(report);
     }
     if lights.is_empty() && warnings.is_empty() {
-        warnings
-            .push("POP: no directional light or an empty medium: no multiple scattering".into());
+        warnings.push("POP: no light or an empty medium: no multiple scattering".into());
     }
     Ok(PopRun {
         moments,
         report: PopReport {
             settings: *settings,
+            options: *options,
             g,
             lights,
             seconds,
@@ -522,7 +664,16 @@ pub fn pop_field(
 
 /// The bookkeeping of one propagated light.
 pub fn light_report(light: usize, sol: &LightSolution) -> PopLightReport {
-    let p = &sol.propagated;
+    let mut r = balance(light, &sol.propagated);
+    r.direction = sol.grid.axes[2];
+    r.grid_res = sol.grid.res;
+    r.cell_size = sol.grid.h;
+    r.subsamples = sol.subsamples;
+    r
+}
+
+/// The energy balance of one propagated light (the grid fields left for the caller).
+fn balance(light: usize, p: &propagate::Propagated) -> PopLightReport {
     let left: f64 = p.energy.iter().map(|e| e.left_grid).sum();
     let absorbed: f64 = p.energy.iter().map(|e| e.absorbed).sum();
     let final_ = p.energy.last().map_or(p.injected, |e| e.in_flight_after);
@@ -535,10 +686,12 @@ pub fn light_report(light: usize, sol: &LightSolution) -> PopLightReport {
     };
     PopLightReport {
         light,
-        direction: sol.grid.axes[2],
-        grid_res: sol.grid.res,
-        cell_size: sol.grid.h,
-        subsamples: sol.subsamples,
+        kind: "directional",
+        radial: None,
+        direction: [0.0; 3],
+        grid_res: [0; 3],
+        cell_size: 0.0,
+        subsamples: 0,
         injected: p.injected,
         left_grid: left,
         absorbed,
@@ -552,4 +705,32 @@ pub fn light_report(light: usize, sol: &LightSolution) -> PopLightReport {
         residuum: p.residuum.clone(),
         energy: p.energy.clone(),
     }
+}
+
+/// The bookkeeping of one propagated point light (as [`light_report`]; `direction` is the
+/// radial grid's pole, `cell_size` the innermost shell's thickness).
+pub fn point_report(light: usize, sol: &radial::PointSolution) -> PopLightReport {
+    let p = &sol.propagated;
+    let grid = &sol.grid;
+    let shells = grid.shells();
+    let medium_directions = (0..grid.map.n * grid.map.n)
+        .filter(|a| (0..shells).any(|k| sol.medium.sigma_s[k * grid.map.n * grid.map.n + a] > 0.0))
+        .count();
+    let mut r = balance(light, p);
+    r.kind = "point";
+    r.direction = grid.axes[2];
+    r.grid_res = grid.res();
+    r.cell_size = grid.radii[1] - grid.radii[0];
+    r.subsamples = sol.subsamples;
+    r.radial = Some(RadialReport {
+        position: grid.position,
+        inside: grid.inside,
+        r_min: grid.radii[0],
+        r_max: grid.radii[shells],
+        shells,
+        angular: grid.map.n,
+        log_q: grid.log_q,
+        medium_directions,
+    });
+    r
 }

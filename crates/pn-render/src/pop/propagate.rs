@@ -7,6 +7,12 @@
 //! `(k·ny + j)·nx + i`, so that a plane k ⟂ d is one contiguous slice: the unit of rayon
 //! parallelism). It covers the given box (the medium's support) in the frame (u, v, d).
 //!
+//! **Other grids.** The iteration itself ([`propagate_on`]) needs only each cell's six
+//! neighbours and which of its patches points at each ([`Stencil`]) and per cell and
+//! patch the halves of the two factors below ([`HalfSteps`]): a point light's radial grid
+//! ([`super::radial`]) is the second implementation, with its own half-steps per patch
+//! ([`Halves`]).
+//!
 //! **One iteration** (Eq. 5–6, gathering): every destination cell sums what its six
 //! neighbours send it, `ΔL = L_src · frac · T_src→dst` with `frac` the source's patch
 //! fraction towards dst ([`super::hg_patch::Patches`]), and takes the ΔL-weighted mean of
@@ -57,7 +63,7 @@ pub struct LightGrid {
     pub h: f64,
 }
 
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+pub(crate) fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
@@ -72,6 +78,20 @@ fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
 fn normalized(a: [f64; 3]) -> [f64; 3] {
     let n = dot(a, a).sqrt();
     a.map(|c| c / n)
+}
+
+/// An orthonormal frame (u, v, d) with d = `direction` normalised (non-zero, finite): u ⟂ d
+/// from the world axis least aligned with d, v = d × u.
+pub fn frame(direction: [f64; 3]) -> [[f64; 3]; 3] {
+    let d = normalized(direction);
+    let a = (0..3)
+        .min_by(|&x, &y| d[x].abs().total_cmp(&d[y].abs()))
+        .unwrap_or(0);
+    let mut e = [0.0; 3];
+    e[a] = 1.0;
+    let u = normalized(cross(d, e));
+    let v = cross(d, u);
+    [u, v, d]
 }
 
 impl LightGrid {
@@ -95,16 +115,7 @@ impl LightGrid {
             "POP: the box {lo:?} to {hi:?} is not a finite box"
         );
         ensure!(resolution > 0, "POP: the grid resolution must be positive");
-        let d = normalized(direction);
-        // u ⟂ d from the world axis least aligned with d.
-        let a = (0..3)
-            .min_by(|&x, &y| d[x].abs().total_cmp(&d[y].abs()))
-            .unwrap_or(0);
-        let mut e = [0.0; 3];
-        e[a] = 1.0;
-        let u = normalized(cross(d, e));
-        let v = cross(d, u);
-        let axes = [u, v, d];
+        let axes = frame(direction);
         let mut pmin = [f64::INFINITY; 3];
         let mut pmax = [f64::NEG_INFINITY; 3];
         for c in 0..8 {
@@ -283,17 +294,167 @@ pub fn propagate_scheduled(
     lmax: usize,
     schedule: Schedule,
 ) -> anyhow::Result<Propagated> {
-    check_inputs(grid, medium, source, initial_anisotropy, schedule)?;
-    let n = grid.cells();
+    check_inputs(grid.cells(), medium, source, initial_anisotropy, schedule)?;
     let h = grid.h;
     let g = medium.g;
-    // Per-cell halves of Eq. 2's transmittance and Eq. 4's factor (module docs).
-    let t_half: Vec<f64> = medium
+    // Per-cell halves of Eq. 2's transmittance and Eq. 4's factor (module docs): the same
+    // half length h/2 towards every neighbour.
+    let t: Vec<f64> = medium
         .sigma_a
         .iter()
         .map(|s| (-0.5 * s * h).exp())
         .collect();
-    let g_half: Vec<f64> = medium.sigma_s.iter().map(|s| g.powf(0.5 * s * h)).collect();
+    let gh: Vec<f64> = medium.sigma_s.iter().map(|s| g.powf(0.5 * s * h)).collect();
+    let halves = UniformHalves { t, g: gh };
+    propagate_on(
+        grid,
+        &halves,
+        h * h,
+        source,
+        initial_anisotropy,
+        lmax,
+        schedule,
+    )
+}
+
+/// The neighbourhood of a propagation grid: cells (i, j, k) stored at `(k·ny + j)·nx + i`,
+/// a plane k of `nx × ny` contiguous cells being the unit of parallelism, each cell with six
+/// neighbours that its lobe's front, side or back patch points at. The light-aligned
+/// [`LightGrid`] and the radial grid of a point light ([`super::radial::RadialGrid`]) are
+/// the two implementations.
+pub trait Stencil: Sync {
+    /// Cells along the three axes (nx, ny: a plane; nz planes).
+    fn shape(&self) -> [usize; 3];
+    /// Number of cells.
+    fn cells(&self) -> usize {
+        self.shape().iter().product()
+    }
+    /// The six neighbours of cell (i, j, k) as (storage index, or None where the patch leaves
+    /// the grid; which patch of the cell points at it: [`FRONT`], [`SIDE`] or [`BACK`];
+    /// which patch of the neighbour points back at the cell), in the order front, back, then
+    /// the four sides. The relation must be symmetric (n lists c with the two patches swapped
+    /// whenever c lists n), so that what is sent is what is gathered.
+    fn neighbours(&self, i: usize, j: usize, k: usize) -> [Neighbour; 6];
+}
+
+/// One neighbour of a cell ([`Stencil::neighbours`]): its storage index (None: outside the
+/// grid), the cell's patch that points at it, and its patch that points back.
+pub type Neighbour = (Option<usize>, u8, u8);
+
+/// The patch towards the neighbour in front (along the principal direction).
+pub const FRONT: u8 = 0;
+/// A patch towards one of the four side neighbours.
+pub const SIDE: u8 = 1;
+/// The patch towards the neighbour behind.
+pub const BACK: u8 = 2;
+
+impl Stencil for LightGrid {
+    fn shape(&self) -> [usize; 3] {
+        self.res
+    }
+
+    #[inline(always)]
+    fn neighbours(&self, i: usize, j: usize, k: usize) -> [Neighbour; 6] {
+        let [nx, ny, nz] = self.res;
+        let at = |ok: bool, ii: usize, jj: usize, kk: usize| ok.then(|| self.index(ii, jj, kk));
+        [
+            (at(k + 1 < nz, i, j, k + 1), FRONT, BACK),
+            (at(k > 0, i, j, k.wrapping_sub(1)), BACK, FRONT),
+            (at(i + 1 < nx, i + 1, j, k), SIDE, SIDE),
+            (at(i > 0, i.wrapping_sub(1), j, k), SIDE, SIDE),
+            (at(j + 1 < ny, i, j + 1, k), SIDE, SIDE),
+            (at(j > 0, i, j.wrapping_sub(1), k), SIDE, SIDE),
+        ]
+    }
+}
+
+/// Per cell and patch, the halves of Eq. 2's transmittance `exp(−σ_a ℓ)` and of Eq. 4's
+/// factor `g^{σ_s ℓ}`, ℓ the distance from the cell's centre to its face on that patch's
+/// side: the factor between two neighbours is the product of their halves (the mean
+/// coefficients of the two cells over the centre distance).
+pub trait HalfSteps: Sync {
+    /// Number of cells.
+    fn len(&self) -> usize;
+    /// Whether there are no cells.
+    fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+    /// `exp(−σ_a ℓ)` of cell `c` towards its patch `which`.
+    fn t(&self, c: usize, which: u8) -> f64;
+    /// `g^{σ_s ℓ}` of cell `c` towards its patch `which`.
+    fn g(&self, c: usize, which: u8) -> f64;
+}
+
+/// The same half-step towards every neighbour (the light-aligned grid: h/2).
+#[derive(Clone, Debug, PartialEq)]
+pub struct UniformHalves {
+    /// `exp(−σ_a ℓ)` per cell.
+    pub t: Vec<f64>,
+    /// `g^{σ_s ℓ}` per cell.
+    pub g: Vec<f64>,
+}
+
+impl HalfSteps for UniformHalves {
+    fn len(&self) -> usize {
+        self.t.len().min(self.g.len())
+    }
+
+    #[inline(always)]
+    fn t(&self, c: usize, _which: u8) -> f64 {
+        self.t[c]
+    }
+
+    #[inline(always)]
+    fn g(&self, c: usize, _which: u8) -> f64 {
+        self.g[c]
+    }
+}
+
+impl HalfSteps for Halves {
+    fn len(&self) -> usize {
+        self.t.len().min(self.g.len())
+    }
+
+    #[inline]
+    fn t(&self, c: usize, which: u8) -> f64 {
+        self.t[c][which as usize]
+    }
+
+    #[inline]
+    fn g(&self, c: usize, which: u8) -> f64 {
+        self.g[c][which as usize]
+    }
+}
+
+/// Per cell and patch ([`FRONT`], [`SIDE`], [`BACK`], the index) the halves of
+/// [`HalfSteps`], where the half-steps differ between the patches (the radial grid).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Halves {
+    /// `exp(−σ_a ℓ)` per cell and patch.
+    pub t: Vec<[f64; 3]>,
+    /// `g^{σ_s ℓ}` per cell and patch.
+    pub g: Vec<[f64; 3]>,
+}
+
+/// The iteration of [`propagate_scheduled`] on any [`Stencil`]: `source` holds the initial
+/// magnitudes, `power` converts a sum of magnitudes into power for the bookkeeping (h² on
+/// the light-aligned grid, 1 where the magnitudes are powers already).
+pub fn propagate_on<S: Stencil, H: HalfSteps>(
+    grid: &S,
+    halves: &H,
+    power: f64,
+    source: &[f64],
+    initial_anisotropy: f64,
+    lmax: usize,
+    schedule: Schedule,
+) -> anyhow::Result<Propagated> {
+    let n = grid.cells();
+    ensure!(
+        source.len() == n && halves.len() == n,
+        "POP: source ({}) and halves ({}) do not fit the grid's {n} cells",
+        source.len(),
+        halves.len()
+    );
     let nb = lmax + 1;
     let mut bands = vec![0.0; n * nb];
     let mut l_cur = source.to_vec();
@@ -301,9 +462,8 @@ pub fn propagate_scheduled(
     accumulate(&mut bands, &l_cur, &a_cur, nb, 0.5);
     let mut l_next = vec![0.0; n];
     let mut a_next = vec![0.0; n];
-    let power = h * h;
     let injected = sum(&l_cur) * power;
-    let [nx, ny, _] = grid.res;
+    let [nx, ny, _] = grid.shape();
     let plane = nx * ny;
     let mut energy = Vec::new();
     let mut patches = vec![Patches::of(initial_anisotropy); n];
@@ -351,8 +511,7 @@ pub fn propagate_scheduled(
             l: &l_cur,
             a: &a_cur,
             patches: &patches,
-            t_half: &t_half,
-            g_half: &g_half,
+            halves,
         };
         let sums: Vec<(f64, f64, f64)> = l_next
             .par_chunks_mut(plane)
@@ -363,8 +522,10 @@ pub fn propagate_scheduled(
                 let (mut inflight, mut left, mut absorbed) = (0.0, 0.0, 0.0);
                 for j in 0..ny {
                     for i in 0..nx {
-                        let (l, a) = cur.gather(grid, i, j, k);
                         let o = j * nx + i;
+                        let c = k * plane + o;
+                        let nbrs = grid.neighbours(i, j, k);
+                        let (l, a) = cur.gather(c, &nbrs);
                         lp[o] = l;
                         ap[o] = a;
                         inflight += l;
@@ -373,7 +534,7 @@ pub fn propagate_scheduled(
                             *b += l * p;
                             p *= a;
                         }
-                        let (lf, ab) = cur.send(grid, i, j, k);
+                        let (lf, ab) = cur.send(c, &nbrs);
                         left += lf;
                         absorbed += ab;
                     }
@@ -408,8 +569,8 @@ pub fn propagate_scheduled(
 /// The checks of [`propagate_scheduled`]'s inputs: the schedule's settings, the medium and
 /// source on the grid's cells, g and the initial anisotropy in range, finite non-negative
 /// values.
-fn check_inputs(
-    grid: &LightGrid,
+pub(crate) fn check_inputs(
+    n: usize,
     medium: &PopMedium,
     source: &[f64],
     initial_anisotropy: f64,
@@ -430,7 +591,6 @@ fn check_inputs(
             "POP: {anisotropic} anisotropic iterations exceed the cap of {max_total}"
         );
     }
-    let n = grid.cells();
     ensure!(
         medium.sigma_s.len() == n && medium.sigma_a.len() == n && source.len() == n,
         "POP: medium ({} / {}) and source ({}) do not fit the grid's {n} cells",
@@ -510,53 +670,34 @@ fn accumulate(bands: &mut [f64], l: &[f64], a: &[f64], nb: usize, w: f64) {
 }
 
 /// The read-only state of one iteration.
-struct Buffers<'a> {
+struct Buffers<'a, H> {
     l: &'a [f64],
     a: &'a [f64],
     patches: &'a [Patches],
-    t_half: &'a [f64],
-    g_half: &'a [f64],
+    halves: &'a H,
 }
 
-impl Buffers<'_> {
-    /// The six neighbours of (i, j, k) as (neighbour index or None outside, which patch of
-    /// the *source* (i, j, k) points at it): 0 front (k+1), 1 side, 2 back (k−1).
-    #[inline]
-    fn neighbours(grid: &LightGrid, i: usize, j: usize, k: usize) -> [(Option<usize>, u8); 6] {
-        let [nx, ny, nz] = grid.res;
-        let at = |ok: bool, ii: usize, jj: usize, kk: usize| ok.then(|| grid.index(ii, jj, kk));
-        [
-            (at(k + 1 < nz, i, j, k + 1), 0),
-            (at(k > 0, i, j, k.wrapping_sub(1)), 2),
-            (at(i + 1 < nx, i + 1, j, k), 1),
-            (at(i > 0, i.wrapping_sub(1), j, k), 1),
-            (at(j + 1 < ny, i, j + 1, k), 1),
-            (at(j > 0, i, j.wrapping_sub(1), k), 1),
-        ]
-    }
-
-    /// Eq. 5–6 for destination (i, j, k): the gathered magnitude and anisotropy.
-    #[inline]
-    fn gather(&self, grid: &LightGrid, i: usize, j: usize, k: usize) -> (f64, f64) {
-        let dst = grid.index(i, j, k);
+impl<H: HalfSteps> Buffers<'_, H> {
+    /// Eq. 5–6 for destination `dst` with neighbours `nbrs` ([`Stencil::neighbours`]): the
+    /// gathered magnitude and anisotropy.
+    #[inline(always)]
+    fn gather(&self, dst: usize, nbrs: &[Neighbour; 6]) -> (f64, f64) {
         let (mut l, mut la) = (0.0, 0.0);
-        // Seen from the destination, the neighbour at k−1 sends its *front* patch, the one
-        // at k+1 its *back* patch, the four others a side patch.
-        for (src, which) in Self::neighbours(grid, i, j, k) {
+        // Each neighbour sends dst its patch that points at dst (on the light-aligned grid:
+        // the neighbour in front its back patch, the one behind its front patch, the four
+        // others a side patch), crossing its own half towards dst and dst's half towards it.
+        for &(src, mine, theirs) in nbrs {
             let Some(s) = src else { continue };
             let ls = self.l[s];
             if ls == 0.0 {
                 continue;
             }
-            let p = &self.patches[s];
-            let frac = match which {
-                0 => p.back,  // src in front of dst: dst is behind src
-                2 => p.front, // src behind dst: dst is in front of src
-                _ => p.side,
-            };
-            let dl = ls * frac * self.t_half[s] * self.t_half[dst];
+            let frac = self.patches[s].towards(theirs);
+            let (ts, td) = (self.halves.t(s, theirs), self.halves.t(dst, mine));
+            let dl = ls * frac * ts * td;
             l += dl;
-            la += dl * self.a[s] * self.g_half[s] * self.g_half[dst];
+            let (gs, gd) = (self.halves.g(s, theirs), self.halves.g(dst, mine));
+            la += dl * self.a[s] * gs * gd;
         }
         let a = if l > 0.0 {
             (la / l).clamp(0.0, 1.0)
@@ -566,24 +707,18 @@ impl Buffers<'_> {
         (l, a)
     }
 
-    /// What source (i, j, k) sends out of the grid and what is absorbed on its six ways.
-    #[inline]
-    fn send(&self, grid: &LightGrid, i: usize, j: usize, k: usize) -> (f64, f64) {
-        let src = grid.index(i, j, k);
+    /// What source `src` sends out of the grid and what is absorbed on its six ways.
+    #[inline(always)]
+    fn send(&self, src: usize, nbrs: &[Neighbour; 6]) -> (f64, f64) {
         let ls = self.l[src];
         if ls == 0.0 {
             return (0.0, 0.0);
         }
         let p = &self.patches[src];
         let (mut left, mut absorbed) = (0.0, 0.0);
-        for (dst, which) in Self::neighbours(grid, i, j, k) {
-            let frac = match which {
-                0 => p.front,
-                2 => p.back,
-                _ => p.side,
-            };
-            let sent = ls * frac;
-            let t = self.t_half[src] * dst.map_or(1.0, |d| self.t_half[d]);
+        for &(dst, mine, theirs) in nbrs {
+            let sent = ls * p.towards(mine);
+            let t = self.halves.t(src, mine) * dst.map_or(1.0, |d| self.halves.t(d, theirs));
             if dst.is_none() {
                 left += sent * t;
             }

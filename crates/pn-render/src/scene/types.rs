@@ -110,7 +110,8 @@ pub enum RenderMethod {
     Cda,
     /// Flux-limited diffusion.
     Fld,
-    /// Principal-Ordinates Propagation, directional lights (issue 20; [`crate::pop`]).
+    /// Principal-Ordinates Propagation, directional and point lights (issues 20, 52;
+    /// [`crate::pop`]).
     Pop,
     /// Single scattering only.
     None,
@@ -183,6 +184,14 @@ pub struct SolveSettings {
     /// Method pop, residuum: ε_L, the fraction of the injected power still in flight at
     /// which the isotropic iteration stops.
     pub pop_epsilon_l: f64,
+    /// Method pop, point lights: radial shells of each radial grid (`None`: cells about as
+    /// long as wide, docs/pop-design.md "Point lights").
+    pub pop_shells: Option<usize>,
+    /// Method pop: how the propagated result is resampled onto the solve grid.
+    pub pop_upsample: PopUpsample,
+    /// Method pop, `pop_upsample = "bilateral"`: the range kernel's width relative to the
+    /// largest σ_s at the POP cell centres.
+    pub pop_upsample_sigma: f64,
     /// Transport sweeps after the solve ([`crate::transport_sweep`]; methods pn, cda, fld
     /// and text PDEs; 0: the solution as solved). [`DEFAULT_SWEEPS`].
     pub sweeps: usize,
@@ -282,6 +291,22 @@ pub const POP_DEFAULT_EPSILON_L: f64 = 1e-3;
 pub const POP_MAX_RESOLUTION: usize = 512;
 /// Most POP iterations.
 pub const POP_MAX_ITERATIONS: usize = 100_000;
+/// Most radial shells of a point light's POP grid.
+pub const POP_MAX_SHELLS: usize = 512;
+/// Default width of the bilateral upsampling's range kernel, relative to the largest σ_s.
+pub const POP_DEFAULT_UPSAMPLE_SIGMA: f64 = 0.1;
+
+/// How POP's coarse result is resampled onto the solve grid (`[solve] pop_upsample`;
+/// docs/pop-design.md).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum PopUpsample {
+    /// Trilinear between the POP cell centres.
+    #[default]
+    Trilinear,
+    /// The joint bilateral upsampling of the paper's §4.4, guided by σ_s.
+    Bilateral,
+}
 
 /// Where the solve grid's vacuum becomes a graded pure absorber (`[solve] absorber`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, serde::Serialize)]

@@ -92,6 +92,17 @@ impl SolveSettings {
             "pop_iterations must lie in 1..={POP_MAX_ITERATIONS}, got {}",
             self.pop_iterations
         );
+        if let Some(n) = self.pop_shells {
+            ensure!(
+                (1..=POP_MAX_SHELLS).contains(&n),
+                "pop_shells must lie in 1..={POP_MAX_SHELLS}, got {n}"
+            );
+        }
+        ensure!(
+            self.pop_upsample_sigma.is_finite() && self.pop_upsample_sigma > 0.0,
+            "pop_upsample_sigma must be finite and positive, got {}",
+            self.pop_upsample_sigma
+        );
         for (name, v) in [
             ("pop_epsilon_a", self.pop_epsilon_a),
             ("pop_epsilon_l", self.pop_epsilon_l),

@@ -2,7 +2,7 @@
 //! the collided radiance go onto the cropped solve grid.
 
 use super::{MsSeconds, MsSolution, MultipleScattering, PreparedScene};
-use crate::pop::{pop_field, PopSettings, ResiduumSettings};
+use crate::pop::{pop_field_with, PopOptions, PopSettings, ResiduumSettings};
 use crate::renderer::MsField;
 use crate::solve_setup::solve_grid;
 use anyhow::Result;
@@ -41,8 +41,13 @@ impl MultipleScattering for Pop {
                 epsilon_l: s.pop_epsilon_l,
             }),
         };
+        let options = PopOptions {
+            shells: s.pop_shells,
+            upsample: s.pop_upsample,
+            upsample_sigma: s.pop_upsample_sigma,
+        };
         let run = pn_runtime::with_threads(p.options.threads, || {
-            pop_field(scene, p.density, &sg.grid, &settings)
+            pop_field_with(scene, p.density, &sg.grid, &settings, &options)
         })??;
         let t = &run.report.seconds;
         let seconds = MsSeconds {
