@@ -23,7 +23,7 @@ pub enum Family {
     /// order, each followed by a diffusion correction (`--method cda` with `sweep_order`,
     /// `sweep_acceleration` and the diamond scheme; docs/forward-scattering.md).
     Sn(usize),
-    /// Principal-Ordinates Propagation (`--method pop`, directional lights; docs/pop-design.md)
+    /// Principal-Ordinates Propagation (`--method pop`, directional and point lights; docs/pop-design.md)
     /// with a grid of the point's resolution and as many iterations (the paper's §7 rule).
     Pop,
     /// A linear PDE system written as text (`pn render --pde FILE`, docs/pde-text.md); the
