@@ -23,8 +23,9 @@ pub enum Family {
     /// order, each followed by a diffusion correction (`--method cda` with `sweep_order`,
     /// `sweep_acceleration` and the diamond scheme; docs/forward-scattering.md).
     Sn(usize),
-    /// Principal-Ordinates Propagation (`--method pop`, directional and point lights; docs/pop-design.md)
-    /// with a grid of the point's resolution and as many iterations (the paper's §7 rule).
+    /// Principal-Ordinates Propagation (`--method pop`, directional and point lights;
+    /// docs/pop-design.md) with a grid of the point's resolution and as many iterations (the
+    /// paper's §7 rule).
     Pop,
     /// A linear PDE system written as text (`pn render --pde FILE`, docs/pde-text.md); the
     /// file and its parameters are the point's [`PnPoint::pde`].
