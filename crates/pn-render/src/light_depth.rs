@@ -188,26 +188,10 @@ fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
 }
 
 impl PlaneDepth {
-    /// Traces the columns of a light travelling along the unit vector `d` through the
-    /// support of `ext`'s density (`None` for an empty medium).
-    #[cfg(test)]
-    pub fn compute(ext: &Extinction, d: [f64; 3]) -> Option<Self> {
-        Self::compute_spaced(ext, d, PLANE_SPACING, false)
-    }
-
-    /// [`Self::compute`] with a transverse lattice of `spacing` smallest voxel sides;
-    /// `coarse` lookups interpolate between planes instead of tracing back to one.
-    #[cfg(test)]
-    pub fn compute_spaced(
-        ext: &Extinction,
-        d: [f64; 3],
-        spacing: f64,
-        coarse: bool,
-    ) -> Option<Self> {
-        Self::compute_over(ext, ext.grid.support(), d, spacing, coarse)
-    }
-
-    /// [`Self::compute_spaced`] over the density's `support`, computed by the caller.
+    /// Traces the columns of a light travelling along the unit vector `d` through
+    /// `support`, the support of `ext`'s density (`None` for an empty medium), with a
+    /// transverse lattice of `spacing` smallest voxel sides; `coarse` lookups interpolate
+    /// between planes instead of tracing back to one.
     fn compute_over(
         ext: &Extinction,
         support: Option<([f64; 3], [f64; 3])>,
