@@ -540,6 +540,34 @@ pub fn pop_field(
     pop_field_with(scene, density, target, settings, &PopOptions::default())
 }
 
+/// How a light's propagated band amplitudes reach the solve grid `target`: trilinear, or
+/// with the joint bilateral upsampling guided by `guide` (σ_s) where `sigma` is given.
+struct Resampling<'a> {
+    target: &'a Grid,
+    guide: &'a (dyn Fn([f64; 3]) -> f64 + Sync),
+    sigma: Option<f64>,
+}
+
+impl Resampling<'_> {
+    /// Adds `p`, propagated on `grid` (light-aligned or radial), to `moments`, timed as
+    /// resampling.
+    fn moments<G: BandGrid + propagate::Stencil>(
+        &self,
+        grid: &G,
+        p: &propagate::Propagated,
+        moments: &mut CellMoments,
+        seconds: &mut PopSeconds,
+    ) {
+        let t = Instant::now();
+        let cells = propagate::Stencil::cells(grid);
+        let bil = self
+            .sigma
+            .and_then(|s| Bilateral::new(cells, |c| grid.centre_of(c), self.guide, s));
+        accumulate::add_moments(grid, &p.bands, p.lmax, self.target, moments, bil.as_ref());
+        seconds.resampling += t.elapsed().as_secs_f64();
+    }
+}
+
 /// POP for every light of `scene` (a light-aligned grid per directional light, a radial
 /// grid per point light): the moments (l ≤ `settings.lmax`) of the collided radiance at the
 /// cell centres of `target` (the solve grid) and the report.
@@ -584,20 +612,12 @@ pub fn pop_field_with(
                 else {
                     continue;
                 };
-                let t3 = Instant::now();
-                let p = &sol.propagated;
-                let bil = sigma.and_then(|s| {
-                    Bilateral::new(sol.grid.cells(), |c| sol.grid.centre_of(c), &guide, s)
-                });
-                accumulate::add_moments(
-                    &sol.grid,
-                    &p.bands,
-                    p.lmax,
+                let add = Resampling {
                     target,
-                    &mut moments,
-                    bil.as_ref(),
-                );
-                seconds.resampling += t3.elapsed().as_secs_f64();
+                    guide: &guide,
+                    sigma,
+                };
+                add.moments(&sol.grid, &sol.propagated, &mut moments, &mut seconds);
                 (light_report(n, &sol), sol.propagated)
             }
             Light::Point { position, power } => {
@@ -613,20 +633,12 @@ pub fn pop_field_with(
                 else {
                     continue;
                 };
-                let t3 = Instant::now();
-                let p = &sol.propagated;
-                let cells = propagate::Stencil::cells(&sol.grid);
-                let bil =
-                    sigma.and_then(|s| Bilateral::new(cells, |c| sol.grid.centre_of(c), &guide, s));
-                accumulate::add_moments(
-                    &sol.grid,
-                    &p.bands,
-                    p.lmax,
+                let add = Resampling {
                     target,
-                    &mut moments,
-                    bil.as_ref(),
-                );
-                seconds.resampling += t3.elapsed().as_secs_f64();
+                    guide: &guide,
+                    sigma,
+                };
+                add.moments(&sol.grid, &sol.propagated, &mut moments, &mut seconds);
                 (point_report(n, &sol), sol.propagated)
             }
         };
